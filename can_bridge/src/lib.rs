@@ -1,0 +1,1 @@
+//! CAN motor bridge (issue 4).

@@ -1,0 +1,284 @@
+//! DOAA steering law (ALGORITHM.md §4, paper III.C eq. 5 and Algorithm 1).
+//!
+//! Paper departure: eq. 5 as printed turns *towards* the nearer obstacle. The
+//! text says "when B_l > B_r, a negative control input triggers a right turn",
+//! which is what we implement, in one continuous expression:
+//!     ω = sat_ωmax( ω_nom + k (B_r − B_l) ).
+//! With no obstacle B_r = B_l and ω_nom passes unchanged; with ω_nom = 0 it is
+//! exactly the paper's law. B_v is added to both sides, so it cancels here.
+//!
+//! Both sides (the paper's ω_0 case): when d_l, d_r and the front clearance
+//! are all below d_act, the robot turns at ±ω_0 towards the side with more
+//! clearance, slowing down (to 0 below d_safe + margin), and keeps turning
+//! that way until the front clearance exceeds d_act + release (hysteresis).
+//! A corridor (both sides near, front clear) is not this case: the
+//! differential law centres the robot.
+
+use super::barrier::Barriers;
+use super::clearance::Clearances;
+use super::geometry::Twist;
+use super::params::Params;
+use serde::Serialize;
+use std::fmt;
+
+/// What the avoidance logic is doing this step; published with every command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DoaaState {
+    /// No obstacle inside d_act on either side: nominal command.
+    Forward,
+    /// Differential steering away from the nearer side.
+    Avoid,
+    /// Obstacles left, right and ahead: fixed turn at ω_0.
+    BothSides,
+    /// Zero command: rejected or missing scan, bad input, or no safe command exists.
+    Stop,
+    /// Inside the unsafe set (h < 0): only commands that increase h are allowed.
+    Escape,
+}
+
+impl DoaaState {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::Forward => "forward",
+            Self::Avoid => "avoid",
+            Self::BothSides => "both_sides",
+            Self::Stop => "stop",
+            Self::Escape => "escape",
+        }
+    }
+
+    /// Stable small integer for messages (forward 0 … escape 4).
+    pub fn code(&self) -> u8 {
+        *self as u8
+    }
+}
+
+impl fmt::Display for DoaaState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Direction of the latched both-sides turn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TurnDirection {
+    Left,
+    Right,
+}
+
+impl TurnDirection {
+    pub fn sign(self) -> f64 {
+        match self {
+            Self::Left => 1.0,
+            Self::Right => -1.0,
+        }
+    }
+}
+
+/// Clearances closer than this (m) are treated as equal when picking a turn side.
+const TIE_M: f64 = 0.01;
+
+/// The DOAA state machine; holds only the latched both-sides turn.
+#[derive(Debug, Default, Clone)]
+pub struct Doaa {
+    both_sides: Option<TurnDirection>,
+}
+
+impl Doaa {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Forgets the latched turn (after a stop, a reset, or a filter toggle).
+    pub fn reset(&mut self) {
+        self.both_sides = None;
+    }
+
+    pub fn latched_turn(&self) -> Option<TurnDirection> {
+        self.both_sides
+    }
+
+    /// The DOAA command for this step, before the DTCBF check.
+    pub fn command(
+        &mut self,
+        nominal: Twist,
+        c: &Clearances,
+        b: &Barriers,
+        p: &Params,
+    ) -> (Twist, DoaaState) {
+        let d_act = p.barrier.d_act_m();
+        let w_max = p.control.omega_max_radps;
+
+        if self.both_sides.is_none()
+            && c.d_left_m < d_act
+            && c.d_right_m < d_act
+            && c.d_front_m < d_act
+        {
+            self.both_sides = Some(pick_turn(c, nominal));
+        }
+        if self.both_sides.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
+            self.both_sides = None;
+        }
+        if let Some(dir) = self.both_sides {
+            let stop_at = p.barrier.d_safe_m + p.doaa.front_stop_margin_m;
+            let band = d_act - stop_at;
+            let scale = if band > 0.0 {
+                ((c.d_front_m - stop_at) / band).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let v = nominal.v_mps.max(0.0) * scale;
+            return (
+                Twist::new(v, dir.sign() * p.doaa.omega_0_radps.min(w_max)),
+                DoaaState::BothSides,
+            );
+        }
+
+        let omega = (nominal.omega_radps + p.doaa.gain_k_radps * (b.b_right - b.b_left))
+            .clamp(-w_max, w_max);
+        let state = if c.d_left_m < d_act || c.d_right_m < d_act {
+            DoaaState::Avoid
+        } else {
+            DoaaState::Forward
+        };
+        (Twist::new(nominal.v_mps, omega), state)
+    }
+}
+
+/// The side with more clearance; ties go to the less crowded side, then to
+/// the way the nominal command already turns, then left.
+fn pick_turn(c: &Clearances, nominal: Twist) -> TurnDirection {
+    if c.d_left_m > c.d_right_m + TIE_M {
+        TurnDirection::Left
+    } else if c.d_right_m > c.d_left_m + TIE_M {
+        TurnDirection::Right
+    } else if c.crowding_left < c.crowding_right {
+        TurnDirection::Left
+    } else if c.crowding_right < c.crowding_left {
+        TurnDirection::Right
+    } else if nominal.omega_radps < 0.0 {
+        TurnDirection::Right
+    } else {
+        TurnDirection::Left
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::barrier::compute_barriers;
+
+    fn clear(d_left: f64, d_right: f64, d_front: f64) -> Clearances {
+        Clearances {
+            d_left_m: d_left,
+            d_right_m: d_right,
+            d_front_m: d_front,
+            d_min_m: d_left.min(d_right).min(d_front),
+            ..Clearances::OPEN
+        }
+    }
+
+    fn run(doaa: &mut Doaa, nominal: Twist, c: Clearances) -> (Twist, DoaaState) {
+        let p = Params::default();
+        let b = compute_barriers(c.d_left_m, c.d_right_m, nominal.v_mps, &p.barrier);
+        doaa.command(nominal, &c, &b, &p)
+    }
+
+    #[test]
+    fn obstacle_on_the_left_turns_right() {
+        // d_l = 0.7: B_l = 4/3 (+B_v), B_r = 1 (+B_v); ω = 0.5 (1 − 4/3) = −1/6 rad/s.
+        let (cmd, state) = run(
+            &mut Doaa::new(),
+            Twist::new(0.15, 0.0),
+            clear(0.7, f64::INFINITY, 2.0),
+        );
+        assert!((cmd.omega_radps + 0.5 / 3.0).abs() < 1e-12, "{cmd:?}");
+        assert_eq!(cmd.v_mps, 0.15);
+        assert_eq!(state, DoaaState::Avoid);
+    }
+
+    #[test]
+    fn obstacle_on_the_right_turns_left() {
+        let (cmd, _) = run(
+            &mut Doaa::new(),
+            Twist::new(0.15, 0.0),
+            clear(f64::INFINITY, 0.7, 2.0),
+        );
+        assert!((cmd.omega_radps - 0.5 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nominal_passes_unchanged_when_clear() {
+        let (cmd, state) = run(
+            &mut Doaa::new(),
+            Twist::new(0.2, 0.13),
+            clear(3.0, 3.0, 3.0),
+        );
+        assert_eq!(cmd, Twist::new(0.2, 0.13));
+        assert_eq!(state, DoaaState::Forward);
+    }
+
+    #[test]
+    fn yaw_rate_saturates() {
+        // d_l = 0.3: B_l = 1/0.19 = 5.26; ω = 0.5·(1 − 5.26) = −2.13 → −0.3.
+        let (cmd, _) = run(
+            &mut Doaa::new(),
+            Twist::new(0.15, 0.0),
+            clear(0.3, f64::INFINITY, 2.0),
+        );
+        assert_eq!(cmd.omega_radps, -0.3);
+    }
+
+    #[test]
+    fn corridor_centres_without_both_sides_mode() {
+        // Equal walls, front clear: no turn, not both-sides.
+        let (cmd, state) = run(
+            &mut Doaa::new(),
+            Twist::new(0.15, 0.0),
+            clear(0.5, 0.5, 5.0),
+        );
+        assert_eq!(cmd.omega_radps, 0.0);
+        assert_eq!(state, DoaaState::Avoid);
+    }
+
+    #[test]
+    fn both_sides_turns_to_the_clearer_side_and_latches() {
+        let mut doaa = Doaa::new();
+        // Right has more clearance: turn right at ω_0 = 0.3.
+        // Front 0.6: scale = (0.6 − 0.25) / (1.2 − 0.25) = 0.3684; v = 0.15·0.3684.
+        let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.4, 0.8, 0.6));
+        assert_eq!(state, DoaaState::BothSides);
+        assert_eq!(cmd.omega_radps, -0.3);
+        assert!((cmd.v_mps - 0.15 * 0.35 / 0.95).abs() < 1e-12);
+        // Sides swap while the front is still blocked: the turn stays latched.
+        let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.8, 0.4, 1.25));
+        assert_eq!((state, cmd.omega_radps), (DoaaState::BothSides, -0.3));
+        // Front clear beyond d_act + release (1.3): released.
+        let (_, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.8, 0.4, 1.31));
+        assert_eq!(state, DoaaState::Avoid);
+        assert_eq!(doaa.latched_turn(), None);
+    }
+
+    #[test]
+    fn both_sides_stops_forward_motion_close_to_the_front() {
+        let (cmd, _) = run(
+            &mut Doaa::new(),
+            Twist::new(0.15, 0.0),
+            clear(0.4, 0.4, 0.24),
+        );
+        assert_eq!(cmd.v_mps, 0.0);
+        assert_eq!(cmd.omega_radps.abs(), 0.3);
+    }
+
+    #[test]
+    fn tie_breaks_are_deterministic() {
+        let mut c = clear(0.5, 0.5, 0.5);
+        c.crowding_left = 3.0;
+        c.crowding_right = 2.0;
+        assert_eq!(pick_turn(&c, Twist::ZERO), TurnDirection::Right);
+        c.crowding_right = 3.0;
+        assert_eq!(pick_turn(&c, Twist::new(0.1, -0.1)), TurnDirection::Right);
+        assert_eq!(pick_turn(&c, Twist::ZERO), TurnDirection::Left);
+    }
+}

@@ -1,0 +1,505 @@
+//! Discrete-time CBF filter (ALGORITHM.md §5, paper II.E eq. 3-4, Theorem 1).
+//!
+//! h(z) = d_min(z) − d_safe with d_min = min_i ‖P_i − p_robot‖ − r. In the robot
+//! frame at step k the robot sits at the origin; for a command (v, ω) the
+//! one-step prediction moves it by a displacement s·u(ω):
+//!   * Euler (paper eq. 6): u = (1, 0), s = Δt v;
+//!   * Arc (exact zero-order hold): u = (cos α, sin α), s = Δt v sin α / α, α = ωΔt/2.
+//! The condition h(k+1) ≥ (1 − γ) h(k) is evaluated exactly over every valid
+//! point: point i forbids the open interval s ∈ (a_i − w_i, a_i + w_i) with
+//! a_i = P_i·u, w_i = √(c² − (P_i×u)²) and c = r + d_safe + (1 − γ) h(k) the
+//! required distance from the robot centre. So for each ω the admissible speeds
+//! are known in closed form, and
+//!   1. if the DOAA command is admissible it passes unchanged;
+//!   2. else ω is kept and v lowered to the largest admissible value ≥ 0;
+//!   3. else (e.g. points move towards the robot) the input box is searched,
+//!      over a grid of ω and exactly in v, for the admissible command closest
+//!      to the DOAA command in (v − v_d)² + w (ω − ω_d)²;
+//!   4. else the robot stops and the step is reported infeasible.
+//! Inside the unsafe set (h < 0) the same search runs first with the DTCBF
+//! target (h must rise by γ|h|) and then with h(k+1) ≥ h(k) + ε (escape), so
+//! the robot backs or turns away rather than freezing.
+//! A circular footprint is rotation-invariant: pure rotation keeps h.
+
+use super::geometry::{Twist, Vec2};
+use super::params::{Params, PredictionModel};
+
+/// Numerical tolerance on the condition (m).
+const TOL_M: f64 = 1e-9;
+
+/// What the filter did with one command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DtcbfOutcome {
+    /// The command to send (always finite, inside the input box).
+    pub cmd: Twist,
+    /// h(k) = d_min − d_safe (m); +inf when no point is visible.
+    pub h_m: f64,
+    /// Predicted h(k+1) for `cmd` (m).
+    pub h_next_m: f64,
+    /// Whether `cmd` differs from the (box-clamped) desired command.
+    pub changed: bool,
+    /// Whether h(k+1) ≥ (1 − γ) h(k) holds for `cmd`.
+    pub condition_held: bool,
+    /// h(k) < 0: escape rules applied.
+    pub escape: bool,
+    /// No admissible command existed: `cmd` is a stop.
+    pub infeasible: bool,
+}
+
+/// The input box: v ∈ [v_lo, v_hi] (m/s), ω ∈ [−ω_max, ω_max] (rad/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputBox {
+    pub v_lo: f64,
+    pub v_hi: f64,
+    pub omega_max: f64,
+}
+
+impl InputBox {
+    pub fn from_params(p: &Params) -> Self {
+        Self {
+            v_lo: if p.control.allow_reverse {
+                -p.control.v_reverse_max_mps
+            } else {
+                0.0
+            },
+            v_hi: p.control.v_max_mps,
+            omega_max: p.control.omega_max_radps,
+        }
+    }
+
+    /// Clamps a command into the box; non-finite components become 0.
+    pub fn clamp(&self, t: Twist) -> Twist {
+        let v = if t.v_mps.is_finite() {
+            t.v_mps.clamp(self.v_lo, self.v_hi)
+        } else {
+            0.0
+        };
+        let w = if t.omega_radps.is_finite() {
+            t.omega_radps.clamp(-self.omega_max, self.omega_max)
+        } else {
+            0.0
+        };
+        Twist::new(v, w)
+    }
+}
+
+/// Displacement direction u and speed-to-distance factor κ (s = κ v) for ω.
+#[inline]
+fn motion_direction(model: PredictionModel, omega: f64, dt: f64) -> (Vec2, f64) {
+    match model {
+        PredictionModel::Euler => (Vec2::new(1.0, 0.0), dt),
+        PredictionModel::Arc => {
+            let alpha = 0.5 * omega * dt;
+            let sinc = if alpha.abs() < 1e-6 {
+                1.0 - alpha * alpha / 6.0
+            } else {
+                alpha.sin() / alpha
+            };
+            (Vec2::new(alpha.cos(), alpha.sin()), dt * sinc)
+        }
+    }
+}
+
+/// Predicted robot displacement over one step for `cmd` (robot frame, m).
+pub fn predicted_displacement(model: PredictionModel, cmd: Twist, dt: f64) -> Vec2 {
+    let (u, kappa) = motion_direction(model, cmd.omega_radps, dt);
+    u * (kappa * cmd.v_mps)
+}
+
+/// min_i ‖P_i − disp‖ (m); +inf for no points.
+#[inline]
+pub fn min_distance(points: &[Vec2], disp: Vec2) -> f64 {
+    let mut m2 = f64::INFINITY;
+    for p in points {
+        let d = p - disp;
+        m2 = m2.min(d.norm_squared());
+    }
+    m2.sqrt()
+}
+
+/// The DTCBF filter. Holds a scratch buffer reused across steps.
+#[derive(Debug, Default, Clone)]
+pub struct DtcbfFilter {
+    /// Forbidden open speed intervals (v_lo, v_hi) (m/s) for the ω being examined.
+    intervals: Vec<(f64, f64)>,
+}
+
+impl DtcbfFilter {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn with_capacity(points: usize) -> Self {
+        Self {
+            intervals: Vec::with_capacity(points),
+        }
+    }
+
+    /// Filters `desired`.
+    ///
+    /// `points` are the valid obstacle points now (robot frame, m);
+    /// `points_next` where they will be after one step (the same slice for a
+    /// static world; tracked moving obstacles advanced by v_o Δt).
+    pub fn filter(
+        &mut self,
+        points: &[Vec2],
+        points_next: &[Vec2],
+        desired: Twist,
+        p: &Params,
+    ) -> DtcbfOutcome {
+        let bx = InputBox::from_params(p);
+        let desired = bx.clamp(desired);
+        let r = p.robot_radius_m();
+        let d_safe = p.barrier.d_safe_m;
+        let gamma = p.dtcbf.gamma;
+        let dt = p.control.dt_s();
+        let model = p.dtcbf.prediction;
+
+        let h = min_distance(points, Vec2::zeros()) - r - d_safe;
+        let h_next_of = |cmd: Twist| {
+            min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe
+        };
+        let target = if h.is_finite() {
+            (1.0 - gamma) * h
+        } else {
+            f64::NEG_INFINITY
+        };
+        let outcome = |cmd: Twist, escape: bool, infeasible: bool| {
+            let h_next = h_next_of(cmd);
+            DtcbfOutcome {
+                cmd,
+                h_m: h,
+                h_next_m: h_next,
+                changed: cmd != desired,
+                condition_held: h_next >= target - TOL_M || !h.is_finite(),
+                escape,
+                infeasible,
+            }
+        };
+
+        // 1. The DOAA command as is.
+        if h_next_of(desired) >= target - TOL_M || points_next.is_empty() {
+            return outcome(desired, h < 0.0, false);
+        }
+
+        let escape = h < 0.0;
+        if !escape && desired.v_mps > 0.0 {
+            // 2. Keep ω, lower v to the largest admissible value in [0, v_d].
+            let clearance = r + d_safe + target;
+            self.build_intervals(points_next, desired.omega_radps, clearance, model, dt);
+            if let Some(v) =
+                largest_admissible_below(&self.intervals, desired.v_mps, bx.v_lo.max(0.0))
+            {
+                let cmd = Twist::new(v, desired.omega_radps);
+                if h_next_of(cmd) >= target - TOL_M {
+                    return outcome(cmd, false, false);
+                }
+            }
+        }
+
+        // 3. Search the box: DTCBF target first, then (inside the unsafe set) escape.
+        if let Some(cmd) = self.search_box(points_next, desired, r + d_safe + target, &bx, p) {
+            if h_next_of(cmd) >= target - TOL_M {
+                return outcome(cmd, escape, false);
+            }
+        }
+        if escape {
+            let rise = h + p.dtcbf.escape_epsilon_m;
+            if let Some(cmd) = self.search_box(points_next, desired, r + d_safe + rise, &bx, p) {
+                if h_next_of(cmd) >= rise - TOL_M {
+                    return outcome(cmd, true, false);
+                }
+            }
+        }
+
+        // 4. Nothing admissible.
+        outcome(Twist::ZERO, escape, true)
+    }
+
+    /// Fills `self.intervals` with the forbidden open speed intervals for yaw
+    /// rate ω and required centre distance `clearance`, sorted and merged.
+    fn build_intervals(
+        &mut self,
+        points: &[Vec2],
+        omega: f64,
+        clearance: f64,
+        model: PredictionModel,
+        dt: f64,
+    ) {
+        self.intervals.clear();
+        let (u, kappa) = motion_direction(model, omega, dt);
+        let c2 = clearance * clearance;
+        for pt in points {
+            let a = pt.dot(&u);
+            let b = pt.x * u.y - pt.y * u.x;
+            let w2 = c2 - b * b;
+            if w2 > 0.0 {
+                let w = w2.sqrt();
+                self.intervals.push(((a - w) / kappa, (a + w) / kappa));
+            }
+        }
+        self.intervals.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        // Merge overlapping open intervals in place.
+        let mut out = 0;
+        for i in 0..self.intervals.len() {
+            let cur = self.intervals[i];
+            if out > 0 && cur.0 < self.intervals[out - 1].1 {
+                let last = &mut self.intervals[out - 1];
+                last.1 = last.1.max(cur.1);
+            } else {
+                self.intervals[out] = cur;
+                out += 1;
+            }
+        }
+        self.intervals.truncate(out);
+    }
+
+    /// Closest admissible command to `desired` over the ω grid (plus ω_d).
+    fn search_box(
+        &mut self,
+        points: &[Vec2],
+        desired: Twist,
+        clearance: f64,
+        bx: &InputBox,
+        p: &Params,
+    ) -> Option<Twist> {
+        let n = p.dtcbf.omega_candidates;
+        let w = p.dtcbf.omega_weight_m2_per_rad2;
+        let dt = p.control.dt_s();
+        let model = p.dtcbf.prediction;
+        let mut best: Option<(f64, Twist)> = None;
+        // Candidate 0 is ω_d itself, then the grid. With the Euler model the
+        // admissible speeds do not depend on ω, so one build serves them all.
+        let mut built_for_euler = false;
+        for k in 0..=n {
+            let omega = if k == 0 {
+                desired.omega_radps
+            } else {
+                -bx.omega_max + 2.0 * bx.omega_max * (k - 1) as f64 / (n - 1) as f64
+            };
+            if !(model == PredictionModel::Euler && built_for_euler) {
+                self.build_intervals(points, omega, clearance, model, dt);
+                built_for_euler = true;
+            }
+            if let Some(v) = closest_admissible(&self.intervals, desired.v_mps, bx.v_lo, bx.v_hi) {
+                let cost = (v - desired.v_mps).powi(2) + w * (omega - desired.omega_radps).powi(2);
+                if best.is_none_or(|(c, _)| cost < c) {
+                    best = Some((cost, Twist::new(v, omega)));
+                }
+            }
+        }
+        best.map(|(_, t)| t)
+    }
+}
+
+/// Whether v lies in none of the (sorted, merged) open intervals.
+fn admissible(intervals: &[(f64, f64)], v: f64) -> bool {
+    !intervals.iter().any(|&(lo, hi)| v > lo && v < hi)
+}
+
+/// Largest admissible v in [floor, v_d].
+fn largest_admissible_below(intervals: &[(f64, f64)], v_d: f64, floor: f64) -> Option<f64> {
+    let mut v = v_d;
+    // Intervals are merged, so the one containing v (if any) is unique.
+    if let Some(&(lo, _)) = intervals.iter().find(|&&(lo, hi)| v > lo && v < hi) {
+        v = lo;
+    }
+    (v >= floor).then_some(v)
+}
+
+/// Admissible v in [lo, hi] closest to target.
+fn closest_admissible(intervals: &[(f64, f64)], target: f64, lo: f64, hi: f64) -> Option<f64> {
+    let t = target.clamp(lo, hi);
+    if admissible(intervals, t) {
+        return Some(t);
+    }
+    // Candidates: the box ends and every interval endpoint inside the box.
+    let mut best: Option<f64> = None;
+    let mut consider = |v: f64| {
+        if v >= lo
+            && v <= hi
+            && admissible(intervals, v)
+            && best.is_none_or(|b| (v - t).abs() < (b - t).abs())
+        {
+            best = Some(v);
+        }
+    };
+    consider(lo);
+    consider(hi);
+    for &(a, b) in intervals {
+        consider(a);
+        consider(b);
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> Params {
+        // r = 0.178, d_safe = 0.2, γ = 0.2, Δt = 0.1, v_max 0.22.
+        Params::default()
+    }
+
+    #[test]
+    fn free_space_passes_unchanged() {
+        let pts = [Vec2::new(3.0, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.1), &params());
+        assert_eq!(out.cmd, Twist::new(0.15, 0.1));
+        assert!(!out.changed && out.condition_held && !out.infeasible && !out.escape);
+        assert!((out.h_m - (3.0 - 0.378)).abs() < 1e-12);
+        assert!((out.h_next_m - (3.0 - 0.015 - 0.378)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn obstacle_dead_ahead_lowers_speed_to_the_closed_form_value() {
+        // Point 0.5 m ahead: h = 0.5 − 0.378 = 0.122. Required h+ ≥ 0.8·0.122 = 0.0976,
+        // i.e. 0.5 − Δt v ≥ 0.378 + 0.0976 → v ≤ (0.5 − 0.4756)/0.1 = 0.244 m/s: 0.22 passes.
+        let pts = [Vec2::new(0.5, 0.0)];
+        let p = params();
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.22, 0.0), &p);
+        assert!(!out.changed);
+        // Point 0.42 m ahead: h = 0.042, need 0.42 − 0.1 v ≥ 0.378 + 0.0336 → v ≤ 0.084.
+        let pts = [Vec2::new(0.42, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.05), &p);
+        assert!(out.changed && out.condition_held);
+        assert!((out.cmd.v_mps - 0.084).abs() < 1e-9, "{out:?}");
+        assert_eq!(out.cmd.omega_radps, 0.05);
+        assert!((out.h_next_m - 0.8 * out.h_m).abs() < 1e-9);
+    }
+
+    #[test]
+    fn offset_point_uses_the_exact_distance() {
+        // Point (0.45, 0.2): ‖P‖ = 0.49244, h = 0.11444; c = 0.378 + 0.8 h = 0.46955.
+        // Forbidden s ∈ (0.45 − √(c² − 0.04), …): √(0.220478 − 0.04) = 0.424827 → s ≤ 0.025173, v ≤ 0.25173.
+        // So 0.22 passes; with d_safe 0.25 it would not. Check the boundary numerically.
+        let pts = [Vec2::new(0.45, 0.2)];
+        let mut p = params();
+        p.control.v_max_mps = 0.5;
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.4, 0.0), &p);
+        let h = (0.45f64.powi(2) + 0.04).sqrt() - 0.378;
+        let c = 0.378 + 0.8 * h;
+        let v = (0.45 - (c * c - 0.04).sqrt()) / 0.1;
+        assert!((out.cmd.v_mps - v).abs() < 1e-9, "{} vs {v}", out.cmd.v_mps);
+    }
+
+    #[test]
+    fn on_the_boundary_the_robot_may_not_advance_but_may_rotate() {
+        // h = 0 exactly: only h+ ≥ 0 → v = 0, ω kept.
+        let pts = [Vec2::new(0.378, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.3), &params());
+        assert!(out.cmd.v_mps.abs() < 1e-9 && out.cmd.omega_radps == 0.3);
+        assert!(out.condition_held && !out.infeasible);
+    }
+
+    #[test]
+    fn obstacle_behind_does_not_slow_forward_motion() {
+        let pts = [Vec2::new(-0.4, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &params());
+        assert!(!out.changed);
+    }
+
+    #[test]
+    fn approaching_obstacle_without_reverse_is_infeasible() {
+        // The point moves 5 cm towards the robot this step; h = 0.022; standing still
+        // gives h+ = −0.028 < 0.8 h. No forward speed helps; reverse is not allowed.
+        let now = [Vec2::new(0.4, 0.0)];
+        let next = [Vec2::new(0.35, 0.0)];
+        let out = DtcbfFilter::new().filter(&now, &next, Twist::new(0.15, 0.0), &params());
+        assert!(out.infeasible && !out.condition_held);
+        assert_eq!(out.cmd, Twist::ZERO);
+    }
+
+    #[test]
+    fn approaching_obstacle_with_reverse_backs_up_just_enough() {
+        // As above with reverse allowed: need 0.35 − 0.1 v ≥ 0.378 + 0.8·0.022 → v ≤ −0.456 → beyond
+        // the 0.05 m/s reverse limit: still infeasible. With a 1 cm approach it is feasible:
+        // 0.39 − 0.1 v ≥ 0.3956 → v ≤ −0.056; with limit 0.1 m/s the closest is −0.056.
+        let mut p = params();
+        p.control.allow_reverse = true;
+        p.control.v_reverse_max_mps = 0.1;
+        let now = [Vec2::new(0.4, 0.0)];
+        let next = [Vec2::new(0.39, 0.0)];
+        let out = DtcbfFilter::new().filter(&now, &next, Twist::new(0.15, 0.0), &p);
+        assert!(!out.infeasible && out.condition_held, "{out:?}");
+        assert!((out.cmd.v_mps + 0.056).abs() < 1e-9, "{out:?}");
+    }
+
+    #[test]
+    fn inside_the_unsafe_set_escape_moves_away() {
+        // Point 0.3 m ahead: h = −0.078. DTCBF target: h+ ≥ 0.8 h = −0.0624, i.e. move back
+        // 1.56 cm: v = −0.156, beyond the reverse limit 0.05 → escape: h+ ≥ h + 0.001 → v ≤ −0.01.
+        let mut p = params();
+        p.control.allow_reverse = true;
+        let pts = [Vec2::new(0.3, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &p);
+        assert!(
+            out.escape && !out.infeasible && !out.condition_held,
+            "{out:?}"
+        );
+        assert!((out.cmd.v_mps + 0.01).abs() < 1e-9, "{out:?}");
+        assert!(out.h_next_m >= out.h_m + 0.001 - 1e-9);
+        // Without reverse there is no escape for a point dead ahead: stop.
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &params());
+        assert!(out.infeasible && out.cmd == Twist::ZERO);
+    }
+
+    #[test]
+    fn escape_forward_when_the_intruder_is_behind() {
+        // Something 0.3 m behind: h = −0.078; forward 0.22 m/s raises h by 2.2 cm > γ|h| = 1.56 cm.
+        let pts = [Vec2::new(-0.3, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.22, 0.0), &params());
+        assert!(out.escape && out.condition_held && !out.changed);
+    }
+
+    #[test]
+    fn arc_model_lets_turning_away_keep_more_speed() {
+        // Obstacle ahead-left. With the arc model turning right moves the robot away from it.
+        let mut p = params();
+        p.dtcbf.prediction = PredictionModel::Arc;
+        p.control.omega_max_radps = 3.0;
+        let pts = [Vec2::new(0.45, 0.12)];
+        let mut f = DtcbfFilter::new();
+        let straight = f.filter(&pts, &pts, Twist::new(0.22, 0.0), &p);
+        let right = f.filter(&pts, &pts, Twist::new(0.22, -3.0), &p);
+        assert!(straight.changed && right.changed);
+        assert!(
+            right.cmd.v_mps > straight.cmd.v_mps,
+            "{right:?} {straight:?}"
+        );
+        // Arc displacement: ω = 0 reduces to Euler.
+        let d = predicted_displacement(PredictionModel::Arc, Twist::new(0.2, 0.0), 0.1);
+        assert!((d - Vec2::new(0.02, 0.0)).norm() < 1e-15);
+        // Quarter circle: ω Δt = π/2, v = 1, Δt = 1 → chord to (2/π, 2/π).
+        let d = predicted_displacement(
+            PredictionModel::Arc,
+            Twist::new(1.0, std::f64::consts::FRAC_PI_2),
+            1.0,
+        );
+        let e = 2.0 / std::f64::consts::PI;
+        assert!((d - Vec2::new(e, e)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn desired_outside_the_box_is_clamped_first() {
+        let out = DtcbfFilter::new().filter(&[], &[], Twist::new(1.0, -5.0), &params());
+        assert_eq!(out.cmd, Twist::new(0.22, -0.3));
+        assert!(out.condition_held && !out.changed);
+        let out =
+            DtcbfFilter::new().filter(&[], &[], Twist::new(f64::NAN, f64::INFINITY), &params());
+        assert_eq!(out.cmd, Twist::ZERO);
+    }
+
+    #[test]
+    fn interval_helpers() {
+        let iv = [(-1.0, 0.5), (0.7, 0.9)];
+        assert_eq!(largest_admissible_below(&iv, 0.8, 0.0), Some(0.7));
+        assert_eq!(largest_admissible_below(&iv, 0.6, 0.0), Some(0.6));
+        assert_eq!(largest_admissible_below(&iv, 0.3, 0.0), None);
+        assert_eq!(closest_admissible(&iv, 0.3, -0.5, 1.0), Some(0.5));
+        assert_eq!(closest_admissible(&iv, 0.3, -2.0, 1.0), Some(0.5));
+        assert_eq!(closest_admissible(&iv, -0.9, -2.0, 1.0), Some(-1.0));
+        assert_eq!(closest_admissible(&[(-1.0, 2.0)], 0.3, -0.5, 1.0), None);
+    }
+}

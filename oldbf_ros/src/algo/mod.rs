@@ -1,0 +1,26 @@
+//! The pure core: plain types and functions, no ROS and no CAN.
+//!
+//! One file per step of the line scan → points → clearances → barriers →
+//! DOAA → DTCBF → twist, plus the kinematics and the reference tracking the
+//! nominal command comes from. See `docs/ALGORITHM.md` for the definition
+//! and where it departs from the paper.
+
+pub mod barrier;
+pub mod clearance;
+pub mod doaa;
+pub mod dtcbf;
+pub mod geometry;
+pub mod params;
+pub mod pipeline;
+pub mod record;
+pub mod reference;
+pub mod scan;
+pub mod tracking;
+pub mod unicycle;
+
+pub use doaa::DoaaState;
+pub use geometry::{Pose2, Twist, Vec2};
+pub use params::Params;
+pub use pipeline::SafetyPipeline;
+pub use record::{StepRecord, StopCause};
+pub use scan::{LaserScan, ScanRejection};

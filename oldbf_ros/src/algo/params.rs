@@ -1,0 +1,691 @@
+//! Every tunable of the pipeline, grouped as in `config/oldbf.yaml`.
+//!
+//! The defaults here are the paper's values where it gives them (TurtleBot3
+//! scale) and are the same numbers `config/oldbf.yaml` documents; a test keeps
+//! the two equal. `validate` checks every value against its allowed range and
+//! names the offending key, so the CLI, the ROS node and the tests reject a bad
+//! configuration the same way.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// All algorithm parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Params {
+    pub control: ControlParams,
+    pub footprint: FootprintParams,
+    pub laser: LaserParams,
+    pub barrier: BarrierParams,
+    pub doaa: DoaaParams,
+    pub dtcbf: DtcbfParams,
+    pub tracking: TrackingParams,
+}
+
+/// Control loop and input box.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlParams {
+    /// Control loop rate (Hz); the DTCBF step is Δt = 1 / rate_hz.
+    pub rate_hz: f64,
+    /// Nominal forward speed when neither a reference nor an upstream command is given (m/s).
+    pub v_nom_mps: f64,
+    /// Largest forward speed ever commanded (m/s).
+    pub v_max_mps: f64,
+    /// Largest yaw rate ever commanded (rad/s); the paper's hardware limit is 0.3.
+    pub omega_max_radps: f64,
+    /// Whether the filter may command negative linear speed (backing up).
+    pub allow_reverse: bool,
+    /// Largest reverse speed when `allow_reverse` (m/s, given as a positive number).
+    pub v_reverse_max_mps: f64,
+}
+
+impl Default for ControlParams {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            v_nom_mps: 0.15,
+            v_max_mps: 0.22,
+            omega_max_radps: 0.3,
+            allow_reverse: false,
+            v_reverse_max_mps: 0.05,
+        }
+    }
+}
+
+impl ControlParams {
+    /// Control period Δt (s).
+    pub fn dt_s(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+}
+
+/// Robot footprint: r = max(l1, l2) + b/2 (paper III.A) unless overridden.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FootprintParams {
+    /// l1: first semi-axis of the robot (m).
+    pub semi_axis_1_m: f64,
+    /// l2: second semi-axis of the robot (m).
+    pub semi_axis_2_m: f64,
+    /// b: the robot's overall dimension in the paper's formula (m).
+    pub overall_dimension_m: f64,
+    /// If set, used as r instead of the formula (m).
+    pub radius_override_m: Option<f64>,
+}
+
+impl Default for FootprintParams {
+    fn default() -> Self {
+        // TurtleBot3 burger: 178 mm long, 138 mm wide.
+        Self {
+            semi_axis_1_m: 0.089,
+            semi_axis_2_m: 0.069,
+            overall_dimension_m: 0.178,
+            radius_override_m: None,
+        }
+    }
+}
+
+impl FootprintParams {
+    /// Robot radius r (m).
+    pub fn radius_m(&self) -> f64 {
+        self.radius_override_m.unwrap_or_else(|| {
+            self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0
+        })
+    }
+}
+
+/// The laser's static mount pose in the robot frame and scan acceptance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserParams {
+    /// Laser origin x in the robot frame (m, forward).
+    pub mount_x_m: f64,
+    /// Laser origin y in the robot frame (m, left).
+    pub mount_y_m: f64,
+    /// Laser yaw in the robot frame (deg, CCW).
+    pub mount_yaw_deg: f64,
+    /// A scan older than this, or stamped this far in the future, is rejected (s).
+    pub scan_timeout_s: f64,
+    /// Scans with more beams than this are rejected (bounds memory and time).
+    pub max_beams: usize,
+}
+
+impl Default for LaserParams {
+    fn default() -> Self {
+        Self {
+            mount_x_m: 0.0,
+            mount_y_m: 0.0,
+            mount_yaw_deg: 0.0,
+            scan_timeout_s: 0.5,
+            max_beams: 16384,
+        }
+    }
+}
+
+/// OLDBF barrier B = B_d + B_v (paper III.B).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BarrierParams {
+    /// d_safe: clearance (beyond r) that defines the safe set h = d_min − d_safe ≥ 0 (m).
+    pub d_safe_m: f64,
+    /// Γ: barrier scale; the activation band is Γ^(2/σ) metres wide.
+    pub big_gamma: f64,
+    /// σ: exponent on the proximity Δd in B_d.
+    pub sigma: f64,
+    /// ζ: weight of the speed term B_v.
+    pub zeta: f64,
+    /// β: exponent on |v| in the denominator of B_v.
+    pub beta: f64,
+    /// B values are saturated here (B_d is +inf at d ≤ d_safe).
+    pub barrier_max: f64,
+    /// Full angle of the left/right hemisphere sector, centred ahead (deg).
+    pub hemisphere_fov_deg: f64,
+    /// Full angle of the front sector used by the both-sides rule (deg).
+    pub front_fov_deg: f64,
+}
+
+impl Default for BarrierParams {
+    fn default() -> Self {
+        Self {
+            d_safe_m: 0.20,
+            big_gamma: 1.0,
+            sigma: 2.0,
+            zeta: 0.5,
+            beta: 2.0,
+            barrier_max: 1000.0,
+            hemisphere_fov_deg: 180.0,
+            front_fov_deg: 60.0,
+        }
+    }
+}
+
+impl BarrierParams {
+    /// d_act = d_safe + Γ^(2/σ): clearance below which B_d exceeds 1 (m).
+    pub fn d_act_m(&self) -> f64 {
+        self.d_safe_m + self.big_gamma.powf(2.0 / self.sigma)
+    }
+}
+
+/// DOAA steering law (paper III.C, sign-corrected eq. 5).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DoaaParams {
+    /// k: yaw rate per unit of barrier difference, ω = sat(ω_nom + k (B_r − B_l)) (rad/s).
+    pub gain_k_radps: f64,
+    /// ω_0: fixed turn rate when obstacles block both sides and the front (rad/s).
+    pub omega_0_radps: f64,
+    /// The both-sides turn is released when the front clearance exceeds d_act by this (m).
+    pub both_sides_release_m: f64,
+    /// In the both-sides turn, linear speed is 0 when the front clearance is below d_safe + this (m).
+    pub front_stop_margin_m: f64,
+}
+
+impl Default for DoaaParams {
+    fn default() -> Self {
+        Self {
+            gain_k_radps: 0.5,
+            omega_0_radps: 0.3,
+            both_sides_release_m: 0.1,
+            front_stop_margin_m: 0.05,
+        }
+    }
+}
+
+/// How the one-step prediction z(k+1) = F(z(k), u(k)) integrates the unicycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PredictionModel {
+    /// Paper eq. 6 with Δt explicit: x+ = x + Δt v cos θ, θ+ = θ + Δt ω.
+    Euler,
+    /// Exact zero-order-hold solution: the robot moves along an arc.
+    Arc,
+}
+
+/// The discrete-time CBF filter (paper II.E, eq. 3-4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DtcbfParams {
+    /// γ in h(k+1) ≥ (1 − γ) h(k); 1 only asks h(k+1) ≥ 0, small values approach more slowly.
+    pub gamma: f64,
+    /// Inside the unsafe set (h < 0) a command must raise h by at least this per step (m).
+    pub escape_epsilon_m: f64,
+    /// Integration of the one-step prediction.
+    pub prediction: PredictionModel,
+    /// Number of yaw rates tried across [−ω_max, ω_max] when ω must change too (odd).
+    pub omega_candidates: usize,
+    /// w in the cost (v − v_d)² + w (ω − ω_d)² for picking the closest safe command (m²/rad²).
+    pub omega_weight_m2_per_rad2: f64,
+}
+
+impl Default for DtcbfParams {
+    fn default() -> Self {
+        Self {
+            gamma: 0.2,
+            escape_epsilon_m: 0.001,
+            prediction: PredictionModel::Euler,
+            omega_candidates: 21,
+            omega_weight_m2_per_rad2: 0.05,
+        }
+    }
+}
+
+/// Kanayama tracking gains (paper IV.C; eq. 8 completed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackingParams {
+    /// k_x: along-track error gain (1/s).
+    pub k_x_per_s: f64,
+    /// k_y: cross-track error gain (1/m²).
+    pub k_y_per_m2: f64,
+    /// k_θ: heading error gain (1/m).
+    pub k_theta_per_m: f64,
+}
+
+impl Default for TrackingParams {
+    fn default() -> Self {
+        Self {
+            k_x_per_s: 1.0,
+            k_y_per_m2: 10.0,
+            k_theta_per_m: 4.0,
+        }
+    }
+}
+
+/// A parameter outside its allowed range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamError {
+    /// Dotted path of the key, as in the YAML file, e.g. `barrier.d_safe_m`.
+    pub key: &'static str,
+    /// The offending value, printed.
+    pub value: String,
+    /// The allowed range or rule, e.g. `(0, 1]`.
+    pub allowed: &'static str,
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "key `{}` = {} is out of range; allowed: {}",
+            self.key, self.value, self.allowed
+        )
+    }
+}
+
+impl std::error::Error for ParamError {}
+
+/// Checks one value against an interval; open ends are written with `(`/`)`.
+struct Check {
+    errors: Vec<ParamError>,
+}
+
+impl Check {
+    fn range(
+        &mut self,
+        key: &'static str,
+        v: f64,
+        lo: f64,
+        lo_open: bool,
+        hi: f64,
+        hi_open: bool,
+        allowed: &'static str,
+    ) {
+        let ok = v.is_finite()
+            && if lo_open { v > lo } else { v >= lo }
+            && if hi_open { v < hi } else { v <= hi };
+        if !ok {
+            self.errors.push(ParamError {
+                key,
+                value: format!("{v}"),
+                allowed,
+            });
+        }
+    }
+
+    fn rule(&mut self, ok: bool, key: &'static str, value: String, allowed: &'static str) {
+        if !ok {
+            self.errors.push(ParamError {
+                key,
+                value,
+                allowed,
+            });
+        }
+    }
+}
+
+impl Params {
+    /// Robot radius r (m).
+    pub fn robot_radius_m(&self) -> f64 {
+        self.footprint.radius_m()
+    }
+
+    /// Every out-of-range value, each naming its key; empty when valid.
+    pub fn validate(&self) -> Result<(), Vec<ParamError>> {
+        let mut c = Check { errors: Vec::new() };
+        let ctl = &self.control;
+        c.range(
+            "control.rate_hz",
+            ctl.rate_hz,
+            0.0,
+            true,
+            1000.0,
+            false,
+            "(0, 1000] Hz",
+        );
+        c.range(
+            "control.v_max_mps",
+            ctl.v_max_mps,
+            0.0,
+            true,
+            5.0,
+            false,
+            "(0, 5] m/s",
+        );
+        c.range(
+            "control.v_nom_mps",
+            ctl.v_nom_mps,
+            0.0,
+            false,
+            5.0,
+            false,
+            "[0, 5] m/s",
+        );
+        c.rule(
+            !(ctl.v_nom_mps > ctl.v_max_mps),
+            "control.v_nom_mps",
+            format!("{}", ctl.v_nom_mps),
+            "at most control.v_max_mps",
+        );
+        c.range(
+            "control.omega_max_radps",
+            ctl.omega_max_radps,
+            0.0,
+            true,
+            10.0,
+            false,
+            "(0, 10] rad/s",
+        );
+        c.range(
+            "control.v_reverse_max_mps",
+            ctl.v_reverse_max_mps,
+            0.0,
+            false,
+            5.0,
+            false,
+            "[0, 5] m/s",
+        );
+
+        let fp = &self.footprint;
+        c.range(
+            "footprint.semi_axis_1_m",
+            fp.semi_axis_1_m,
+            0.0,
+            false,
+            5.0,
+            false,
+            "[0, 5] m",
+        );
+        c.range(
+            "footprint.semi_axis_2_m",
+            fp.semi_axis_2_m,
+            0.0,
+            false,
+            5.0,
+            false,
+            "[0, 5] m",
+        );
+        c.range(
+            "footprint.overall_dimension_m",
+            fp.overall_dimension_m,
+            0.0,
+            false,
+            10.0,
+            false,
+            "[0, 10] m",
+        );
+        if let Some(r) = fp.radius_override_m {
+            c.range(
+                "footprint.radius_override_m",
+                r,
+                0.0,
+                false,
+                5.0,
+                false,
+                "[0, 5] m or null",
+            );
+        }
+        c.rule(
+            self.robot_radius_m() <= 5.0,
+            "footprint",
+            format!("r = {}", self.robot_radius_m()),
+            "robot radius r = max(l1, l2) + b/2 at most 5 m",
+        );
+
+        let l = &self.laser;
+        c.range(
+            "laser.mount_x_m",
+            l.mount_x_m,
+            -5.0,
+            false,
+            5.0,
+            false,
+            "[-5, 5] m",
+        );
+        c.range(
+            "laser.mount_y_m",
+            l.mount_y_m,
+            -5.0,
+            false,
+            5.0,
+            false,
+            "[-5, 5] m",
+        );
+        c.range(
+            "laser.mount_yaw_deg",
+            l.mount_yaw_deg,
+            -360.0,
+            false,
+            360.0,
+            false,
+            "[-360, 360] deg",
+        );
+        c.range(
+            "laser.scan_timeout_s",
+            l.scan_timeout_s,
+            0.0,
+            true,
+            60.0,
+            false,
+            "(0, 60] s",
+        );
+        c.rule(
+            (1..=1_000_000).contains(&l.max_beams),
+            "laser.max_beams",
+            format!("{}", l.max_beams),
+            "[1, 1000000]",
+        );
+
+        let b = &self.barrier;
+        c.range(
+            "barrier.d_safe_m",
+            b.d_safe_m,
+            0.0,
+            false,
+            10.0,
+            false,
+            "[0, 10] m",
+        );
+        c.range(
+            "barrier.big_gamma",
+            b.big_gamma,
+            0.0,
+            true,
+            100.0,
+            false,
+            "(0, 100]",
+        );
+        c.range(
+            "barrier.sigma",
+            b.sigma,
+            0.1,
+            false,
+            10.0,
+            false,
+            "[0.1, 10]",
+        );
+        c.range("barrier.zeta", b.zeta, 0.0, false, 100.0, false, "[0, 100]");
+        c.range("barrier.beta", b.beta, 0.1, false, 10.0, false, "[0.1, 10]");
+        c.range(
+            "barrier.barrier_max",
+            b.barrier_max,
+            1.0,
+            true,
+            1e12,
+            false,
+            "(1, 1e12]",
+        );
+        c.range(
+            "barrier.hemisphere_fov_deg",
+            b.hemisphere_fov_deg,
+            0.0,
+            true,
+            360.0,
+            false,
+            "(0, 360] deg",
+        );
+        c.range(
+            "barrier.front_fov_deg",
+            b.front_fov_deg,
+            0.0,
+            true,
+            360.0,
+            false,
+            "(0, 360] deg",
+        );
+        c.rule(
+            !b.d_safe_m.is_finite() || (b.d_act_m().is_finite() && b.d_act_m() <= 100.0),
+            "barrier.big_gamma",
+            format!("{}", b.big_gamma),
+            "d_act = d_safe + Γ^(2/σ) at most 100 m",
+        );
+
+        let d = &self.doaa;
+        c.range(
+            "doaa.gain_k_radps",
+            d.gain_k_radps,
+            0.0,
+            false,
+            100.0,
+            false,
+            "[0, 100] rad/s",
+        );
+        c.range(
+            "doaa.omega_0_radps",
+            d.omega_0_radps,
+            0.0,
+            true,
+            10.0,
+            false,
+            "(0, 10] rad/s",
+        );
+        c.rule(
+            !(d.omega_0_radps > ctl.omega_max_radps),
+            "doaa.omega_0_radps",
+            format!("{}", d.omega_0_radps),
+            "at most control.omega_max_radps",
+        );
+        c.range(
+            "doaa.both_sides_release_m",
+            d.both_sides_release_m,
+            0.0,
+            false,
+            10.0,
+            false,
+            "[0, 10] m",
+        );
+        c.range(
+            "doaa.front_stop_margin_m",
+            d.front_stop_margin_m,
+            0.0,
+            false,
+            10.0,
+            false,
+            "[0, 10] m",
+        );
+
+        let f = &self.dtcbf;
+        c.range("dtcbf.gamma", f.gamma, 0.0, true, 1.0, false, "(0, 1]");
+        c.range(
+            "dtcbf.escape_epsilon_m",
+            f.escape_epsilon_m,
+            0.0,
+            true,
+            0.1,
+            false,
+            "(0, 0.1] m",
+        );
+        c.rule(
+            (3..=201).contains(&f.omega_candidates) && f.omega_candidates % 2 == 1,
+            "dtcbf.omega_candidates",
+            format!("{}", f.omega_candidates),
+            "odd, in [3, 201]",
+        );
+        c.range(
+            "dtcbf.omega_weight_m2_per_rad2",
+            f.omega_weight_m2_per_rad2,
+            0.0,
+            false,
+            1e3,
+            false,
+            "[0, 1000] m²/rad²",
+        );
+
+        let t = &self.tracking;
+        c.range(
+            "tracking.k_x_per_s",
+            t.k_x_per_s,
+            0.0,
+            false,
+            100.0,
+            false,
+            "[0, 100] 1/s",
+        );
+        c.range(
+            "tracking.k_y_per_m2",
+            t.k_y_per_m2,
+            0.0,
+            false,
+            1000.0,
+            false,
+            "[0, 1000] 1/m²",
+        );
+        c.range(
+            "tracking.k_theta_per_m",
+            t.k_theta_per_m,
+            0.0,
+            false,
+            1000.0,
+            false,
+            "[0, 1000] 1/m",
+        );
+
+        if c.errors.is_empty() {
+            Ok(())
+        } else {
+            Err(c.errors)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid() {
+        assert_eq!(Params::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn paper_radius_formula() {
+        // r = max(0.089, 0.069) + 0.178 / 2 = 0.178 m.
+        assert!((Params::default().robot_radius_m() - 0.178).abs() < 1e-12);
+        let mut p = Params::default();
+        p.footprint.radius_override_m = Some(0.105);
+        assert_eq!(p.robot_radius_m(), 0.105);
+    }
+
+    #[test]
+    fn activation_distance_is_d_safe_plus_gamma_power() {
+        let mut b = BarrierParams::default();
+        // Γ = 1: Γ^(2/σ) = 1 whatever σ.
+        assert!((b.d_act_m() - 1.2).abs() < 1e-12);
+        b.big_gamma = 0.25; // σ = 2: 0.25^(1) = 0.25.
+        assert!((b.d_act_m() - 0.45).abs() < 1e-12);
+        b.sigma = 4.0; // 0.25^(0.5) = 0.5.
+        assert!((b.d_act_m() - 0.7).abs() < 1e-12);
+    }
+
+    #[test]
+    fn out_of_range_values_name_their_keys() {
+        let mut p = Params::default();
+        p.dtcbf.gamma = 1.5;
+        p.barrier.d_safe_m = f64::NAN;
+        p.dtcbf.omega_candidates = 20;
+        let keys: Vec<_> = p.validate().unwrap_err().iter().map(|e| e.key).collect();
+        assert_eq!(
+            keys,
+            ["barrier.d_safe_m", "dtcbf.gamma", "dtcbf.omega_candidates"]
+        );
+    }
+
+    #[test]
+    fn cross_field_rules() {
+        let mut p = Params::default();
+        p.control.v_nom_mps = 0.3; // above v_max 0.22
+        p.doaa.omega_0_radps = 0.5; // above omega_max 0.3
+        let keys: Vec<_> = p.validate().unwrap_err().iter().map(|e| e.key).collect();
+        assert_eq!(keys, ["control.v_nom_mps", "doaa.omega_0_radps"]);
+    }
+}

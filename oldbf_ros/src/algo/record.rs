@@ -1,0 +1,121 @@
+//! The per-step record: everything the pipeline decided, for logs, CSV,
+//! the ROS `~state` topic and the tests. Plain `Copy` data, so producing it
+//! does not allocate.
+
+use super::doaa::DoaaState;
+use super::geometry::{Twist, Vec2};
+use super::scan::ScanRejection;
+use std::fmt;
+
+/// Why the command is a stop (when it is).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StopCause {
+    /// The scan was rejected.
+    Rejected(ScanRejection),
+    /// No scan has arrived yet (or none since `scan_timeout`).
+    NoScan,
+    /// The nominal command was not finite.
+    BadNominal,
+    /// No command in the input box satisfies the DTCBF condition.
+    Infeasible,
+    /// An e-stop is latched.
+    EStop,
+}
+
+impl fmt::Display for StopCause {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Rejected(r) => write!(f, "scan rejected: {r}"),
+            Self::NoScan => write!(f, "no recent scan"),
+            Self::BadNominal => write!(f, "nominal command not finite"),
+            Self::Infeasible => write!(f, "no admissible command (DTCBF infeasible)"),
+            Self::EStop => write!(f, "e-stop latched"),
+        }
+    }
+}
+
+impl StopCause {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::Rejected(r) => r.code(),
+            Self::NoScan => "no_scan",
+            Self::BadNominal => "bad_nominal",
+            Self::Infeasible => "infeasible",
+            Self::EStop => "e_stop",
+        }
+    }
+}
+
+/// One control step. When the scan was rejected (`stop_cause` is `Rejected`
+/// or `NoScan`) the barrier and distance fields are NaN: nothing was measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepRecord {
+    /// Time of the step (s).
+    pub stamp_s: f64,
+    /// The command sent: finite, inside the input box.
+    pub cmd: Twist,
+    /// The nominal command (reference tracking or upstream).
+    pub nominal: Twist,
+    /// The DOAA command before the DTCBF check.
+    pub doaa_cmd: Twist,
+    pub state: DoaaState,
+    /// h(k) = d_min − d_safe (m).
+    pub h_m: f64,
+    /// Predicted h(k+1) for `cmd` (m).
+    pub h_next_m: f64,
+    /// Whether the DTCBF check changed the DOAA command.
+    pub filter_changed: bool,
+    /// Whether h(k+1) ≥ (1 − γ) h(k) holds for `cmd`.
+    pub condition_held: bool,
+    pub b_left: f64,
+    pub b_right: f64,
+    pub b_velocity: f64,
+    /// d_l, d_r, d_min, front clearance (m).
+    pub d_left_m: f64,
+    pub d_right_m: f64,
+    pub d_min_m: f64,
+    pub d_front_m: f64,
+    /// Closest points, robot frame (m).
+    pub closest_left: Option<Vec2>,
+    pub closest_right: Option<Vec2>,
+    pub beams: usize,
+    pub valid_beams: usize,
+    pub stop_cause: Option<StopCause>,
+}
+
+impl StepRecord {
+    /// A stop record for a step where no usable scan existed.
+    pub fn stop(stamp_s: f64, nominal: Twist, cause: StopCause) -> Self {
+        Self {
+            stamp_s,
+            cmd: Twist::ZERO,
+            nominal,
+            doaa_cmd: Twist::ZERO,
+            state: DoaaState::Stop,
+            h_m: f64::NAN,
+            h_next_m: f64::NAN,
+            filter_changed: false,
+            condition_held: false,
+            b_left: f64::NAN,
+            b_right: f64::NAN,
+            b_velocity: f64::NAN,
+            d_left_m: f64::NAN,
+            d_right_m: f64::NAN,
+            d_min_m: f64::NAN,
+            d_front_m: f64::NAN,
+            closest_left: None,
+            closest_right: None,
+            beams: 0,
+            valid_beams: 0,
+            stop_cause: Some(cause),
+        }
+    }
+
+    /// Whether a usable scan was processed this step.
+    pub fn measured(&self) -> bool {
+        !matches!(
+            self.stop_cause,
+            Some(StopCause::Rejected(_) | StopCause::NoScan | StopCause::BadNominal)
+        )
+    }
+}

@@ -1,0 +1,12 @@
+//! OLDBF + DOAA: an online LiDAR-based discrete-time barrier function safety
+//! filter for differential-drive robots.
+//!
+//! * [`algo`] — the pure core (no ROS, no CAN): scan sanitation, clearances,
+//!   barriers, DOAA steering, the exact discrete-time CBF filter, reference
+//!   trajectories and Kanayama tracking.
+//! * [`sim`] — a 2-D simulator that stands in for the robot: walls, circles,
+//!   moving obstacles, a ray-cast LiDAR, a unicycle with limits.
+//! * [`config`] — YAML configuration with unknown keys and out-of-range
+//!   values rejected by name.
+
+pub mod algo;
