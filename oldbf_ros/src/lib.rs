@@ -10,3 +10,5 @@
 //!   values rejected by name.
 
 pub mod algo;
+pub mod carmen;
+pub mod config;
