@@ -12,3 +12,4 @@
 pub mod algo;
 pub mod carmen;
 pub mod config;
+pub mod sim;

@@ -1,0 +1,31 @@
+//! A 2-D simulator that stands in for the robot, its LiDAR and its
+//! surroundings, so the safety filter can be exercised closed-loop without
+//! hardware or ROS.
+//!
+//! One concept per file:
+//! * [`shapes`] — segment and circle primitives: exact point distance and
+//!   ray intersection;
+//! * [`motion`] — moving discs with closed-form motion laws (constant
+//!   velocity, waypoint loop, bounce), deterministic at any time;
+//! * [`world`] — static walls / polygons / boxes / circles plus moving discs
+//!   and a clock; nearest-obstacle distance and ray casting;
+//! * [`lidar`] — a ray-cast 2-D LiDAR with `LaserScan` conventions, noise
+//!   and dropouts;
+//! * [`robot`] — a unicycle with speed and acceleration limits, presets for
+//!   the TurtleBot3 Burger and the Quanser QBot 2e, collision check.
+//!
+//! Units: m, s, rad, m/s, rad/s throughout; degrees only in YAML keys ending
+//! in `_deg`. Every spec type rejects unknown YAML keys and every constructor
+//! returns an error (naming the key) instead of panicking on bad values.
+
+pub mod lidar;
+pub mod motion;
+pub mod robot;
+pub mod shapes;
+pub mod world;
+
+pub use lidar::{DropoutKind, Lidar, LidarSpec};
+pub use motion::{MotionSpec, MovingObstacle, MovingObstacleSpec};
+pub use robot::{RobotLimits, RobotPreset, RobotSpec, SimRobot};
+pub use shapes::{Circle, Segment};
+pub use world::{BoxSpec, CircleSpec, ScanScratch, WallSpec, World, WorldSpec};
