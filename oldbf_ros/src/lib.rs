@@ -12,4 +12,5 @@
 pub mod algo;
 pub mod carmen;
 pub mod config;
+pub mod plot;
 pub mod sim;
