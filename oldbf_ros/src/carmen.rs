@@ -77,11 +77,8 @@ pub struct CarmenLog {
 }
 
 fn field<T: std::str::FromStr>(tokens: &[&str], i: usize, what: &str) -> Result<T, String> {
-    let tok = tokens
-        .get(i)
-        .ok_or_else(|| format!("missing {what} (field {i})"))?;
-    tok.parse()
-        .map_err(|_| format!("{what} `{tok}` is not a number"))
+    let tok = tokens.get(i).ok_or_else(|| format!("missing {what} (field {i})"))?;
+    tok.parse().map_err(|_| format!("{what} `{tok}` is not a number"))
 }
 
 /// Parses one line; `Ok(None)` for lines that are not FLASER.
@@ -127,10 +124,7 @@ pub fn read_log<R: BufRead>(reader: R) -> std::io::Result<CarmenLog> {
         match parse_line(&text, i + 1) {
             Ok(Some(scan)) => log.scans.push(scan),
             Ok(None) => log.other_lines += 1,
-            Err(reason) => log.errors.push(CarmenLineError {
-                line: i + 1,
-                reason,
-            }),
+            Err(reason) => log.errors.push(CarmenLineError { line: i + 1, reason }),
         }
     }
     Ok(log)
@@ -166,8 +160,7 @@ mod tests {
         assert!((s.angle_increment_rad() as f64 - PI / 2.0).abs() < 1e-6);
         let scan = s.as_laser_scan();
         assert!(
-            scan.range_max_m == CARMEN_NO_RETURN_M
-                && !crate::algo::scan::is_valid_range(81.83, 0.0, scan.range_max_m)
+            scan.range_max_m == CARMEN_NO_RETURN_M && !crate::algo::scan::is_valid_range(81.83, 0.0, scan.range_max_m)
         );
     }
 
@@ -196,9 +189,7 @@ mod tests {
             .unwrap_err()
             .contains("`x` is not a number"));
         // A garbage range is kept as NaN (then rejected per beam by the pipeline).
-        let s = parse_line("FLASER 1 abc 0 0 0 0 0 0 1 h 1", 1)
-            .unwrap()
-            .unwrap();
+        let s = parse_line("FLASER 1 abc 0 0 0 0 0 0 1 h 1", 1).unwrap().unwrap();
         assert!(s.ranges_m[0].is_nan());
     }
 

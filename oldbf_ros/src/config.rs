@@ -24,16 +24,9 @@ pub enum ConfigError {
     /// The file could not be read.
     Io { file: String, error: std::io::Error },
     /// Not YAML, a wrong type, an unknown or a missing key.
-    Parse {
-        file: String,
-        key: String,
-        message: String,
-    },
+    Parse { file: String, key: String, message: String },
     /// Values outside their allowed ranges.
-    Range {
-        file: String,
-        errors: Vec<ParamError>,
-    },
+    Range { file: String, errors: Vec<ParamError> },
 }
 
 impl fmt::Display for ConfigError {
@@ -81,11 +74,7 @@ pub fn parse_yaml(text: &str, file: &str) -> Result<Value, ConfigError> {
 
 /// Deserializes `value` strictly, reporting the dotted path of the failing key.
 /// `prefix` is prepended to paths (e.g. `oldbf.` inside a scenario file).
-pub fn from_value<T: DeserializeOwned>(
-    value: Value,
-    file: &str,
-    prefix: &str,
-) -> Result<T, ConfigError> {
+pub fn from_value<T: DeserializeOwned>(value: Value, file: &str, prefix: &str) -> Result<T, ConfigError> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let key = e.path().to_string();
         let inner = e.into_inner().to_string();
@@ -132,8 +121,7 @@ pub fn params_from_value(value: Value, file: &str, prefix: &str) -> Result<Param
 
 /// The built-in defaults (`config/oldbf.yaml` as shipped).
 pub fn default_params() -> Params {
-    load_params_str(DEFAULT_PARAMS_YAML, DEFAULT_PARAMS_NAME)
-        .expect("the shipped config/oldbf.yaml is valid (tested)")
+    load_params_str(DEFAULT_PARAMS_YAML, DEFAULT_PARAMS_NAME).expect("the shipped config/oldbf.yaml is valid (tested)")
 }
 
 /// Validated parameters from YAML text.
@@ -202,8 +190,7 @@ mod tests {
                 .starts_with("my.yaml: key `tracking.d_saf_m`: unknown field"),
             "{e}"
         );
-        let e =
-            load_params_str(&format!("{DEFAULT_PARAMS_YAML}\nbogus: 1\n"), "my.yaml").unwrap_err();
+        let e = load_params_str(&format!("{DEFAULT_PARAMS_YAML}\nbogus: 1\n"), "my.yaml").unwrap_err();
         assert_eq!(e.keys(), ["bogus"], "{e}");
     }
 
@@ -237,21 +224,13 @@ mod tests {
     #[test]
     fn missing_file_is_named() {
         let e = load_params_file(Path::new("/nonexistent/oldbf.yaml")).unwrap_err();
-        assert!(
-            e.to_string()
-                .starts_with("/nonexistent/oldbf.yaml: cannot read"),
-            "{e}"
-        );
+        assert!(e.to_string().starts_with("/nonexistent/oldbf.yaml: cannot read"), "{e}");
     }
 
     #[test]
     fn merge_overrides_nested_keys_only() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
-        let over = parse_yaml(
-            "barrier: {d_safe_m: 0.3}\ncontrol: {allow_reverse: true}",
-            "o",
-        )
-        .unwrap();
+        let over = parse_yaml("barrier: {d_safe_m: 0.3}\ncontrol: {allow_reverse: true}", "o").unwrap();
         merge(&mut base, &over);
         let p = params_from_value(base, "o", "oldbf.").unwrap();
         assert_eq!(p.barrier.d_safe_m, 0.3);
@@ -262,10 +241,7 @@ mod tests {
     #[test]
     fn prefixed_paths_for_scenario_overrides() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
-        merge(
-            &mut base,
-            &parse_yaml("barrier: {d_sfe_m: 0.3}", "o").unwrap(),
-        );
+        merge(&mut base, &parse_yaml("barrier: {d_sfe_m: 0.3}", "o").unwrap());
         let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.barrier.d_sfe_m"], "{e}");
     }

@@ -13,4 +13,6 @@ pub mod algo;
 pub mod carmen;
 pub mod config;
 pub mod plot;
+pub mod replay;
+pub mod report;
 pub mod sim;

@@ -69,12 +69,7 @@ impl Clearances {
 }
 
 /// Computes every clearance in one pass over the points.
-pub fn compute_clearances(
-    points: &[Vec2],
-    robot_radius_m: f64,
-    hemisphere: Sector,
-    front: Sector,
-) -> Clearances {
+pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sector, front: Sector) -> Clearances {
     let mut c = Clearances::OPEN;
     for &p in points {
         let norm = p.norm();
@@ -87,11 +82,7 @@ pub fn compute_clearances(
             c.d_front_m = clearance;
         }
         if p.y != 0.0 && hemisphere.contains(p, norm) {
-            let crowd = if norm > 0.0 {
-                1.0 / norm
-            } else {
-                f64::INFINITY
-            };
+            let crowd = if norm > 0.0 { 1.0 / norm } else { f64::INFINITY };
             if p.y > 0.0 {
                 c.crowding_left += crowd;
                 if clearance < c.d_left_m {

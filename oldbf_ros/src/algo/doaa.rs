@@ -7,12 +7,26 @@
 //! With no obstacle B_r = B_l and ω_nom passes unchanged; with ω_nom = 0 it is
 //! exactly the paper's law. B_v is added to both sides, so it cancels here.
 //!
+//! Departure: the avoidance term is scaled by the nominal forward speed,
+//! s = clamp(v_nom / v_full, 0, 1) with v_full = `full_gain_speed_mps`
+//! (0.1 m/s, below the paper's 0.15 m/s, where s = 1 and the law is the
+//! paper's). Turning in place changes no clearance of a circular robot, so at
+//! a standstill the term would only fight the nominal turn towards the goal
+//! and chatter at ±ω_max whenever the nearest point crosses a sector edge.
+//!
 //! Both sides (the paper's ω_0 case): when d_l, d_r and the front clearance
-//! are all below d_act, the robot turns at ±ω_0 towards the side with more
-//! clearance, slowing down (to 0 below d_safe + margin), and keeps turning
-//! that way until the front clearance exceeds d_act + release (hysteresis).
-//! A corridor (both sides near, front clear) is not this case: the
-//! differential law centres the robot.
+//! are all below d_act and the front obstacle is the nearest one
+//! (d_front ≤ min(d_l, d_r) + tolerance), the robot turns at ±ω_0 towards the
+//! side with more clearance, slowing down (to 0 below d_safe + margin), and
+//! keeps turning that way until the front clearance exceeds d_act + release
+//! (hysteresis). A corridor (both sides near, front clear) is not this case:
+//! the differential law centres the robot.
+//!
+//! Departure from ALGORITHM.md §4: the "front is the nearest" condition is
+//! ours. In a corridor narrower than 2 (r + d_act) (3.2 m at the defaults)
+//! both sides are always inside d_act, so without it anything within d_act
+//! ahead, such as a cabinet ahead-left, would turn the corridor into a dead end
+//! and the robot round.
 
 use super::barrier::Barriers;
 use super::clearance::Clearances;
@@ -100,20 +114,16 @@ impl Doaa {
     }
 
     /// The DOAA command for this step, before the DTCBF check.
-    pub fn command(
-        &mut self,
-        nominal: Twist,
-        c: &Clearances,
-        b: &Barriers,
-        p: &Params,
-    ) -> (Twist, DoaaState) {
+    pub fn command(&mut self, nominal: Twist, c: &Clearances, b: &Barriers, p: &Params) -> (Twist, DoaaState) {
         let d_act = p.barrier.d_act_m();
         let w_max = p.control.omega_max_radps;
 
+        let front_is_nearest = c.d_front_m <= c.d_left_m.min(c.d_right_m) + p.doaa.front_nearest_tolerance_m;
         if self.both_sides.is_none()
             && c.d_left_m < d_act
             && c.d_right_m < d_act
             && c.d_front_m < d_act
+            && front_is_nearest
         {
             self.both_sides = Some(pick_turn(c, nominal));
         }
@@ -135,8 +145,11 @@ impl Doaa {
             );
         }
 
-        let omega = (nominal.omega_radps + p.doaa.gain_k_radps * (b.b_right - b.b_left))
-            .clamp(-w_max, w_max);
+        // Steering only changes clearances when the robot moves forward; at a standstill the
+        // term would only fight the nominal turn (and chatter where points cross a sector edge).
+        let speed_scale = (nominal.v_mps / p.doaa.full_gain_speed_mps).clamp(0.0, 1.0);
+        let avoid = p.doaa.gain_k_radps * speed_scale * (b.b_right - b.b_left);
+        let omega = (nominal.omega_radps + avoid).clamp(-w_max, w_max);
         let state = if c.d_left_m < d_act || c.d_right_m < d_act {
             DoaaState::Avoid
         } else {
@@ -188,11 +201,7 @@ mod tests {
     #[test]
     fn obstacle_on_the_left_turns_right() {
         // d_l = 0.7: B_l = 4/3 (+B_v), B_r = 1 (+B_v); ω = 0.5 (1 − 4/3) = −1/6 rad/s.
-        let (cmd, state) = run(
-            &mut Doaa::new(),
-            Twist::new(0.15, 0.0),
-            clear(0.7, f64::INFINITY, 2.0),
-        );
+        let (cmd, state) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.7, f64::INFINITY, 2.0));
         assert!((cmd.omega_radps + 0.5 / 3.0).abs() < 1e-12, "{cmd:?}");
         assert_eq!(cmd.v_mps, 0.15);
         assert_eq!(state, DoaaState::Avoid);
@@ -200,21 +209,29 @@ mod tests {
 
     #[test]
     fn obstacle_on_the_right_turns_left() {
-        let (cmd, _) = run(
-            &mut Doaa::new(),
-            Twist::new(0.15, 0.0),
-            clear(f64::INFINITY, 0.7, 2.0),
-        );
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(f64::INFINITY, 0.7, 2.0));
         assert!((cmd.omega_radps - 0.5 / 3.0).abs() < 1e-12);
     }
 
     #[test]
-    fn nominal_passes_unchanged_when_clear() {
-        let (cmd, state) = run(
-            &mut Doaa::new(),
-            Twist::new(0.2, 0.13),
-            clear(3.0, 3.0, 3.0),
+    fn avoidance_term_scales_with_forward_speed() {
+        // d_l = 0.7: k (B_r − B_l) = −1/6 at full gain (v ≥ 0.1 m/s).
+        let c = clear(0.7, f64::INFINITY, 2.0);
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.05, 0.0), c);
+        assert!(
+            (cmd.omega_radps + 0.5 / 6.0).abs() < 1e-12,
+            "half speed, half gain: {cmd:?}"
         );
+        // Turning in place towards a goal: the nominal turn passes unchanged.
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.0, -0.2), c);
+        assert_eq!(cmd, Twist::new(0.0, -0.2));
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.22, 0.0), c);
+        assert!((cmd.omega_radps + 0.5 / 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nominal_passes_unchanged_when_clear() {
+        let (cmd, state) = run(&mut Doaa::new(), Twist::new(0.2, 0.13), clear(3.0, 3.0, 3.0));
         assert_eq!(cmd, Twist::new(0.2, 0.13));
         assert_eq!(state, DoaaState::Forward);
     }
@@ -222,22 +239,14 @@ mod tests {
     #[test]
     fn yaw_rate_saturates() {
         // d_l = 0.3: B_l = 1/0.19 = 5.26; ω = 0.5·(1 − 5.26) = −2.13 → −0.3.
-        let (cmd, _) = run(
-            &mut Doaa::new(),
-            Twist::new(0.15, 0.0),
-            clear(0.3, f64::INFINITY, 2.0),
-        );
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.3, f64::INFINITY, 2.0));
         assert_eq!(cmd.omega_radps, -0.3);
     }
 
     #[test]
     fn corridor_centres_without_both_sides_mode() {
         // Equal walls, front clear: no turn, not both-sides.
-        let (cmd, state) = run(
-            &mut Doaa::new(),
-            Twist::new(0.15, 0.0),
-            clear(0.5, 0.5, 5.0),
-        );
+        let (cmd, state) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.5, 0.5, 5.0));
         assert_eq!(cmd.omega_radps, 0.0);
         assert_eq!(state, DoaaState::Avoid);
     }
@@ -245,12 +254,12 @@ mod tests {
     #[test]
     fn both_sides_turns_to_the_clearer_side_and_latches() {
         let mut doaa = Doaa::new();
-        // Right has more clearance: turn right at ω_0 = 0.3.
-        // Front 0.6: scale = (0.6 − 0.25) / (1.2 − 0.25) = 0.3684; v = 0.15·0.3684.
-        let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.4, 0.8, 0.6));
+        // Right has more clearance: turn right at ω_0 = 0.3. The front obstacle is the nearest.
+        // Front 0.45: scale = (0.45 − 0.25) / (1.2 − 0.25) = 0.2105; v = 0.15·0.2105.
+        let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
         assert_eq!(state, DoaaState::BothSides);
         assert_eq!(cmd.omega_radps, -0.3);
-        assert!((cmd.v_mps - 0.15 * 0.35 / 0.95).abs() < 1e-12);
+        assert!((cmd.v_mps - 0.15 * 0.2 / 0.95).abs() < 1e-12);
         // Sides swap while the front is still blocked: the turn stays latched.
         let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.8, 0.4, 1.25));
         assert_eq!((state, cmd.omega_radps), (DoaaState::BothSides, -0.3));
@@ -261,12 +270,20 @@ mod tests {
     }
 
     #[test]
+    fn something_ahead_in_a_corridor_is_not_both_sides() {
+        // Walls 0.35 m left and 0.85 m right, a cabinet corner 1.05 m ahead: d_front > min(d_l, d_r).
+        let (cmd, state) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.35, 0.85, 1.05));
+        assert_eq!(state, DoaaState::Avoid);
+        // Differential law: B_l = 1/(1 − 0.85²) = 3.604, B_r = 1/(1 − 0.35²) = 1.140 → ω = 0.5·(1.140 − 3.604) → −0.3.
+        assert_eq!(cmd.omega_radps, -0.3);
+        // The same cabinet 0.3 m ahead, now the nearest thing: both-sides.
+        let (_, state) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.35, 0.85, 0.3));
+        assert_eq!(state, DoaaState::BothSides);
+    }
+
+    #[test]
     fn both_sides_stops_forward_motion_close_to_the_front() {
-        let (cmd, _) = run(
-            &mut Doaa::new(),
-            Twist::new(0.15, 0.0),
-            clear(0.4, 0.4, 0.24),
-        );
+        let (cmd, _) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.4, 0.4, 0.24));
         assert_eq!(cmd.v_mps, 0.0);
         assert_eq!(cmd.omega_radps.abs(), 0.3);
     }

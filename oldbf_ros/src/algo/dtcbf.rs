@@ -17,8 +17,17 @@
 //!      to the DOAA command in (v − v_d)² + w (ω − ω_d)²;
 //!   4. else the robot stops and the step is reported infeasible.
 //! Inside the unsafe set (h < 0) the same search runs first with the DTCBF
-//! target (h must rise by γ|h|) and then with h(k+1) ≥ h(k) + ε (escape), so
-//! the robot backs or turns away rather than freezing.
+//! target (h must rise by γ|h|) and then with h(k+1) ≥ h(k) + ε (escape); if
+//! neither exists the robot may still turn in place (h is unchanged for a
+//! circular footprint), so it turns away rather than freezing.
+//!
+//! Noise margin δ (our addition; δ = 0 is the definition): outside the unsafe
+//! set the filter first asks h(k+1) − δ ≥ (1 − γ)(h(k) − δ), which implies the
+//! logged condition. Without it the DTCBF lets the robot settle on the
+//! boundary h = 0, where LiDAR noise makes the measured h dip below 0 and
+//! throws it into escape. If the margin cannot be met (0 ≤ h < δ), the robot
+//! must at least get no closer (h(k+1) ≥ h(k)), which standing still always
+//! meets for static points and which also implies the logged condition.
 //! A circular footprint is rotation-invariant: pure rotation keeps h.
 
 use super::geometry::{Twist, Vec2};
@@ -140,13 +149,7 @@ impl DtcbfFilter {
     /// `points` are the valid obstacle points now (robot frame, m);
     /// `points_next` where they will be after one step (the same slice for a
     /// static world; tracked moving obstacles advanced by v_o Δt).
-    pub fn filter(
-        &mut self,
-        points: &[Vec2],
-        points_next: &[Vec2],
-        desired: Twist,
-        p: &Params,
-    ) -> DtcbfOutcome {
+    pub fn filter(&mut self, points: &[Vec2], points_next: &[Vec2], desired: Twist, p: &Params) -> DtcbfOutcome {
         let bx = InputBox::from_params(p);
         let desired = bx.clamp(desired);
         let r = p.robot_radius_m();
@@ -156,79 +159,103 @@ impl DtcbfFilter {
         let model = p.dtcbf.prediction;
 
         let h = min_distance(points, Vec2::zeros()) - r - d_safe;
-        let h_next_of = |cmd: Twist| {
-            min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe
-        };
-        let target = if h.is_finite() {
-            (1.0 - gamma) * h
-        } else {
-            f64::NEG_INFINITY
-        };
-        let outcome = |cmd: Twist, escape: bool, infeasible: bool| {
+        let h_next_of = |cmd: Twist| min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
+        if !h.is_finite() || points_next.is_empty() {
+            // Nothing visible: nothing to keep away from.
+            let h_next = h_next_of(desired);
+            return DtcbfOutcome {
+                cmd: desired,
+                h_m: h,
+                h_next_m: h_next,
+                changed: false,
+                condition_held: true,
+                escape: false,
+                infeasible: false,
+            };
+        }
+        // The definition's condition, which is what is logged.
+        let target = (1.0 - gamma) * h;
+        let escape = h < 0.0;
+        let outcome = |cmd: Twist, infeasible: bool| {
             let h_next = h_next_of(cmd);
             DtcbfOutcome {
                 cmd,
                 h_m: h,
                 h_next_m: h_next,
                 changed: cmd != desired,
-                condition_held: h_next >= target - TOL_M || !h.is_finite(),
+                condition_held: h_next >= target - TOL_M,
                 escape,
                 infeasible,
             }
         };
 
-        // 1. The DOAA command as is.
-        if h_next_of(desired) >= target - TOL_M || points_next.is_empty() {
-            return outcome(desired, h < 0.0, false);
-        }
-
-        let escape = h < 0.0;
-        if !escape && desired.v_mps > 0.0 {
-            // 2. Keep ω, lower v to the largest admissible value in [0, v_d].
-            let clearance = r + d_safe + target;
-            self.build_intervals(points_next, desired.omega_radps, clearance, model, dt);
-            if let Some(v) =
-                largest_admissible_below(&self.intervals, desired.v_mps, bx.v_lo.max(0.0))
-            {
-                let cmd = Twist::new(v, desired.omega_radps);
-                if h_next_of(cmd) >= target - TOL_M {
-                    return outcome(cmd, false, false);
+        // Targets for h(k+1), strictest first. Outside the unsafe set: the condition on
+        // h − δ (noise margin), which implies the logged one; within the margin band, where
+        // that asks h to rise, at least "no closer" (h(k+1) ≥ h(k), which standing still
+        // meets for static points). Inside: the condition, then the escape rule h + ε.
+        let delta = p.dtcbf.noise_margin_m;
+        let targets = if escape {
+            [target, h + p.dtcbf.escape_epsilon_m]
+        } else {
+            let with_margin = (1.0 - gamma) * (h - delta) + delta;
+            [with_margin, with_margin.min(h)]
+        };
+        for (i, &t) in targets.iter().enumerate() {
+            if i > 0 && t == targets[i - 1] {
+                continue;
+            }
+            if let Some(cmd) = self.solve(points_next, desired, t, h, &bx, p) {
+                if h_next_of(cmd) >= t - TOL_M {
+                    return outcome(cmd, false);
                 }
             }
         }
+        // Nothing admissible. Inside the unsafe set a circular robot may still turn in
+        // place (h is unchanged for static points): the only way a forward-only robot can
+        // find a way out. Otherwise (an approaching obstacle) stop.
+        if escape && h_next_of(Twist::new(0.0, desired.omega_radps)) >= h - TOL_M {
+            return outcome(Twist::new(0.0, desired.omega_radps), true);
+        }
+        log::debug!("DTCBF infeasible: h = {h:.4} m, desired {desired:?}, targets {targets:?}");
+        outcome(Twist::ZERO, true)
+    }
 
-        // 3. Search the box: DTCBF target first, then (inside the unsafe set) escape.
-        if let Some(cmd) = self.search_box(points_next, desired, r + d_safe + target, &bx, p) {
-            if h_next_of(cmd) >= target - TOL_M {
-                return outcome(cmd, escape, false);
+    /// The admissible command closest to `desired` for the requirement
+    /// h(k+1) ≥ `target`: `desired` itself; else the same ω with the largest
+    /// admissible v in [0, v_d] (when standing still is admissible); else the
+    /// closest command in the box.
+    fn solve(
+        &mut self,
+        points: &[Vec2],
+        desired: Twist,
+        target: f64,
+        h: f64,
+        bx: &InputBox,
+        p: &Params,
+    ) -> Option<Twist> {
+        let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target;
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        self.build_intervals(points, desired.omega_radps, clearance, model, dt);
+        if admissible(&self.intervals, desired.v_mps) {
+            return Some(desired);
+        }
+        if desired.v_mps > 0.0 && target <= h {
+            if let Some(v) = largest_admissible_below(&self.intervals, desired.v_mps, bx.v_lo.max(0.0)) {
+                return Some(Twist::new(v, desired.omega_radps));
             }
         }
-        if escape {
-            let rise = h + p.dtcbf.escape_epsilon_m;
-            if let Some(cmd) = self.search_box(points_next, desired, r + d_safe + rise, &bx, p) {
-                if h_next_of(cmd) >= rise - TOL_M {
-                    return outcome(cmd, true, false);
-                }
-            }
-        }
-
-        // 4. Nothing admissible.
-        outcome(Twist::ZERO, escape, true)
+        self.search_box(points, desired, clearance, bx, p)
     }
 
     /// Fills `self.intervals` with the forbidden open speed intervals for yaw
     /// rate ω and required centre distance `clearance`, sorted and merged.
-    fn build_intervals(
-        &mut self,
-        points: &[Vec2],
-        omega: f64,
-        clearance: f64,
-        model: PredictionModel,
-        dt: f64,
-    ) {
+    fn build_intervals(&mut self, points: &[Vec2], omega: f64, clearance: f64, model: PredictionModel, dt: f64) {
         self.intervals.clear();
         let (u, kappa) = motion_direction(model, omega, dt);
-        let c2 = clearance * clearance;
+        // Half the tolerance of the final check: the nearest point's interval ends exactly
+        // at s = 0 when the target is h itself, and rounding must not forbid standing still.
+        let c = clearance - 0.5 * TOL_M;
+        let c2 = c * c;
         for pt in points {
             let a = pt.dot(&u);
             let b = pt.x * u.y - pt.y * u.x;
@@ -316,11 +343,7 @@ fn closest_admissible(intervals: &[(f64, f64)], target: f64, lo: f64, hi: f64) -
     // Candidates: the box ends and every interval endpoint inside the box.
     let mut best: Option<f64> = None;
     let mut consider = |v: f64| {
-        if v >= lo
-            && v <= hi
-            && admissible(intervals, v)
-            && best.is_none_or(|b| (v - t).abs() < (b - t).abs())
-        {
+        if v >= lo && v <= hi && admissible(intervals, v) && best.is_none_or(|b| (v - t).abs() < (b - t).abs()) {
             best = Some(v);
         }
     };
@@ -338,8 +361,10 @@ mod tests {
     use super::*;
 
     fn params() -> Params {
-        // r = 0.178, d_safe = 0.2, γ = 0.2, Δt = 0.1, v_max 0.22.
-        Params::default()
+        // r = 0.178, d_safe = 0.2, γ = 0.2, Δt = 0.1, v_max 0.22; δ = 0: the plain definition.
+        let mut p = Params::default();
+        p.dtcbf.noise_margin_m = 0.0;
+        p
     }
 
     #[test]
@@ -364,9 +389,9 @@ mod tests {
         let pts = [Vec2::new(0.42, 0.0)];
         let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.05), &p);
         assert!(out.changed && out.condition_held);
-        assert!((out.cmd.v_mps - 0.084).abs() < 1e-9, "{out:?}");
+        assert!((out.cmd.v_mps - 0.084).abs() < 1e-7, "{out:?}");
         assert_eq!(out.cmd.omega_radps, 0.05);
-        assert!((out.h_next_m - 0.8 * out.h_m).abs() < 1e-9);
+        assert!((out.h_next_m - 0.8 * out.h_m).abs() < 1e-7);
     }
 
     #[test]
@@ -381,7 +406,7 @@ mod tests {
         let h = (0.45f64.powi(2) + 0.04).sqrt() - 0.378;
         let c = 0.378 + 0.8 * h;
         let v = (0.45 - (c * c - 0.04).sqrt()) / 0.1;
-        assert!((out.cmd.v_mps - v).abs() < 1e-9, "{} vs {v}", out.cmd.v_mps);
+        assert!((out.cmd.v_mps - v).abs() < 1e-7, "{} vs {v}", out.cmd.v_mps);
     }
 
     #[test]
@@ -389,7 +414,7 @@ mod tests {
         // h = 0 exactly: only h+ ≥ 0 → v = 0, ω kept.
         let pts = [Vec2::new(0.378, 0.0)];
         let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.3), &params());
-        assert!(out.cmd.v_mps.abs() < 1e-9 && out.cmd.omega_radps == 0.3);
+        assert!(out.cmd.v_mps.abs() < 1e-7 && out.cmd.omega_radps == 0.3);
         assert!(out.condition_held && !out.infeasible);
     }
 
@@ -423,7 +448,7 @@ mod tests {
         let next = [Vec2::new(0.39, 0.0)];
         let out = DtcbfFilter::new().filter(&now, &next, Twist::new(0.15, 0.0), &p);
         assert!(!out.infeasible && out.condition_held, "{out:?}");
-        assert!((out.cmd.v_mps + 0.056).abs() < 1e-9, "{out:?}");
+        assert!((out.cmd.v_mps + 0.056).abs() < 1e-7, "{out:?}");
     }
 
     #[test]
@@ -434,15 +459,42 @@ mod tests {
         p.control.allow_reverse = true;
         let pts = [Vec2::new(0.3, 0.0)];
         let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &p);
-        assert!(
-            out.escape && !out.infeasible && !out.condition_held,
-            "{out:?}"
-        );
-        assert!((out.cmd.v_mps + 0.01).abs() < 1e-9, "{out:?}");
+        assert!(out.escape && !out.infeasible && !out.condition_held, "{out:?}");
+        assert!((out.cmd.v_mps + 0.01).abs() < 1e-7, "{out:?}");
         assert!(out.h_next_m >= out.h_m + 0.001 - 1e-9);
-        // Without reverse there is no escape for a point dead ahead: stop.
-        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &params());
-        assert!(out.infeasible && out.cmd == Twist::ZERO);
+        // Without reverse there is no escape for a point dead ahead: no translation, but the
+        // robot may turn in place (h unchanged for a circle) to find a way out.
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.2), &params());
+        assert!(out.infeasible && out.escape && !out.condition_held);
+        assert_eq!(out.cmd, Twist::new(0.0, 0.2));
+        assert!((out.h_next_m - out.h_m).abs() < 1e-12);
+    }
+
+    #[test]
+    fn noise_margin_keeps_the_robot_delta_inside_the_boundary() {
+        // δ = 0.03: target h+ ≥ 0.8 (h − 0.03) + 0.03. Point 0.5 m ahead: h = 0.122,
+        // target 0.1036 → 0.5 − 0.1 v ≥ 0.4816 → v ≤ 0.184 (plain condition: 0.244).
+        let mut p = params();
+        p.dtcbf.noise_margin_m = 0.03;
+        let pts = [Vec2::new(0.5, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.22, 0.0), &p);
+        assert!((out.cmd.v_mps - 0.184).abs() < 1e-7, "{out:?}");
+        assert!(out.condition_held);
+        // Inside the margin (h = 0.012 < δ) a forward-only robot cannot make h rise towards δ,
+        // so it may get no closer: v = 0 for a point dead ahead, ω kept.
+        let pts = [Vec2::new(0.39, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.22, 0.1), &p);
+        assert!(out.cmd.v_mps.abs() < 1e-7 && out.cmd.omega_radps == 0.1, "{out:?}");
+        assert!(out.condition_held && !out.infeasible);
+        // …but may move past it sideways-forward when that does not reduce h (point behind-left).
+        let pts = [Vec2::new(-0.1, 0.38)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.22, 0.0), &p);
+        assert!(!out.changed && out.h_next_m >= out.h_m, "{out:?}");
+        // A robot settled by the margin at h = δ, with the obstacle reading 2 cm closer
+        // (noise): measured h = 0.01 ≥ 0, no escape.
+        let pts = [Vec2::new(0.378 + 0.03 - 0.02, 0.0)];
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.0), &p);
+        assert!(!out.escape && out.condition_held);
     }
 
     #[test]
@@ -464,19 +516,12 @@ mod tests {
         let straight = f.filter(&pts, &pts, Twist::new(0.22, 0.0), &p);
         let right = f.filter(&pts, &pts, Twist::new(0.22, -3.0), &p);
         assert!(straight.changed && right.changed);
-        assert!(
-            right.cmd.v_mps > straight.cmd.v_mps,
-            "{right:?} {straight:?}"
-        );
+        assert!(right.cmd.v_mps > straight.cmd.v_mps, "{right:?} {straight:?}");
         // Arc displacement: ω = 0 reduces to Euler.
         let d = predicted_displacement(PredictionModel::Arc, Twist::new(0.2, 0.0), 0.1);
         assert!((d - Vec2::new(0.02, 0.0)).norm() < 1e-15);
         // Quarter circle: ω Δt = π/2, v = 1, Δt = 1 → chord to (2/π, 2/π).
-        let d = predicted_displacement(
-            PredictionModel::Arc,
-            Twist::new(1.0, std::f64::consts::FRAC_PI_2),
-            1.0,
-        );
+        let d = predicted_displacement(PredictionModel::Arc, Twist::new(1.0, std::f64::consts::FRAC_PI_2), 1.0);
         let e = 2.0 / std::f64::consts::PI;
         assert!((d - Vec2::new(e, e)).norm() < 1e-12);
     }
@@ -486,9 +531,24 @@ mod tests {
         let out = DtcbfFilter::new().filter(&[], &[], Twist::new(1.0, -5.0), &params());
         assert_eq!(out.cmd, Twist::new(0.22, -0.3));
         assert!(out.condition_held && !out.changed);
-        let out =
-            DtcbfFilter::new().filter(&[], &[], Twist::new(f64::NAN, f64::INFINITY), &params());
+        let out = DtcbfFilter::new().filter(&[], &[], Twist::new(f64::NAN, f64::INFINITY), &params());
         assert_eq!(out.cmd, Twist::ZERO);
+    }
+
+    #[test]
+    fn standing_still_is_admissible_at_the_no_closer_target_despite_rounding() {
+        // Many points at awkward distances; with target = h the nearest interval ends at 0.
+        let p = {
+            let mut p = params();
+            p.dtcbf.noise_margin_m = 0.05;
+            p
+        };
+        let pts: Vec<Vec2> = (0..50)
+            .map(|i| Vec2::new(0.4 + 0.013 * i as f64, 0.1 * (i as f64).sin()))
+            .collect();
+        let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.0, 0.3), &p);
+        assert!(!out.infeasible && out.condition_held, "{out:?}");
+        assert_eq!(out.cmd, Twist::new(0.0, 0.3));
     }
 
     #[test]

@@ -89,9 +89,8 @@ impl Default for FootprintParams {
 impl FootprintParams {
     /// Robot radius r (m).
     pub fn radius_m(&self) -> f64 {
-        self.radius_override_m.unwrap_or_else(|| {
-            self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0
-        })
+        self.radius_override_m
+            .unwrap_or_else(|| self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0)
     }
 }
 
@@ -141,7 +140,10 @@ pub struct BarrierParams {
     pub barrier_max: f64,
     /// Full angle of the left/right hemisphere sector, centred ahead (deg).
     pub hemisphere_fov_deg: f64,
-    /// Full angle of the front sector used by the both-sides rule (deg).
+    /// Full angle of the front sector used by the both-sides rule (deg). The
+    /// default 30° is the robot's swept width at activation range:
+    /// 2·asin((r + d_safe) / (r + d_act)) = 2·asin(0.378 / 1.378) ≈ 32°, so a
+    /// corridor wall beside the robot does not count as "ahead".
     pub front_fov_deg: f64,
 }
 
@@ -155,7 +157,7 @@ impl Default for BarrierParams {
             beta: 2.0,
             barrier_max: 1000.0,
             hemisphere_fov_deg: 180.0,
-            front_fov_deg: 60.0,
+            front_fov_deg: 30.0,
         }
     }
 }
@@ -179,6 +181,11 @@ pub struct DoaaParams {
     pub both_sides_release_m: f64,
     /// In the both-sides turn, linear speed is 0 when the front clearance is below d_safe + this (m).
     pub front_stop_margin_m: f64,
+    /// The both-sides turn needs the front obstacle to be the nearest: d_front ≤ min(d_l, d_r) + this (m).
+    pub front_nearest_tolerance_m: f64,
+    /// The avoidance term k (B_r − B_l) has full weight at nominal forward speeds ≥ this,
+    /// and falls linearly to 0 at a standstill (m/s).
+    pub full_gain_speed_mps: f64,
 }
 
 impl Default for DoaaParams {
@@ -188,6 +195,8 @@ impl Default for DoaaParams {
             omega_0_radps: 0.3,
             both_sides_release_m: 0.1,
             front_stop_margin_m: 0.05,
+            front_nearest_tolerance_m: 0.05,
+            full_gain_speed_mps: 0.1,
         }
     }
 }
@@ -210,6 +219,9 @@ pub struct DtcbfParams {
     pub gamma: f64,
     /// Inside the unsafe set (h < 0) a command must raise h by at least this per step (m).
     pub escape_epsilon_m: f64,
+    /// δ: the filter first enforces the condition on h − δ, so sensor noise up to δ does not
+    /// push the measured h of a robot resting near the boundary below 0 (m). 0 = the definition.
+    pub noise_margin_m: f64,
     /// Integration of the one-step prediction.
     pub prediction: PredictionModel,
     /// Number of yaw rates tried across [−ω_max, ω_max] when ω must change too (odd).
@@ -223,6 +235,7 @@ impl Default for DtcbfParams {
         Self {
             gamma: 0.2,
             escape_epsilon_m: 0.001,
+            noise_margin_m: 0.03,
             prediction: PredictionModel::Euler,
             omega_candidates: 21,
             omega_weight_m2_per_rad2: 0.05,
@@ -240,6 +253,13 @@ pub struct TrackingParams {
     pub k_y_per_m2: f64,
     /// k_θ: heading error gain (1/m).
     pub k_theta_per_m: f64,
+    /// Within this distance of the reference point Kanayama's law applies alone;
+    /// beyond twice it, the go-to-point law does (m).
+    pub capture_radius_m: f64,
+    /// k_β: yaw rate per radian of bearing to the reference point in go-to-point mode (1/s).
+    pub k_bearing_per_s: f64,
+    /// Once the reference has ended, the command is zero within this distance of the goal (m).
+    pub arrive_radius_m: f64,
 }
 
 impl Default for TrackingParams {
@@ -248,6 +268,9 @@ impl Default for TrackingParams {
             k_x_per_s: 1.0,
             k_y_per_m2: 10.0,
             k_theta_per_m: 4.0,
+            capture_radius_m: 0.5,
+            k_bearing_per_s: 1.0,
+            arrive_radius_m: 0.05,
         }
     }
 }
@@ -275,41 +298,32 @@ impl fmt::Display for ParamError {
 
 impl std::error::Error for ParamError {}
 
-/// Checks one value against an interval; open ends are written with `(`/`)`.
+/// Parses an interval written as in the messages, e.g. `(0, 1]` or
+/// `[-5, 5] m` (a unit may follow), into (lo, lo_open, hi, hi_open).
+fn parse_interval(allowed: &str) -> Option<(f64, bool, f64, bool)> {
+    let lo_open = allowed.starts_with('(');
+    let close = allowed.find([']', ')'])?;
+    let hi_open = allowed[close..].starts_with(')');
+    let (lo, hi) = allowed[1..close].split_once(',')?;
+    Some((lo.trim().parse().ok()?, lo_open, hi.trim().parse().ok()?, hi_open))
+}
+
+/// Collects every failed check.
 struct Check {
     errors: Vec<ParamError>,
 }
 
 impl Check {
-    fn range(
-        &mut self,
-        key: &'static str,
-        v: f64,
-        lo: f64,
-        lo_open: bool,
-        hi: f64,
-        hi_open: bool,
-        allowed: &'static str,
-    ) {
-        let ok = v.is_finite()
-            && if lo_open { v > lo } else { v >= lo }
-            && if hi_open { v < hi } else { v <= hi };
-        if !ok {
-            self.errors.push(ParamError {
-                key,
-                value: format!("{v}"),
-                allowed,
-            });
-        }
+    /// `allowed` is the interval the message shows, and what is checked.
+    fn range(&mut self, key: &'static str, v: f64, allowed: &'static str) {
+        let (lo, lo_open, hi, hi_open) = parse_interval(allowed).expect("interval literal is well formed");
+        let ok = v.is_finite() && (if lo_open { v > lo } else { v >= lo }) && (if hi_open { v < hi } else { v <= hi });
+        self.rule(ok, key, format!("{v}"), allowed);
     }
 
     fn rule(&mut self, ok: bool, key: &'static str, value: String, allowed: &'static str) {
         if !ok {
-            self.errors.push(ParamError {
-                key,
-                value,
-                allowed,
-            });
+            self.errors.push(ParamError { key, value, allowed });
         }
     }
 }
@@ -324,267 +338,73 @@ impl Params {
     pub fn validate(&self) -> Result<(), Vec<ParamError>> {
         let mut c = Check { errors: Vec::new() };
         let ctl = &self.control;
-        c.range(
-            "control.rate_hz",
-            ctl.rate_hz,
-            0.0,
-            true,
-            1000.0,
-            false,
-            "(0, 1000] Hz",
-        );
-        c.range(
-            "control.v_max_mps",
-            ctl.v_max_mps,
-            0.0,
-            true,
-            5.0,
-            false,
-            "(0, 5] m/s",
-        );
-        c.range(
-            "control.v_nom_mps",
-            ctl.v_nom_mps,
-            0.0,
-            false,
-            5.0,
-            false,
-            "[0, 5] m/s",
-        );
+        c.range("control.rate_hz", ctl.rate_hz, "(0, 1000] Hz");
+        c.range("control.v_nom_mps", ctl.v_nom_mps, "[0, 5] m/s");
         c.rule(
-            !(ctl.v_nom_mps > ctl.v_max_mps),
+            ctl.v_nom_mps <= ctl.v_max_mps || ctl.v_nom_mps.is_nan(),
             "control.v_nom_mps",
             format!("{}", ctl.v_nom_mps),
             "at most control.v_max_mps",
         );
-        c.range(
-            "control.omega_max_radps",
-            ctl.omega_max_radps,
-            0.0,
-            true,
-            10.0,
-            false,
-            "(0, 10] rad/s",
-        );
-        c.range(
-            "control.v_reverse_max_mps",
-            ctl.v_reverse_max_mps,
-            0.0,
-            false,
-            5.0,
-            false,
-            "[0, 5] m/s",
-        );
+        c.range("control.v_max_mps", ctl.v_max_mps, "(0, 5] m/s");
+        c.range("control.omega_max_radps", ctl.omega_max_radps, "(0, 10] rad/s");
+        c.range("control.v_reverse_max_mps", ctl.v_reverse_max_mps, "[0, 5] m/s");
 
         let fp = &self.footprint;
-        c.range(
-            "footprint.semi_axis_1_m",
-            fp.semi_axis_1_m,
-            0.0,
-            false,
-            5.0,
-            false,
-            "[0, 5] m",
-        );
-        c.range(
-            "footprint.semi_axis_2_m",
-            fp.semi_axis_2_m,
-            0.0,
-            false,
-            5.0,
-            false,
-            "[0, 5] m",
-        );
-        c.range(
-            "footprint.overall_dimension_m",
-            fp.overall_dimension_m,
-            0.0,
-            false,
-            10.0,
-            false,
-            "[0, 10] m",
-        );
+        c.range("footprint.semi_axis_1_m", fp.semi_axis_1_m, "[0, 5] m");
+        c.range("footprint.semi_axis_2_m", fp.semi_axis_2_m, "[0, 5] m");
+        c.range("footprint.overall_dimension_m", fp.overall_dimension_m, "[0, 10] m");
         if let Some(r) = fp.radius_override_m {
-            c.range(
-                "footprint.radius_override_m",
-                r,
-                0.0,
-                false,
-                5.0,
-                false,
-                "[0, 5] m or null",
-            );
+            c.range("footprint.radius_override_m", r, "[0, 5] m");
         }
-        c.rule(
-            self.robot_radius_m() <= 5.0,
-            "footprint",
-            format!("r = {}", self.robot_radius_m()),
-            "robot radius r = max(l1, l2) + b/2 at most 5 m",
-        );
 
         let l = &self.laser;
-        c.range(
-            "laser.mount_x_m",
-            l.mount_x_m,
-            -5.0,
-            false,
-            5.0,
-            false,
-            "[-5, 5] m",
-        );
-        c.range(
-            "laser.mount_y_m",
-            l.mount_y_m,
-            -5.0,
-            false,
-            5.0,
-            false,
-            "[-5, 5] m",
-        );
-        c.range(
-            "laser.mount_yaw_deg",
-            l.mount_yaw_deg,
-            -360.0,
-            false,
-            360.0,
-            false,
-            "[-360, 360] deg",
-        );
-        c.range(
-            "laser.scan_timeout_s",
-            l.scan_timeout_s,
-            0.0,
-            true,
-            60.0,
-            false,
-            "(0, 60] s",
-        );
-        c.rule(
-            (1..=1_000_000).contains(&l.max_beams),
-            "laser.max_beams",
-            format!("{}", l.max_beams),
-            "[1, 1000000]",
-        );
+        c.range("laser.mount_x_m", l.mount_x_m, "[-5, 5] m");
+        c.range("laser.mount_y_m", l.mount_y_m, "[-5, 5] m");
+        c.range("laser.mount_yaw_deg", l.mount_yaw_deg, "[-360, 360] deg");
+        c.range("laser.scan_timeout_s", l.scan_timeout_s, "(0, 60] s");
+        c.range("laser.max_beams", l.max_beams as f64, "[1, 1000000]");
 
         let b = &self.barrier;
-        c.range(
-            "barrier.d_safe_m",
-            b.d_safe_m,
-            0.0,
-            false,
-            10.0,
-            false,
-            "[0, 10] m",
-        );
-        c.range(
-            "barrier.big_gamma",
-            b.big_gamma,
-            0.0,
-            true,
-            100.0,
-            false,
-            "(0, 100]",
-        );
-        c.range(
-            "barrier.sigma",
-            b.sigma,
-            0.1,
-            false,
-            10.0,
-            false,
-            "[0.1, 10]",
-        );
-        c.range("barrier.zeta", b.zeta, 0.0, false, 100.0, false, "[0, 100]");
-        c.range("barrier.beta", b.beta, 0.1, false, 10.0, false, "[0.1, 10]");
-        c.range(
-            "barrier.barrier_max",
-            b.barrier_max,
-            1.0,
-            true,
-            1e12,
-            false,
-            "(1, 1e12]",
-        );
-        c.range(
-            "barrier.hemisphere_fov_deg",
-            b.hemisphere_fov_deg,
-            0.0,
-            true,
-            360.0,
-            false,
-            "(0, 360] deg",
-        );
-        c.range(
-            "barrier.front_fov_deg",
-            b.front_fov_deg,
-            0.0,
-            true,
-            360.0,
-            false,
-            "(0, 360] deg",
-        );
-        c.rule(
-            !b.d_safe_m.is_finite() || (b.d_act_m().is_finite() && b.d_act_m() <= 100.0),
-            "barrier.big_gamma",
-            format!("{}", b.big_gamma),
-            "d_act = d_safe + Γ^(2/σ) at most 100 m",
-        );
+        c.range("barrier.d_safe_m", b.d_safe_m, "[0, 10] m");
+        c.range("barrier.big_gamma", b.big_gamma, "(0, 100]");
+        c.range("barrier.sigma", b.sigma, "[0.1, 10]");
+        c.range("barrier.zeta", b.zeta, "[0, 100]");
+        c.range("barrier.beta", b.beta, "[0.1, 10]");
+        c.range("barrier.barrier_max", b.barrier_max, "(1, 1e12]");
+        c.range("barrier.hemisphere_fov_deg", b.hemisphere_fov_deg, "(0, 360] deg");
+        c.range("barrier.front_fov_deg", b.front_fov_deg, "(0, 360] deg");
+        if b.d_safe_m.is_finite() && b.big_gamma.is_finite() && b.sigma.is_finite() {
+            let band = b.d_act_m() - b.d_safe_m;
+            c.rule(
+                band.is_finite() && band <= 100.0,
+                "barrier.big_gamma",
+                format!("{}", b.big_gamma),
+                "Γ^(2/σ) at most 100 m",
+            );
+        }
 
         let d = &self.doaa;
-        c.range(
-            "doaa.gain_k_radps",
-            d.gain_k_radps,
-            0.0,
-            false,
-            100.0,
-            false,
-            "[0, 100] rad/s",
-        );
-        c.range(
-            "doaa.omega_0_radps",
-            d.omega_0_radps,
-            0.0,
-            true,
-            10.0,
-            false,
-            "(0, 10] rad/s",
-        );
+        c.range("doaa.gain_k_radps", d.gain_k_radps, "[0, 100] rad/s");
+        c.range("doaa.omega_0_radps", d.omega_0_radps, "(0, 10] rad/s");
         c.rule(
-            !(d.omega_0_radps > ctl.omega_max_radps),
+            d.omega_0_radps <= ctl.omega_max_radps || d.omega_0_radps.is_nan(),
             "doaa.omega_0_radps",
             format!("{}", d.omega_0_radps),
             "at most control.omega_max_radps",
         );
+        c.range("doaa.both_sides_release_m", d.both_sides_release_m, "[0, 10] m");
+        c.range("doaa.front_stop_margin_m", d.front_stop_margin_m, "[0, 10] m");
         c.range(
-            "doaa.both_sides_release_m",
-            d.both_sides_release_m,
-            0.0,
-            false,
-            10.0,
-            false,
-            "[0, 10] m",
-        );
-        c.range(
-            "doaa.front_stop_margin_m",
-            d.front_stop_margin_m,
-            0.0,
-            false,
-            10.0,
-            false,
+            "doaa.front_nearest_tolerance_m",
+            d.front_nearest_tolerance_m,
             "[0, 10] m",
         );
 
         let f = &self.dtcbf;
-        c.range("dtcbf.gamma", f.gamma, 0.0, true, 1.0, false, "(0, 1]");
-        c.range(
-            "dtcbf.escape_epsilon_m",
-            f.escape_epsilon_m,
-            0.0,
-            true,
-            0.1,
-            false,
-            "(0, 0.1] m",
-        );
+        c.range("dtcbf.gamma", f.gamma, "(0, 1]");
+        c.range("dtcbf.escape_epsilon_m", f.escape_epsilon_m, "(0, 0.1] m");
+        c.range("dtcbf.noise_margin_m", f.noise_margin_m, "[0, 1] m");
         c.rule(
             (3..=201).contains(&f.omega_candidates) && f.omega_candidates % 2 == 1,
             "dtcbf.omega_candidates",
@@ -594,41 +414,16 @@ impl Params {
         c.range(
             "dtcbf.omega_weight_m2_per_rad2",
             f.omega_weight_m2_per_rad2,
-            0.0,
-            false,
-            1e3,
-            false,
             "[0, 1000] m²/rad²",
         );
 
         let t = &self.tracking;
-        c.range(
-            "tracking.k_x_per_s",
-            t.k_x_per_s,
-            0.0,
-            false,
-            100.0,
-            false,
-            "[0, 100] 1/s",
-        );
-        c.range(
-            "tracking.k_y_per_m2",
-            t.k_y_per_m2,
-            0.0,
-            false,
-            1000.0,
-            false,
-            "[0, 1000] 1/m²",
-        );
-        c.range(
-            "tracking.k_theta_per_m",
-            t.k_theta_per_m,
-            0.0,
-            false,
-            1000.0,
-            false,
-            "[0, 1000] 1/m",
-        );
+        c.range("tracking.k_x_per_s", t.k_x_per_s, "[0, 100] 1/s");
+        c.range("tracking.k_y_per_m2", t.k_y_per_m2, "[0, 1000] 1/m²");
+        c.range("tracking.k_theta_per_m", t.k_theta_per_m, "[0, 1000] 1/m");
+        c.range("tracking.capture_radius_m", t.capture_radius_m, "(0, 100] m");
+        c.range("tracking.k_bearing_per_s", t.k_bearing_per_s, "[0, 100] 1/s");
+        c.range("tracking.arrive_radius_m", t.arrive_radius_m, "[0, 10] m");
 
         if c.errors.is_empty() {
             Ok(())
@@ -674,10 +469,20 @@ mod tests {
         p.barrier.d_safe_m = f64::NAN;
         p.dtcbf.omega_candidates = 20;
         let keys: Vec<_> = p.validate().unwrap_err().iter().map(|e| e.key).collect();
-        assert_eq!(
-            keys,
-            ["barrier.d_safe_m", "dtcbf.gamma", "dtcbf.omega_candidates"]
-        );
+        assert_eq!(keys, ["barrier.d_safe_m", "dtcbf.gamma", "dtcbf.omega_candidates"]);
+    }
+
+    #[test]
+    fn interval_literals_parse() {
+        assert_eq!(parse_interval("(0, 1]"), Some((0.0, true, 1.0, false)));
+        assert_eq!(parse_interval("[-5, 5] m"), Some((-5.0, false, 5.0, false)));
+        assert_eq!(parse_interval("(1, 1e12)"), Some((1.0, true, 1e12, true)));
+        let mut c = Check { errors: vec![] };
+        c.range("k", 0.0, "(0, 1]");
+        c.range("k", 1.0, "(0, 1]");
+        c.range("k", 1.0, "[0, 1)");
+        c.range("k", f64::INFINITY, "[0, 1e12]");
+        assert_eq!(c.errors.len(), 3);
     }
 
     #[test]

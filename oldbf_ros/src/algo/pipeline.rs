@@ -100,23 +100,11 @@ impl SafetyPipeline {
     /// `nominal` is the command to make safe (tracking law or upstream);
     /// `current_v_mps` the measured linear speed for B_v (NaN: the last
     /// command is used instead).
-    pub fn step(
-        &mut self,
-        scan: &LaserScan<'_>,
-        now_s: f64,
-        nominal: Twist,
-        current_v_mps: f64,
-    ) -> StepRecord {
+    pub fn step(&mut self, scan: &LaserScan<'_>, now_s: f64, nominal: Twist, current_v_mps: f64) -> StepRecord {
         if !nominal.is_finite() {
             return self.stop(now_s, nominal, StopCause::BadNominal);
         }
-        if let Err(reason) = sanitize_scan(
-            scan,
-            now_s,
-            &self.params.laser,
-            &self.derived.mount,
-            &mut self.points,
-        ) {
+        if let Err(reason) = sanitize_scan(scan, now_s, &self.params.laser, &self.derived.mount, &mut self.points) {
             return self.stop(now_s, nominal, StopCause::Rejected(reason));
         }
         let d = &self.derived;
@@ -134,13 +122,15 @@ impl SafetyPipeline {
         let pts = &self.points.points;
         let out = self.filter.filter(pts, pts, doaa_cmd, p);
 
-        let (cmd, state, stop_cause) = if out.infeasible {
-            (Twist::ZERO, DoaaState::Stop, Some(StopCause::Infeasible))
-        } else if out.escape {
-            (out.cmd, DoaaState::Escape, None)
-        } else {
-            (out.cmd, doaa_state, None)
+        // Infeasible inside the unsafe set: the filter turns in place (escape); infeasible
+        // outside it (an approaching obstacle): the filter's command is a stop.
+        let state = match (out.infeasible, out.escape) {
+            (true, false) => DoaaState::Stop,
+            (_, true) => DoaaState::Escape,
+            (false, false) => doaa_state,
         };
+        let stop_cause = out.infeasible.then_some(StopCause::Infeasible);
+        let cmd = out.cmd;
         // Last line of defence: nothing non-finite leaves this function.
         let cmd = if cmd.is_finite() {
             d.input_box.clamp(cmd)
@@ -235,9 +225,7 @@ mod tests {
         assert_eq!(rec.state, DoaaState::Stop);
         assert!(matches!(
             rec.stop_cause,
-            Some(StopCause::Rejected(
-                crate::algo::scan::ScanRejection::Stale { .. }
-            ))
+            Some(StopCause::Rejected(crate::algo::scan::ScanRejection::Stale { .. }))
         ));
     }
 
@@ -246,10 +234,7 @@ mod tests {
         let ranges = ring(1.0, &[]);
         let mut pipe = SafetyPipeline::new(Params::default());
         let rec = pipe.step(&scan(&ranges), 1.0, Twist::new(f64::NAN, 0.0), 0.0);
-        assert_eq!(
-            (rec.cmd, rec.stop_cause),
-            (Twist::ZERO, Some(StopCause::BadNominal))
-        );
+        assert_eq!((rec.cmd, rec.stop_cause), (Twist::ZERO, Some(StopCause::BadNominal)));
     }
 
     #[test]

@@ -60,20 +60,13 @@ impl fmt::Display for ScanRejection {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             Self::Empty => write!(f, "scan has no beams"),
-            Self::TooManyBeams { beams, max } => write!(
-                f,
-                "scan has {beams} beams, more than laser.max_beams = {max}"
-            ),
-            Self::IntensityLengthMismatch {
-                ranges,
-                intensities,
-            } => {
+            Self::TooManyBeams { beams, max } => write!(f, "scan has {beams} beams, more than laser.max_beams = {max}"),
+            Self::IntensityLengthMismatch { ranges, intensities } => {
                 write!(f, "scan has {ranges} ranges but {intensities} intensities")
             }
-            Self::BadIncrement { increment_rad } => write!(
-                f,
-                "angle_increment {increment_rad} rad is zero or not finite"
-            ),
+            Self::BadIncrement { increment_rad } => {
+                write!(f, "angle_increment {increment_rad} rad is zero or not finite")
+            }
             Self::BadAngleMin { angle_min_rad } => {
                 write!(f, "angle_min {angle_min_rad} rad is not finite")
             }
@@ -182,11 +175,7 @@ pub fn is_valid_range(p: f32, range_min: f32, range_max: f32) -> bool {
 }
 
 /// Checks the scan's structure and timing without touching the beams.
-pub fn check_scan(
-    scan: &LaserScan<'_>,
-    now_s: f64,
-    params: &LaserParams,
-) -> Result<(), ScanRejection> {
+pub fn check_scan(scan: &LaserScan<'_>, now_s: f64, params: &LaserParams) -> Result<(), ScanRejection> {
     let n = scan.ranges_m.len();
     if n == 0 {
         return Err(ScanRejection::Empty);
@@ -266,8 +255,7 @@ pub fn sanitize_scan(
         if is_valid_range(p, scan.range_min_m, scan.range_max_m) {
             let p = p as f64;
             out.q.push(1.0 / p);
-            out.points
-                .push(Vec2::new(origin.x + p * dx, origin.y + p * dy));
+            out.points.push(Vec2::new(origin.x + p * dx, origin.y + p * dy));
             out.beam_index.push(i as u32);
         } else {
             out.q.push(0.0);
@@ -303,29 +291,13 @@ mod tests {
 
     fn run(s: &LaserScan<'_>, mount: Pose2) -> Result<ScanPoints, ScanRejection> {
         let mut out = ScanPoints::default();
-        sanitize_scan(
-            s,
-            10.0,
-            &LaserParams::default(),
-            &LaserMount { pose: mount },
-            &mut out,
-        )
-        .map(|_| out)
+        sanitize_scan(s, 10.0, &LaserParams::default(), &LaserMount { pose: mount }, &mut out).map(|_| out)
     }
 
     #[test]
     fn invalid_readings_become_infinite_with_zero_reciprocal() {
         // NaN, +inf, -inf, negative, below range_min, exactly range_max, beyond, valid.
-        let ranges = [
-            f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            -1.0,
-            0.05,
-            5.0,
-            7.0,
-            2.0,
-        ];
+        let ranges = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 0.05, 5.0, 7.0, 2.0];
         let out = run(&scan(&ranges, 0.0, 0.1), Pose2::default()).unwrap();
         assert_eq!(out.q, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]);
         assert_eq!(out.valid_count(), 1);
@@ -346,11 +318,7 @@ mod tests {
     fn beam_angles_follow_negative_increment() {
         // Beam 0 at +90° (left), beam 2 at -90° (right), increment -90°.
         let ranges = [1.0, 1.0, 1.0];
-        let out = run(
-            &scan(&ranges, (PI / 2.0) as f32, (-PI / 2.0) as f32),
-            Pose2::default(),
-        )
-        .unwrap();
+        let out = run(&scan(&ranges, (PI / 2.0) as f32, (-PI / 2.0) as f32), Pose2::default()).unwrap();
         assert!((out.points[0] - Vec2::new(0.0, 1.0)).norm() < 1e-6);
         assert!((out.points[1] - Vec2::new(1.0, 0.0)).norm() < 1e-6);
         assert!((out.points[2] - Vec2::new(0.0, -1.0)).norm() < 1e-6);
@@ -428,14 +396,8 @@ mod tests {
         let p = LaserParams::default(); // timeout 0.5 s
         let s = scan(&ok, 0.0, 0.1); // stamp 10.0
         assert_eq!(check_scan(&s, 10.5, &p), Ok(()));
-        assert!(matches!(
-            check_scan(&s, 10.6, &p),
-            Err(ScanRejection::Stale { .. })
-        ));
-        assert!(matches!(
-            check_scan(&s, 9.4, &p),
-            Err(ScanRejection::FromFuture { .. })
-        ));
+        assert!(matches!(check_scan(&s, 10.6, &p), Err(ScanRejection::Stale { .. })));
+        assert!(matches!(check_scan(&s, 9.4, &p), Err(ScanRejection::FromFuture { .. })));
         assert_eq!(check_scan(&s, f64::NAN, &p), Err(ScanRejection::BadStamp));
     }
 }

@@ -6,6 +6,15 @@
 //!   v = v_r cos e_θ + k_x e_x,
 //!   ω = ω_r + v_r (k_y e_y + k_θ sin e_θ),
 //! which reduces to the paper's yaw correction e = θ_ref − θ when e_x = e_y = 0.
+//!
+//! Kanayama's law is local: with the reference behind the robot (e_θ ≈ π after
+//! an avoidance detour) it asks for reverse speed and, with sin e_θ ≈ 0, no
+//! turn, so a forward-only robot would sit still. Beyond `capture_radius_m`
+//! the command therefore blends continuously into a go-to-point law that turns
+//! towards the reference point (bearing β = atan2(e_y, e_x)) and drives only
+//! when facing it:
+//!   v = (v_r + k_x ‖e‖) max(0, cos β),  ω = k_β β,
+//! with weight λ = clamp((‖e‖ − R_c) / R_c, 0, 1) on the go-to-point command.
 
 use super::geometry::{wrap_angle, Pose2, Twist};
 use super::params::TrackingParams;
@@ -35,18 +44,51 @@ impl TrackingError {
 }
 
 /// Kanayama's tracking command toward `reference` moving at `reference_twist`.
-pub fn kanayama(
-    robot: Pose2,
-    reference: Pose2,
-    reference_twist: Twist,
-    k: &TrackingParams,
-) -> Twist {
+pub fn kanayama(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &TrackingParams) -> Twist {
     let e = TrackingError::between(robot, reference);
     let vr = reference_twist.v_mps;
     Twist::new(
         vr * e.e_theta_rad.cos() + k.k_x_per_s * e.e_x_m,
-        reference_twist.omega_radps
-            + vr * (k.k_y_per_m2 * e.e_y_m + k.k_theta_per_m * e.e_theta_rad.sin()),
+        reference_twist.omega_radps + vr * (k.k_y_per_m2 * e.e_y_m + k.k_theta_per_m * e.e_theta_rad.sin()),
+    )
+}
+
+/// Go-to-point command towards the reference position: turn towards it, drive
+/// only when facing it.
+pub fn go_to_point(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &TrackingParams) -> Twist {
+    let e = TrackingError::between(robot, reference);
+    let bearing = e.e_y_m.atan2(e.e_x_m);
+    Twist::new(
+        (reference_twist.v_mps.abs() + k.k_x_per_s * e.distance_m()) * bearing.cos().max(0.0),
+        k.k_bearing_per_s * bearing,
+    )
+}
+
+/// The nominal tracking command: Kanayama within `capture_radius_m` of the
+/// reference, blending into `go_to_point` between one and two capture radii.
+///
+/// Once the reference has ended (zero reference twist) Kanayama cannot steer
+/// (every yaw term is multiplied by v_r), so the goal is approached as a
+/// point with go-to-point, and the command is zero within `arrive_radius_m`.
+pub fn track(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &TrackingParams) -> Twist {
+    let dist = TrackingError::between(robot, reference).distance_m();
+    if reference_twist == Twist::ZERO {
+        return if dist <= k.arrive_radius_m {
+            Twist::ZERO
+        } else {
+            go_to_point(robot, reference, reference_twist, k)
+        };
+    }
+    let rc = k.capture_radius_m;
+    let lambda = ((dist - rc) / rc).clamp(0.0, 1.0);
+    let near = kanayama(robot, reference, reference_twist, k);
+    if lambda == 0.0 {
+        return near;
+    }
+    let far = go_to_point(robot, reference, reference_twist, k);
+    Twist::new(
+        (1.0 - lambda) * near.v_mps + lambda * far.v_mps,
+        (1.0 - lambda) * near.omega_radps + lambda * far.omega_radps,
     )
 }
 
@@ -67,14 +109,58 @@ mod tests {
     fn hand_values() {
         // Robot at origin heading +x; reference 0.1 m ahead, 0.05 m left, heading 0.1 rad.
         let k = TrackingParams::default(); // k_x 1, k_y 10, k_θ 4
-        let cmd = kanayama(
-            Pose2::default(),
-            Pose2::new(0.1, 0.05, 0.1),
-            Twist::new(0.15, 0.0),
-            &k,
-        );
+        let cmd = kanayama(Pose2::default(), Pose2::new(0.1, 0.05, 0.1), Twist::new(0.15, 0.0), &k);
         assert!((cmd.v_mps - (0.15 * 0.1f64.cos() + 0.1)).abs() < 1e-12);
         assert!((cmd.omega_radps - 0.15 * (10.0 * 0.05 + 4.0 * 0.1f64.sin())).abs() < 1e-12);
+    }
+
+    #[test]
+    fn far_behind_reference_turns_in_place_towards_it() {
+        // Reference 2 m straight behind (beyond 2 R_c = 1 m): pure go-to-point.
+        // Bearing π: v = 0, ω = k_β π. Kanayama alone would ask v = −0.15 − 2 and ω = 0.
+        let k = TrackingParams::default();
+        let robot = Pose2::default();
+        let reference = Pose2::new(-2.0, 0.0, 0.0);
+        let kan = kanayama(robot, reference, Twist::new(0.15, 0.0), &k);
+        // Kanayama: v = 0.15·cos 0 + 1·(−2) = −1.85, ω = 0.15·(10·0 + 4·sin 0) = 0.
+        assert!((kan.v_mps + 1.85).abs() < 1e-12 && kan.omega_radps.abs() < 1e-12);
+        let cmd = track(robot, reference, Twist::new(0.15, 0.0), &k);
+        assert!(cmd.v_mps.abs() < 1e-12);
+        assert!((cmd.omega_radps.abs() - k.k_bearing_per_s * std::f64::consts::PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn blend_is_kanayama_inside_the_capture_radius_and_linear_beyond() {
+        let k = TrackingParams::default(); // R_c = 0.5 m
+        let robot = Pose2::default();
+        let vr = Twist::new(0.15, 0.0);
+        let near = Pose2::new(0.3, 0.2, 0.1);
+        assert_eq!(track(robot, near, vr, &k), kanayama(robot, near, vr, &k));
+        // 0.75 m ahead-left: λ = 0.5, the average of both laws.
+        let mid = Pose2::new(0.6, 0.45, 0.0);
+        let (a, b) = (kanayama(robot, mid, vr, &k), go_to_point(robot, mid, vr, &k));
+        let t = track(robot, mid, vr, &k);
+        assert!((t.v_mps - 0.5 * (a.v_mps + b.v_mps)).abs() < 1e-12);
+        assert!((t.omega_radps - 0.5 * (a.omega_radps + b.omega_radps)).abs() < 1e-12);
+        // Go-to-point hand values: bearing atan2(0.45, 0.6) = 0.6435, distance 0.75.
+        assert!((b.v_mps - (0.15 + 0.75) * 0.6435f64.cos()).abs() < 1e-4);
+        assert!((b.omega_radps - 0.6435).abs() < 1e-4);
+    }
+
+    #[test]
+    fn ended_reference_is_approached_as_a_point_then_held() {
+        let k = TrackingParams::default();
+        // Goal 0.3 m to the left: Kanayama with v_r = 0 gives ω = 0 and v = k_x e_x = 0.
+        let goal = Pose2::new(0.0, 0.3, 0.0);
+        assert_eq!(kanayama(Pose2::default(), goal, Twist::ZERO, &k), Twist::new(0.0, 0.0));
+        // Point mode turns towards it: bearing π/2 → v = 0, ω = π/2.
+        let cmd = track(Pose2::default(), goal, Twist::ZERO, &k);
+        assert!(cmd.v_mps.abs() < 1e-12 && (cmd.omega_radps - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        // Within the arrive radius: zero.
+        assert_eq!(
+            track(Pose2::default(), Pose2::new(0.04, 0.0, 1.0), Twist::ZERO, &k),
+            Twist::ZERO
+        );
     }
 
     #[test]

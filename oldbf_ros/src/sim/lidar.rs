@@ -78,16 +78,10 @@ impl LidarSpec {
     /// Checks every field; the message names the key.
     pub fn validate(&self) -> Result<(), String> {
         if !(1..=MAX_BEAMS).contains(&self.beams) {
-            return Err(format!(
-                "lidar.beams must be in [1, {MAX_BEAMS}] (got {})",
-                self.beams
-            ));
+            return Err(format!("lidar.beams must be in [1, {MAX_BEAMS}] (got {})", self.beams));
         }
         if !(self.fov_deg > 0.0 && self.fov_deg <= 360.0) {
-            return Err(format!(
-                "lidar.fov_deg must be in (0, 360] (got {})",
-                self.fov_deg
-            ));
+            return Err(format!("lidar.fov_deg must be in (0, 360] (got {})", self.fov_deg));
         }
         if !(self.range_min_m.is_finite() && self.range_min_m >= 0.0) {
             return Err(format!(
@@ -114,10 +108,7 @@ impl LidarSpec {
             ));
         }
         if !(self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
-            return Err(format!(
-                "lidar.rate_hz must be in (0, 1000] (got {})",
-                self.rate_hz
-            ));
+            return Err(format!("lidar.rate_hz must be in (0, 1000] (got {})", self.rate_hz));
         }
         Ok(())
     }
@@ -182,10 +173,7 @@ impl Lidar {
     pub fn new(spec: LidarSpec, seed: u64) -> Result<Lidar, String> {
         spec.validate()?;
         let noise = if spec.noise_std_m > 0.0 {
-            Some(
-                Normal::new(0.0, spec.noise_std_m)
-                    .map_err(|e| format!("lidar.noise_std_m: {e}"))?,
-            )
+            Some(Normal::new(0.0, spec.noise_std_m).map_err(|e| format!("lidar.noise_std_m: {e}"))?)
         } else {
             None
         };
@@ -422,9 +410,7 @@ mod tests {
     fn noise_statistics() {
         let w = room();
         let pose = Pose2::new(0.1, -0.2, 0.3);
-        let clean = Lidar::new(LidarSpec::default(), 0)
-            .expect("valid")
-            .scan(&w, pose);
+        let clean = Lidar::new(LidarSpec::default(), 0).expect("valid").scan(&w, pose);
         let sigma = 0.02;
         let mut l = Lidar::new(
             LidarSpec {
@@ -548,10 +534,7 @@ mod tests {
     fn matches_unculled_world_ray_cast() {
         // A moving disc and walls; the per-scan cull must not change any beam.
         let w = world(WorldSpec {
-            walls: vec![
-                wall([-3.0, 2.0], [3.0, 2.0]),
-                wall([10.0, -1.0], [10.0, 1.0]),
-            ],
+            walls: vec![wall([-3.0, 2.0], [3.0, 2.0]), wall([10.0, -1.0], [10.0, 1.0])],
             circles: vec![CircleSpec {
                 center: [1.0, -1.0],
                 radius_m: 0.3,
@@ -565,11 +548,7 @@ mod tests {
         for (i, ri) in r.iter().enumerate() {
             let a = pose.theta + spec.beam_angle_rad(i);
             let expect = w
-                .ray_cast(
-                    pose.position(),
-                    Vec2::new(a.cos(), a.sin()),
-                    spec.range_max_m,
-                )
+                .ray_cast(pose.position(), Vec2::new(a.cos(), a.sin()), spec.range_max_m)
                 .map_or(f32::INFINITY, |t| t as f32);
             assert!(
                 (ri == &expect) || (ri - expect).abs() < 1e-5,

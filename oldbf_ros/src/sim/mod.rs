@@ -21,6 +21,8 @@
 pub mod lidar;
 pub mod motion;
 pub mod robot;
+pub mod run;
+pub mod scenario;
 pub mod shapes;
 pub mod world;
 

@@ -40,10 +40,7 @@ pub enum MotionSpec {
     },
     /// Moves at `speed_mps` (m/s, ≥ 0) along the closed polyline
     /// w0 → w1 → … → wn → w0 (m), repeating; at w0 at t = 0.
-    WaypointLoop {
-        waypoints: Vec<[f64; 2]>,
-        speed_mps: f64,
-    },
+    WaypointLoop { waypoints: Vec<[f64; 2]>, speed_mps: f64 },
     /// Starts at `start` (m) with `velocity_mps` (m/s) and reflects
     /// elastically off the edges of the axis-aligned box
     /// [`region_min`, `region_max`] (m); the centre stays inside the box.
@@ -103,10 +100,7 @@ impl MovingObstacle {
     /// axes with `start` inside it. Errors name the offending field.
     pub fn new(spec: &MovingObstacleSpec) -> Result<MovingObstacle, String> {
         if !(spec.radius_m.is_finite() && spec.radius_m > 0.0) {
-            return Err(format!(
-                "radius_m must be > 0 and finite (got {})",
-                spec.radius_m
-            ));
+            return Err(format!("radius_m must be > 0 and finite (got {})", spec.radius_m));
         }
         let law = match &spec.motion {
             MotionSpec::ConstantVelocity {
@@ -115,9 +109,7 @@ impl MovingObstacle {
                 start_time_s,
             } => {
                 if !start_time_s.is_finite() {
-                    return Err(format!(
-                        "motion.start_time_s must be finite (got {start_time_s})"
-                    ));
+                    return Err(format!("motion.start_time_s must be finite (got {start_time_s})"));
                 }
                 Law::ConstantVelocity {
                     start: finite2(*start, "motion.start")?,
@@ -125,14 +117,9 @@ impl MovingObstacle {
                     start_time_s: *start_time_s,
                 }
             }
-            MotionSpec::WaypointLoop {
-                waypoints,
-                speed_mps,
-            } => {
+            MotionSpec::WaypointLoop { waypoints, speed_mps } => {
                 if !(speed_mps.is_finite() && *speed_mps >= 0.0) {
-                    return Err(format!(
-                        "motion.speed_mps must be >= 0 and finite (got {speed_mps})"
-                    ));
+                    return Err(format!("motion.speed_mps must be >= 0 and finite (got {speed_mps})"));
                 }
                 let points = waypoints
                     .iter()
@@ -447,10 +434,7 @@ mod tests {
         assert!((o.velocity_at(6.0).x - 0.3).abs() < 1e-12);
         for k in 0..10_000 {
             let p = o.position_at(k as f64 * 0.731 + 1.0e5);
-            assert!(
-                (-1.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y),
-                "{p:?}"
-            );
+            assert!((-1.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y), "{p:?}");
         }
     }
 
@@ -543,9 +527,11 @@ mod tests {
             s.motion,
             MotionSpec::ConstantVelocity { start_time_s, .. } if start_time_s == 0.0
         ));
-        let bad = "radius_m: 0.3\nmotion:\n  kind: constant_velocity\n  start: [0, 0]\n  velocity_mps: [1, 1]\n  speed: 2\n";
+        let bad =
+            "radius_m: 0.3\nmotion:\n  kind: constant_velocity\n  start: [0, 0]\n  velocity_mps: [1, 1]\n  speed: 2\n";
         assert!(serde_yaml::from_str::<MovingObstacleSpec>(bad).is_err());
-        let bad = "radius_m: 0.3\ncolour: red\nmotion:\n  kind: constant_velocity\n  start: [0, 0]\n  velocity_mps: [1, 1]\n";
+        let bad =
+            "radius_m: 0.3\ncolour: red\nmotion:\n  kind: constant_velocity\n  start: [0, 0]\n  velocity_mps: [1, 1]\n";
         assert!(serde_yaml::from_str::<MovingObstacleSpec>(bad).is_err());
     }
 }

@@ -99,9 +99,7 @@ impl RobotSpec {
             v_max_mps: self.v_max_mps.unwrap_or(p.v_max_mps),
             omega_max_radps: self.omega_max_radps.unwrap_or(p.omega_max_radps),
             accel_max_mps2: self.accel_max_mps2.unwrap_or(p.accel_max_mps2),
-            omega_accel_max_radps2: self
-                .omega_accel_max_radps2
-                .unwrap_or(p.omega_accel_max_radps2),
+            omega_accel_max_radps2: self.omega_accel_max_radps2.unwrap_or(p.omega_accel_max_radps2),
         };
         l.validate()?;
         Ok(l)
@@ -195,11 +193,7 @@ impl SimRobot {
         let v_cmd = limit(finite_or_zero(cmd.v_mps), l.v_max_mps);
         let w_cmd = limit(finite_or_zero(cmd.omega_radps), l.omega_max_radps);
         let v = self.twist.v_mps + limit(v_cmd - self.twist.v_mps, l.accel_max_mps2 * dt_s);
-        let w = self.twist.omega_radps
-            + limit(
-                w_cmd - self.twist.omega_radps,
-                l.omega_accel_max_radps2 * dt_s,
-            );
+        let w = self.twist.omega_radps + limit(w_cmd - self.twist.omega_radps, l.omega_accel_max_radps2 * dt_s);
         self.twist = Twist::new(v, w);
         self.pose = arc_step(self.pose, self.twist, dt_s);
     }
@@ -236,15 +230,12 @@ mod tests {
         assert_eq!(l.omega_max_radps, 2.84);
         assert_eq!(l.accel_max_mps2, 2.5);
         assert_eq!(l.omega_accel_max_radps2, 3.2);
-        let q: RobotSpec =
-            serde_yaml::from_str("preset: quanser_qbot\nv_max_mps: 0.5\n").expect("parses");
+        let q: RobotSpec = serde_yaml::from_str("preset: quanser_qbot\nv_max_mps: 0.5\n").expect("parses");
         let l = q.resolve().expect("valid");
         assert_eq!(l.v_max_mps, 0.5);
         assert_eq!(l.body_radius_m, 0.175);
         assert_eq!(l.omega_max_radps, std::f64::consts::PI);
-        assert!(
-            serde_yaml::from_str::<RobotSpec>("preset: quanser_qbot\nstart: [0, 0, 0]\n").is_err()
-        );
+        assert!(serde_yaml::from_str::<RobotSpec>("preset: quanser_qbot\nstart: [0, 0, 0]\n").is_err());
         assert!(serde_yaml::from_str::<RobotSpec>("preset: roomba\n").is_err());
     }
 
@@ -259,10 +250,7 @@ mod tests {
         assert!(s.resolve().unwrap_err().starts_with("robot.body_radius_m"));
         s.body_radius_m = None;
         s.omega_accel_max_radps2 = Some(0.0);
-        assert!(s
-            .resolve()
-            .unwrap_err()
-            .starts_with("robot.omega_accel_max_radps2"));
+        assert!(s.resolve().unwrap_err().starts_with("robot.omega_accel_max_radps2"));
     }
 
     #[test]
@@ -321,10 +309,7 @@ mod tests {
             r.step(Twist::new(0.2, 0.5), std::f64::consts::PI / n as f64);
         }
         let rel = start.inverse_transform_point(r.pose.position());
-        assert!(
-            (rel.x - 0.4).abs() < 1e-9 && (rel.y - 0.4).abs() < 1e-9,
-            "{rel:?}"
-        );
+        assert!((rel.x - 0.4).abs() < 1e-9 && (rel.y - 0.4).abs() < 1e-9, "{rel:?}");
     }
 
     #[test]

@@ -104,15 +104,9 @@ impl World {
         for (i, poly) in spec.polygons.iter().enumerate() {
             let what = format!("world.polygons[{i}]");
             if poly.len() < 3 {
-                return Err(format!(
-                    "{what}: needs at least 3 vertices (got {})",
-                    poly.len()
-                ));
+                return Err(format!("{what}: needs at least 3 vertices (got {})", poly.len()));
             }
-            let pts = poly
-                .iter()
-                .map(|v| point(*v, &what))
-                .collect::<Result<Vec<_>, _>>()?;
+            let pts = poly.iter().map(|v| point(*v, &what)).collect::<Result<Vec<_>, _>>()?;
             for k in 0..pts.len() {
                 let s = Segment::new(pts[k], pts[(k + 1) % pts.len()]);
                 if s.length_m() <= 0.0 {
@@ -127,15 +121,8 @@ impl World {
         for (i, b) in spec.boxes.iter().enumerate() {
             let what = format!("world.boxes[{i}]");
             let c = point(b.center, &what)?;
-            if !(b.size[0].is_finite()
-                && b.size[1].is_finite()
-                && b.size[0] > 0.0
-                && b.size[1] > 0.0)
-            {
-                return Err(format!(
-                    "{what}: size must be > 0 and finite (got {:?})",
-                    b.size
-                ));
+            if !(b.size[0].is_finite() && b.size[1].is_finite() && b.size[0] > 0.0 && b.size[1] > 0.0) {
+                return Err(format!("{what}: size must be > 0 and finite (got {:?})", b.size));
             }
             if !b.yaw_deg.is_finite() {
                 return Err(format!("{what}: yaw_deg must be finite"));
@@ -143,12 +130,7 @@ impl World {
             let (s, co) = b.yaw_deg.to_radians().sin_cos();
             let (hx, hy) = (0.5 * b.size[0], 0.5 * b.size[1]);
             let corner = |x: f64, y: f64| c + Vec2::new(co * x - s * y, s * x + co * y);
-            let k = [
-                corner(hx, hy),
-                corner(-hx, hy),
-                corner(-hx, -hy),
-                corner(hx, -hy),
-            ];
+            let k = [corner(hx, hy), corner(-hx, hy), corner(-hx, -hy), corner(hx, -hy)];
             for j in 0..4 {
                 segments.push(Segment::new(k[j], k[(j + 1) % 4]));
             }
@@ -158,10 +140,7 @@ impl World {
             let what = format!("world.circles[{i}]");
             let center = point(c.center, &what)?;
             if !(c.radius_m.is_finite() && c.radius_m > 0.0) {
-                return Err(format!(
-                    "{what}: radius_m must be > 0 and finite (got {})",
-                    c.radius_m
-                ));
+                return Err(format!("{what}: radius_m must be > 0 and finite (got {})", c.radius_m));
             }
             circles.push(Circle::new(center, c.radius_m));
         }
@@ -202,11 +181,8 @@ impl World {
     fn refresh_moving(&mut self) {
         let t = self.time_s;
         self.moving_now.clear();
-        self.moving_now.extend(
-            self.moving
-                .iter()
-                .map(|m| Circle::new(m.position_at(t), m.radius_m())),
-        );
+        self.moving_now
+            .extend(self.moving.iter().map(|m| Circle::new(m.position_at(t), m.radius_m())));
     }
 
     /// Simulation time (s).
@@ -286,11 +262,9 @@ impl World {
     pub fn prepare_scan(&self, origin: Vec2, max_range_m: f64, scratch: &mut ScanScratch) {
         scratch.segments.clear();
         scratch.circles.clear();
-        scratch.segments.extend(
-            self.segments
-                .iter()
-                .filter(|s| s.distance_to(origin) < max_range_m),
-        );
+        scratch
+            .segments
+            .extend(self.segments.iter().filter(|s| s.distance_to(origin) < max_range_m));
         scratch.circles.extend(
             self.circles
                 .iter()
@@ -319,14 +293,7 @@ impl ScanScratch {
     /// answer as the world for rays from the `origin` given to
     /// [`World::prepare_scan`] with `max_range_m` no larger than there.
     pub fn ray_cast(&self, origin: Vec2, dir_unit: Vec2, max_range_m: f64) -> Option<f64> {
-        ray_cast_shapes(
-            &self.segments,
-            &self.circles,
-            &[],
-            origin,
-            dir_unit,
-            max_range_m,
-        )
+        ray_cast_shapes(&self.segments, &self.circles, &[], origin, dir_unit, max_range_m)
     }
 
     /// Number of (segments, circles) kept by the last cull.
@@ -546,17 +513,13 @@ mod tests {
             size: [1.0, 0.0],
             yaw_deg: 0.0,
         }];
-        assert!(World::new(&s)
-            .unwrap_err()
-            .starts_with("world.boxes[0]: size"));
+        assert!(World::new(&s).unwrap_err().starts_with("world.boxes[0]: size"));
         s.boxes.clear();
         s.circles = vec![CircleSpec {
             center: [0.0, 0.0],
             radius_m: -1.0,
         }];
-        assert!(World::new(&s)
-            .unwrap_err()
-            .starts_with("world.circles[0]: radius_m"));
+        assert!(World::new(&s).unwrap_err().starts_with("world.circles[0]: radius_m"));
         s.circles.clear();
         s.moving = vec![MovingObstacleSpec {
             radius_m: 0.0,
@@ -567,9 +530,7 @@ mod tests {
             },
             name: None,
         }];
-        assert!(World::new(&s)
-            .unwrap_err()
-            .starts_with("world.moving[0]: radius_m"));
+        assert!(World::new(&s).unwrap_err().starts_with("world.moving[0]: radius_m"));
     }
 
     #[test]
@@ -588,15 +549,11 @@ mod tests {
 
     #[test]
     fn yaml_world_parses_with_defaults() {
-        let y =
-            "walls:\n  - {from: [0, 0], to: [1, 0]}\nboxes:\n  - {center: [1, 1], size: [1, 2]}\n";
+        let y = "walls:\n  - {from: [0, 0], to: [1, 0]}\nboxes:\n  - {center: [1, 1], size: [1, 2]}\n";
         let s: WorldSpec = serde_yaml::from_str(y).expect("parses");
         assert_eq!(s.boxes[0].yaw_deg, 0.0);
         assert!(s.circles.is_empty() && s.moving.is_empty());
         assert!(serde_yaml::from_str::<WorldSpec>("wall: []\n").is_err());
-        assert!(
-            serde_yaml::from_str::<WorldSpec>("circles:\n  - {center: [0, 0], radius: 1}\n")
-                .is_err()
-        );
+        assert!(serde_yaml::from_str::<WorldSpec>("circles:\n  - {center: [0, 0], radius: 1}\n").is_err());
     }
 }

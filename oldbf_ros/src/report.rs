@@ -1,0 +1,236 @@
+//! What a run leaves behind: the readable summary, the per-step CSV and the
+//! plots (trajectory with the safety perimeter; B_l and B_r over time; v and
+//! ω over time: the paper's Figs. 4-6).
+
+use crate::plot::{plot_time_series, plot_trajectory, Series, TimePanel, TrajectoryPlot};
+use crate::sim::run::{RunResult, RunSummary, StepRow};
+use crate::sim::scenario::Scenario;
+use anyhow::Context;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+/// A human-readable summary (several lines).
+pub fn summary_text(s: &RunSummary) -> String {
+    let opt = |v: Option<f64>, unit: &str| v.map_or("n/a".to_string(), |x| format!("{x:.3} {unit}"));
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "scenario {} | controller {:?} | seed {}",
+        s.scenario, s.controller, s.seed
+    );
+    let _ = writeln!(
+        out,
+        "  {} steps, {:.1} s simulated | goal {} | path {:.2} m",
+        s.steps,
+        s.sim_time_s,
+        match s.time_to_goal_s {
+            Some(t) => format!("reached at {t:.1} s"),
+            None => "not reached".to_string(),
+        },
+        s.path_length_m
+    );
+    let _ = writeln!(
+        out,
+        "  collisions {} | min clearance {:.3} m | CBF violations {} (logged), {} (exact geometry)",
+        s.collisions, s.min_clearance_m, s.cbf_violations, s.true_cbf_violations
+    );
+    let _ = writeln!(
+        out,
+        "  tracking error max {} mean {} | filter changed {} steps",
+        opt(s.max_tracking_error_m, "m"),
+        opt(s.mean_tracking_error_m, "m"),
+        s.filter_changed_steps
+    );
+    let c = s.steps_by_state;
+    let _ = writeln!(
+        out,
+        "  states: forward {} avoid {} both_sides {} stop {} escape {}",
+        c.forward, c.avoid, c.both_sides, c.stop, c.escape
+    );
+    let _ = write!(
+        out,
+        "  pipeline {:.1} µs/step mean, {:.1} µs max",
+        s.mean_step_us, s.max_step_us
+    );
+    out
+}
+
+fn csv_value(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.6}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Writes one row per control step.
+pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
+    let file = std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    writeln!(
+        w,
+        "t_s,x_m,y_m,theta_rad,ref_x_m,ref_y_m,v_nominal_mps,omega_nominal_radps,v_cmd_mps,omega_cmd_radps,\
+         v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
+         clearance_true_m,state,filter_changed,condition_held,in_collision,step_us"
+    )?;
+    for r in rows {
+        let nums = [
+            r.t_s,
+            r.x_m,
+            r.y_m,
+            r.theta_rad,
+            r.ref_x_m,
+            r.ref_y_m,
+            r.v_nominal_mps,
+            r.omega_nominal_radps,
+            r.v_cmd_mps,
+            r.omega_cmd_radps,
+            r.v_actual_mps,
+            r.omega_actual_radps,
+            r.b_left,
+            r.b_right,
+            r.d_left_m,
+            r.d_right_m,
+            r.h_m,
+            r.h_next_pred_m,
+            r.h_true_m,
+            r.clearance_true_m,
+        ];
+        let mut line = nums.iter().map(|v| csv_value(*v)).collect::<Vec<_>>().join(",");
+        let _ = write!(
+            line,
+            ",{},{},{},{},{:.2}",
+            r.state.as_str(),
+            r.filter_changed as u8,
+            r.condition_held as u8,
+            r.in_collision as u8,
+            r.step_us
+        );
+        writeln!(w, "{line}")?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Writes `steps.csv`, `summary.json`, `trajectory.{png,svg}`,
+/// `barriers.{png,svg}` and `velocities.{png,svg}` into `dir`.
+pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    write_steps_csv(&dir.join("steps.csv"), &result.rows)?;
+    std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&result.summary)?)?;
+
+    let rows = &result.rows;
+    let col = |f: fn(&StepRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
+    let t = col(|r| r.t_s);
+    let robot_path: Vec<_> = rows.iter().map(|r| nalgebra::Vector2::new(r.x_m, r.y_m)).collect();
+    let reference_path: Vec<_> = rows
+        .iter()
+        .filter(|r| r.ref_x_m.is_finite())
+        .map(|r| nalgebra::Vector2::new(r.ref_x_m, r.ref_y_m))
+        .collect();
+    let walls: Vec<_> = result.world.segments().iter().map(|s| (s.a, s.b)).collect();
+    let circles: Vec<_> = result.world.circles().iter().map(|c| (c.center, c.radius_m)).collect();
+    let title = format!("{} ({:?})", scenario.spec.name, result.summary.controller);
+    plot_trajectory(
+        &dir.join("trajectory"),
+        &TrajectoryPlot {
+            title: &title,
+            robot_path: &robot_path,
+            reference_path: &reference_path,
+            walls: &walls,
+            circles: &circles,
+            mover_paths: &result.mover_tracks,
+            safety_radius_m: scenario.params.robot_radius_m() + scenario.params.barrier.d_safe_m,
+            body_radius_m: scenario.robot.body_radius_m,
+            collisions: &result.collision_points,
+            goal: result.goal,
+        },
+    )?;
+
+    let (bl, br) = (col(|r| r.b_left), col(|r| r.b_right));
+    let (dl, dr, h) = (col(|r| r.d_left_m), col(|r| r.d_right_m), col(|r| r.h_true_m));
+    let bmax = bl
+        .iter()
+        .chain(&br)
+        .filter(|v| v.is_finite())
+        .fold(1.0f64, |a, &b| a.max(b));
+    plot_time_series(
+        &dir.join("barriers"),
+        &format!("{title}: barrier values (paper Fig. 5, left)"),
+        &t,
+        &[
+            TimePanel {
+                y_label: "B",
+                series: vec![
+                    Series {
+                        label: "B_l",
+                        values: &bl,
+                    },
+                    Series {
+                        label: "B_r",
+                        values: &br,
+                    },
+                ],
+                y_range: Some((0.0, bmax.min(10.0) * 1.05)),
+            },
+            TimePanel {
+                y_label: "distance (m)",
+                series: vec![
+                    Series {
+                        label: "d_l",
+                        values: &dl,
+                    },
+                    Series {
+                        label: "d_r",
+                        values: &dr,
+                    },
+                    Series {
+                        label: "h (exact)",
+                        values: &h,
+                    },
+                ],
+                y_range: Some((-0.1, 3.0)),
+            },
+        ],
+    )?;
+
+    let (v, w) = (col(|r| r.v_cmd_mps), col(|r| r.omega_cmd_radps));
+    let (vn, wn) = (col(|r| r.v_nominal_mps), col(|r| r.omega_nominal_radps));
+    plot_time_series(
+        &dir.join("velocities"),
+        &format!("{title}: commands (paper Figs. 5-6)"),
+        &t,
+        &[
+            TimePanel {
+                y_label: "v (m/s)",
+                series: vec![
+                    Series {
+                        label: "v sent",
+                        values: &v,
+                    },
+                    Series {
+                        label: "v nominal",
+                        values: &vn,
+                    },
+                ],
+                y_range: None,
+            },
+            TimePanel {
+                y_label: "ω (rad/s)",
+                series: vec![
+                    Series {
+                        label: "ω sent",
+                        values: &w,
+                    },
+                    Series {
+                        label: "ω nominal",
+                        values: &wn,
+                    },
+                ],
+                y_range: None,
+            },
+        ],
+    )?;
+    Ok(())
+}

@@ -1,0 +1,297 @@
+//! Scenario files (`config/scenarios/*.yaml`): a world, a robot, a LiDAR, a
+//! nominal command, and parameter overrides for the filter.
+//!
+//! Parsed strictly like the parameter file: unknown keys, wrong types and
+//! out-of-range values are errors naming the file and the key. The `oldbf:`
+//! section is deep-merged over the base parameters (`config/oldbf.yaml` or
+//! `--config FILE`) and validated as a whole.
+
+use super::lidar::LidarSpec;
+use super::robot::{RobotLimits, RobotSpec};
+use super::world::{World, WorldSpec};
+use crate::algo::geometry::{Pose2, Twist};
+use crate::algo::params::Params;
+use crate::algo::reference::ReferenceTrajectory;
+use crate::config::{self, ConfigError};
+use serde::Deserialize;
+use serde_yaml::Value;
+use std::path::Path;
+
+/// Start pose in the world (YAML in degrees for readability).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartSpec {
+    pub x_m: f64,
+    pub y_m: f64,
+    #[serde(default)]
+    pub theta_deg: f64,
+}
+
+impl StartSpec {
+    pub fn pose(&self) -> Pose2 {
+        Pose2::new(self.x_m, self.y_m, self.theta_deg.to_radians())
+    }
+}
+
+/// Where the nominal command comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum NominalSpec {
+    /// Track a straight line of `length_m` from the start pose at v_r (paper's line test).
+    Line { v_mps: f64, length_m: f64 },
+    /// Track `laps` circles at (v_r, ω_r) from the start pose (paper's circle test).
+    Circle { v_mps: f64, omega_radps: f64, laps: f64 },
+    /// Track the virtual robot driven by (v_r, ω_r) for `duration_s` (paper eq. 7).
+    Reference {
+        v_mps: f64,
+        omega_radps: f64,
+        duration_s: f64,
+    },
+    /// No reference: a constant upstream command, as from teleop.
+    Constant { v_mps: f64, omega_radps: f64 },
+}
+
+fn default_seed() -> u64 {
+    1
+}
+fn default_physics_dt() -> f64 {
+    0.01
+}
+fn default_goal_tolerance() -> f64 {
+    0.15
+}
+
+/// The scenario file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioSpec {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Longest simulated time (s); a run also ends when the goal is reached.
+    pub duration_s: f64,
+    /// Seed for sensor noise and dropouts (`--seed` overrides).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Physics integration step (s); the control period is split into steps of at most this.
+    #[serde(default = "default_physics_dt")]
+    pub physics_dt_s: f64,
+    pub robot: RobotSpec,
+    pub start: StartSpec,
+    #[serde(default)]
+    pub lidar: LidarSpec,
+    pub nominal: NominalSpec,
+    /// The goal counts as reached within this distance of the reference's end (m).
+    #[serde(default = "default_goal_tolerance")]
+    pub goal_tolerance_m: f64,
+    #[serde(default)]
+    pub world: WorldSpec,
+    /// Overrides of `config/oldbf.yaml` for this scenario.
+    #[serde(default)]
+    pub oldbf: Option<Value>,
+}
+
+/// A loaded, validated scenario.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    /// Where it came from, for messages.
+    pub file: String,
+    pub spec: ScenarioSpec,
+    /// Filter parameters after the scenario's overrides.
+    pub params: Params,
+    pub robot: RobotLimits,
+    /// The reference trajectory, unless the nominal command is constant.
+    pub reference: Option<ReferenceTrajectory>,
+}
+
+fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
+    ConfigError::Parse {
+        file: file.to_string(),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+fn check(file: &str, key: &str, v: f64, lo: f64, hi: f64, allowed: &str) -> Result<(), ConfigError> {
+    if v.is_finite() && v > lo && v <= hi {
+        Ok(())
+    } else {
+        Err(invalid(file, key, format!("{v} is out of range; allowed: {allowed}")))
+    }
+}
+
+impl Scenario {
+    /// Loads a scenario file over the base parameters (`base_params`: a
+    /// parameter file, or None for the built-in `config/oldbf.yaml`).
+    pub fn load(path: &Path, base_params: Option<&Path>) -> Result<Scenario, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
+            file: file.clone(),
+            error,
+        })?;
+        Self::from_str(&text, &file, base_params)
+    }
+
+    /// As `load`, from text.
+    pub fn from_str(text: &str, file: &str, base_params: Option<&Path>) -> Result<Scenario, ConfigError> {
+        let spec: ScenarioSpec = config::from_value(config::parse_yaml(text, file)?, file, "")?;
+        let (mut base, _) = config::base_params_value(base_params)?;
+        if let Some(over) = &spec.oldbf {
+            config::merge(&mut base, over);
+        }
+        let params = config::params_from_value(base, file, "oldbf.")?;
+
+        check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
+        check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;
+        check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
+        for (k, v) in [
+            ("start.x_m", spec.start.x_m),
+            ("start.y_m", spec.start.y_m),
+            ("start.theta_deg", spec.start.theta_deg),
+        ] {
+            if !v.is_finite() {
+                return Err(invalid(file, k, format!("{v} is not a finite number")));
+            }
+        }
+        spec.lidar.validate().map_err(|m| invalid(file, "lidar", m))?;
+        let robot = spec.robot.resolve().map_err(|m| invalid(file, "robot", m))?;
+        World::new(&spec.world).map_err(|m| invalid(file, "world", m))?;
+        let reference = Self::reference_of(&spec, file)?;
+        Ok(Scenario {
+            file: file.to_string(),
+            spec,
+            params,
+            robot,
+            reference,
+        })
+    }
+
+    fn reference_of(spec: &ScenarioSpec, file: &str) -> Result<Option<ReferenceTrajectory>, ConfigError> {
+        let start = spec.start.pose();
+        let speed = |v: f64| check(file, "nominal.v_mps", v, 0.0, 5.0, "(0, 5] m/s");
+        let turn = |w: f64| {
+            if w.is_finite() && w.abs() <= 10.0 {
+                Ok(())
+            } else {
+                Err(invalid(
+                    file,
+                    "nominal.omega_radps",
+                    format!("{w} is out of range; allowed: [-10, 10] rad/s"),
+                ))
+            }
+        };
+        Ok(match spec.nominal {
+            NominalSpec::Line { v_mps, length_m } => {
+                speed(v_mps)?;
+                check(file, "nominal.length_m", length_m, 0.0, 10_000.0, "(0, 10000] m")?;
+                Some(ReferenceTrajectory::line(start, v_mps, length_m))
+            }
+            NominalSpec::Circle {
+                v_mps,
+                omega_radps,
+                laps,
+            } => {
+                speed(v_mps)?;
+                turn(omega_radps)?;
+                if omega_radps == 0.0 {
+                    return Err(invalid(
+                        file,
+                        "nominal.omega_radps",
+                        "a circle needs a non-zero yaw rate",
+                    ));
+                }
+                check(file, "nominal.laps", laps, 0.0, 1000.0, "(0, 1000]")?;
+                Some(ReferenceTrajectory::circle(start, v_mps, omega_radps, laps))
+            }
+            NominalSpec::Reference {
+                v_mps,
+                omega_radps,
+                duration_s,
+            } => {
+                speed(v_mps)?;
+                turn(omega_radps)?;
+                check(file, "nominal.duration_s", duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
+                Some(ReferenceTrajectory {
+                    start,
+                    v_mps,
+                    omega_radps,
+                    duration_s,
+                })
+            }
+            NominalSpec::Constant { v_mps, omega_radps } => {
+                if !(v_mps.is_finite() && v_mps.abs() <= 5.0) {
+                    return Err(invalid(
+                        file,
+                        "nominal.v_mps",
+                        format!("{v_mps} is out of range; allowed: [-5, 5] m/s"),
+                    ));
+                }
+                turn(omega_radps)?;
+                None
+            }
+        })
+    }
+
+    /// The constant nominal command, for `kind: constant`.
+    pub fn constant_nominal(&self) -> Option<Twist> {
+        match self.spec.nominal {
+            NominalSpec::Constant { v_mps, omega_radps } => Some(Twist::new(v_mps, omega_radps)),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "
+name: t
+duration_s: 10
+robot: {preset: turtlebot3_burger}
+start: {x_m: 0, y_m: 0}
+nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
+";
+
+    #[test]
+    fn minimal_scenario_loads_with_defaults() {
+        let s = Scenario::from_str(MINIMAL, "t.yaml", None).unwrap();
+        assert_eq!(s.params, Params::default());
+        let r = s.reference.unwrap();
+        assert!((r.duration_s - 1.0 / 0.15).abs() < 1e-12);
+        assert_eq!(s.spec.seed, 1);
+    }
+
+    #[test]
+    fn overrides_merge_and_are_validated_by_name() {
+        let text = format!("{MINIMAL}oldbf: {{barrier: {{d_safe_m: 0.3}}}}\n");
+        let s = Scenario::from_str(&text, "t.yaml", None).unwrap();
+        assert_eq!(s.params.barrier.d_safe_m, 0.3);
+        let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gamma: 2}}}}\n");
+        let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["dtcbf.gamma"], "{e}");
+        assert!(e.to_string().starts_with("t.yaml: key `dtcbf.gamma`"), "{e}");
+        let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gama: 0.5}}}}\n");
+        let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["oldbf.dtcbf.gama"], "{e}");
+    }
+
+    #[test]
+    fn scenario_keys_are_checked() {
+        let e = Scenario::from_str(&format!("{MINIMAL}speed: 3\n"), "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["speed"], "{e}");
+        let e = Scenario::from_str(&MINIMAL.replace("duration_s: 10", "duration_s: -1"), "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["duration_s"], "{e}");
+        let e = Scenario::from_str(
+            &MINIMAL.replace("length_m: 1.0", "length_m: 1.0, omega_radps: 1"),
+            "t.yaml",
+            None,
+        )
+        .unwrap_err();
+        // Inside a tagged enum serde names the field in the message, not the path.
+        assert_eq!(e.keys(), ["nominal"], "{e}");
+        assert!(e.to_string().contains("unknown field `omega_radps`"), "{e}");
+        let e = Scenario::from_str(&MINIMAL.replace("v_mps: 0.15", "v_mps: .nan"), "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["nominal.v_mps"], "{e}");
+    }
+}
