@@ -22,6 +22,11 @@
 //! (hysteresis). A corridor (both sides near, front clear) is not this case:
 //! the differential law centres the robot.
 //!
+//! The turn serves forward motion: it neither starts nor stays latched while
+//! the nominal command has no forward speed (e.g. the tracking law turning in
+//! place towards a goal behind the robot), which a circular robot can always
+//! do safely; otherwise the two turns would alternate.
+//!
 //! Departure from ALGORITHM.md §4: the "front is the nearest" condition is
 //! ours. In a corridor narrower than 2 (r + d_act) (3.2 m at the defaults)
 //! both sides are always inside d_act, so without it anything within d_act
@@ -119,7 +124,14 @@ impl Doaa {
         let w_max = p.control.omega_max_radps;
 
         let front_is_nearest = c.d_front_m <= c.d_left_m.min(c.d_right_m) + p.doaa.front_nearest_tolerance_m;
+        // The turn exists to unblock forward motion: a nominal that only turns in place
+        // (safe for a circular robot) neither starts nor keeps it.
+        let forward = nominal.v_mps > 0.0;
+        if !forward {
+            self.both_sides = None;
+        }
         if self.both_sides.is_none()
+            && forward
             && c.d_left_m < d_act
             && c.d_right_m < d_act
             && c.d_front_m < d_act
@@ -279,6 +291,17 @@ mod tests {
         // The same cabinet 0.3 m ahead, now the nearest thing: both-sides.
         let (_, state) = run(&mut Doaa::new(), Twist::new(0.15, 0.0), clear(0.35, 0.85, 0.3));
         assert_eq!(state, DoaaState::BothSides);
+    }
+
+    #[test]
+    fn both_sides_needs_a_forward_nominal() {
+        let mut doaa = Doaa::new();
+        let (_, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
+        assert_eq!(state, DoaaState::BothSides);
+        // The tracking law now turns in place: the latch is released and the turn passes.
+        let (cmd, state) = run(&mut doaa, Twist::new(0.0, 0.25), clear(0.45, 0.8, 0.45));
+        assert_eq!((cmd, state), (Twist::new(0.0, 0.25), DoaaState::Avoid));
+        assert_eq!(doaa.latched_turn(), None);
     }
 
     #[test]

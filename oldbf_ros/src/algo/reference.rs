@@ -5,6 +5,13 @@
 //! exact closed-form solution, so long runs do not accumulate integration
 //! error. A line is ω_r = 0; the paper's circle is v_r = 0.2 m/s,
 //! ω_r = 0.13 rad/s, whose radius is v_r/ω_r ≈ 1.54 m (the paper says 0.2 m).
+//!
+//! Departure: the paper's reference advances with time alone. While the robot
+//! is held up by an obstacle such a reference runs away, ends up metres ahead
+//! on the far side of the obstacle, and the tracking law then drags the robot
+//! straight at it. [`ReferenceProgress`] governs the virtual robot instead:
+//! it runs at full rate while the robot is within the capture radius R_c,
+//! slows linearly, and waits when the robot is 2 R_c or more behind.
 
 use super::geometry::{Pose2, Twist};
 use super::unicycle::arc_step;
@@ -75,6 +82,40 @@ impl ReferenceTrajectory {
     }
 }
 
+/// Progress of the virtual robot along its trajectory (s of trajectory time),
+/// governed by how far behind the real robot is.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ReferenceProgress {
+    /// Trajectory time reached so far (s).
+    pub t_s: f64,
+}
+
+impl ReferenceProgress {
+    /// Progress rate for a tracking error ‖e‖ (m): 1 within R_c, 0 beyond 2 R_c.
+    pub fn rate(error_m: f64, capture_radius_m: f64) -> f64 {
+        if !error_m.is_finite() {
+            return 0.0;
+        }
+        ((2.0 * capture_radius_m - error_m) / capture_radius_m).clamp(0.0, 1.0)
+    }
+
+    /// The reference pose now, and its velocity scaled by the progress rate.
+    pub fn reference(&self, r: &ReferenceTrajectory, rate: f64) -> (Pose2, Twist) {
+        let tw = r.twist_at(self.t_s);
+        (r.pose_at(self.t_s), Twist::new(tw.v_mps * rate, tw.omega_radps * rate))
+    }
+
+    /// Advances by one control period at the given rate.
+    pub fn advance(&mut self, dt_s: f64, rate: f64) {
+        self.t_s += dt_s * rate;
+    }
+
+    /// Whether the virtual robot has reached the end of the trajectory.
+    pub fn finished(&self, r: &ReferenceTrajectory) -> bool {
+        self.t_s >= r.duration_s
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -87,6 +128,25 @@ mod tests {
         assert_eq!(r.goal(), r.pose_at(1000.0));
         assert!((r.goal().x - 6.0).abs() < 1e-12 && r.goal().y == 1.0);
         assert_eq!(r.twist_at(41.0), Twist::ZERO);
+    }
+
+    #[test]
+    fn progress_waits_for_a_robot_that_falls_behind() {
+        // R_c = 0.5: full rate up to 0.5 m, half at 0.75 m, none from 1 m.
+        assert_eq!(ReferenceProgress::rate(0.3, 0.5), 1.0);
+        assert!((ReferenceProgress::rate(0.75, 0.5) - 0.5).abs() < 1e-12);
+        assert_eq!(ReferenceProgress::rate(1.2, 0.5), 0.0);
+        assert_eq!(ReferenceProgress::rate(f64::NAN, 0.5), 0.0);
+        let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 1.5);
+        let mut p = ReferenceProgress::default();
+        p.advance(4.0, 1.0);
+        p.advance(4.0, 0.5);
+        assert!((p.t_s - 6.0).abs() < 1e-12);
+        let (pose, tw) = p.reference(&r, 0.5);
+        assert!((pose.x - 0.9).abs() < 1e-12 && (tw.v_mps - 0.075).abs() < 1e-12);
+        assert!(!p.finished(&r));
+        p.advance(4.0, 1.0);
+        assert!(p.finished(&r));
     }
 
     #[test]

@@ -11,9 +11,13 @@
 //! an avoidance detour) it asks for reverse speed and, with sin e_θ ≈ 0, no
 //! turn, so a forward-only robot would sit still. Beyond `capture_radius_m`
 //! the command therefore blends continuously into a go-to-point law that turns
-//! towards the reference point (bearing β = atan2(e_y, e_x)) and drives only
-//! when facing it:
-//!   v = (v_r + k_x ‖e‖) max(0, cos β),  ω = k_β β,
+//! towards the reference point (bearing β = atan2(e_y, e_x)) and drives while
+//! it is roughly ahead:
+//!   v = (v_r + k_x ‖e‖) clamp(2 cos β, 0, 1),  ω = k_β β,
+//! full speed for |β| ≤ 60°, none beyond 90°. Keeping the speed up while the
+//! DOAA steers is what carries the robot round an obstacle standing between
+//! it and the reference (the paper's robot always drives at v_r); scaling v by
+//! cos β instead stalls it in front of the obstacle.
 //! with weight λ = clamp((‖e‖ − R_c) / R_c, 0, 1) on the go-to-point command.
 
 use super::geometry::{wrap_angle, Pose2, Twist};
@@ -54,12 +58,12 @@ pub fn kanayama(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &Trac
 }
 
 /// Go-to-point command towards the reference position: turn towards it, drive
-/// only when facing it.
+/// at full speed while it is within ±60° ahead, tapering to zero at ±90°.
 pub fn go_to_point(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &TrackingParams) -> Twist {
     let e = TrackingError::between(robot, reference);
     let bearing = e.e_y_m.atan2(e.e_x_m);
     Twist::new(
-        (reference_twist.v_mps.abs() + k.k_x_per_s * e.distance_m()) * bearing.cos().max(0.0),
+        (reference_twist.v_mps.abs() + k.k_x_per_s * e.distance_m()) * (2.0 * bearing.cos()).clamp(0.0, 1.0),
         k.k_bearing_per_s * bearing,
     )
 }
@@ -142,8 +146,13 @@ mod tests {
         let t = track(robot, mid, vr, &k);
         assert!((t.v_mps - 0.5 * (a.v_mps + b.v_mps)).abs() < 1e-12);
         assert!((t.omega_radps - 0.5 * (a.omega_radps + b.omega_radps)).abs() < 1e-12);
-        // Go-to-point hand values: bearing atan2(0.45, 0.6) = 0.6435, distance 0.75.
-        assert!((b.v_mps - (0.15 + 0.75) * 0.6435f64.cos()).abs() < 1e-4);
+        // Go-to-point hand values: bearing atan2(0.45, 0.6) = 0.6435 rad (36.9° < 60°: full
+        // speed), distance 0.75: v = 0.15 + 0.75.
+        assert!((b.v_mps - (0.15 + 0.75)).abs() < 1e-12);
+        // At 75° the speed is 2 cos 75° = 0.518 of it.
+        let side = Pose2::new(0.75 * 75f64.to_radians().cos(), 0.75 * 75f64.to_radians().sin(), 0.0);
+        let g = go_to_point(robot, side, vr, &k);
+        assert!((g.v_mps - 0.9 * 2.0 * 75f64.to_radians().cos()).abs() < 1e-12);
         assert!((b.omega_radps - 0.6435).abs() < 1e-4);
     }
 

@@ -78,6 +78,10 @@ pub struct ScenarioSpec {
     pub physics_dt_s: f64,
     pub robot: RobotSpec,
     pub start: StartSpec,
+    /// Where the reference trajectory starts [default: `start`], for runs that
+    /// begin off the path.
+    #[serde(default)]
+    pub reference_start: Option<StartSpec>,
     #[serde(default)]
     pub lidar: LidarSpec,
     pub nominal: NominalSpec,
@@ -167,7 +171,16 @@ impl Scenario {
     }
 
     fn reference_of(spec: &ScenarioSpec, file: &str) -> Result<Option<ReferenceTrajectory>, ConfigError> {
-        let start = spec.start.pose();
+        let start = spec.reference_start.unwrap_or(spec.start).pose();
+        for (k, v) in [
+            ("reference_start.x_m", start.x),
+            ("reference_start.y_m", start.y),
+            ("reference_start.theta_deg", start.theta),
+        ] {
+            if !v.is_finite() {
+                return Err(invalid(file, k, format!("{v} is not a finite number")));
+            }
+        }
         let speed = |v: f64| check(file, "nominal.v_mps", v, 0.0, 5.0, "(0, 5] m/s");
         let turn = |w: f64| {
             if w.is_finite() && w.abs() <= 10.0 {
@@ -274,6 +287,13 @@ nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
         let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gama: 0.5}}}}\n");
         let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
         assert_eq!(e.keys(), ["oldbf.dtcbf.gama"], "{e}");
+    }
+
+    #[test]
+    fn reference_may_start_elsewhere() {
+        let text = format!("{MINIMAL}reference_start: {{x_m: 1.0, y_m: 2.0, theta_deg: 90}}\n");
+        let r = Scenario::from_str(&text, "t.yaml", None).unwrap().reference.unwrap();
+        assert!((r.goal().x - 1.0).abs() < 1e-12 && (r.goal().y - 3.0).abs() < 1e-12);
     }
 
     #[test]
