@@ -158,6 +158,9 @@ impl DtcbfFilter {
         let dt = p.control.dt_s();
         let model = p.dtcbf.prediction;
 
+        // At most one interval per point: sized once per largest scan, never in steady state.
+        self.intervals.clear();
+        self.intervals.reserve(points_next.len());
         let h = min_distance(points, Vec2::zeros()) - r - d_safe;
         let h_next_of = |cmd: Twist| min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
         if !h.is_finite() || points_next.is_empty() {

@@ -163,6 +163,13 @@ impl ScanPoints {
         self.beams = 0;
     }
 
+    /// Makes room for `beams` beams (no-op once the buffers are that large).
+    pub fn reserve(&mut self, beams: usize) {
+        self.points.reserve(beams);
+        self.beam_index.reserve(beams);
+        self.q.reserve(beams);
+    }
+
     pub fn valid_count(&self) -> usize {
         self.points.len()
     }
@@ -244,6 +251,8 @@ pub fn sanitize_scan(
     out.clear();
     check_scan(scan, now_s, params)?;
     out.beams = scan.ranges_m.len();
+    // Grows only when a scan has more beams than any before: no allocation in steady state.
+    out.reserve(out.beams);
     // Beam angles by rotating a unit vector by the increment: one sin/cos per
     // scan instead of per beam; renormalised to stop drift.
     let a0 = scan.angle_min_rad as f64 + mount.pose.theta;

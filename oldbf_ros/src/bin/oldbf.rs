@@ -74,8 +74,14 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Check a parameter file: strict keys, types and ranges. Prints the
-    /// derived radius r (m) and activation distance d_act (m) when valid.
+    /// Check a parameter file: strict keys, types and ranges.
+    ///
+    /// Every key of config/oldbf.yaml must be present with the right type;
+    /// unknown keys are errors; every value is checked against its allowed
+    /// range. Each error names the file, the dotted key and the allowed range.
+    /// When valid, prints the derived robot radius r (m), d_safe (m), the
+    /// activation distance d_act = d_safe + Γ^(2/σ) (m) and the control period
+    /// Δt (s). Exits 0 when valid, 2 otherwise.
     CheckConfig {
         /// Parameter file (YAML), e.g. config/oldbf.yaml.
         file: PathBuf,

@@ -247,18 +247,14 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             // Same input box as the filter, so the comparison is only about safety.
             Controller::None => input_box.clamp(nominal),
         };
-        // The logged condition for the command actually sent.
-        let (h_next_pred, held) = match controller {
-            Controller::Oldbf => (rec.h_next_m, rec.condition_held),
-            Controller::None if rec.measured() => {
-                let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
-                let h_next = min_distance(pipeline.points(), disp) - r - d_safe;
-                (
-                    h_next,
-                    !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
-                )
-            }
-            Controller::None => (f64::NAN, true),
+        // The logged condition, recomputed here from the scan's points for the command
+        // actually sent (not taken from the filter's own record).
+        let (h_next_pred, held) = if rec.measured() {
+            let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
+            let h_next = min_distance(pipeline.points(), disp) - r - d_safe;
+            (h_next, !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M)
+        } else {
+            (f64::NAN, true)
         };
         if rec.measured() && !held {
             cbf_violations += 1;

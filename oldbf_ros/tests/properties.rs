@@ -1,0 +1,197 @@
+//! Property tests over the whole per-scan pipeline.
+//!
+//! The oracles here recompute h and h(k+1) from the raw ranges, independently
+//! of the pipeline's own bookkeeping, so a bug in the record cannot hide a
+//! bug in the command.
+
+use oldbf_ros::algo::barrier::distance_barrier;
+use oldbf_ros::algo::dtcbf::InputBox;
+use oldbf_ros::algo::params::{BarrierParams, Params};
+use oldbf_ros::algo::{LaserScan, SafetyPipeline, Twist};
+use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
+
+/// Fixed seed (reproducible CI) unless PROPTEST_RNG_SEED asks for another.
+fn config(cases: u32) -> ProptestConfig {
+    let mut c = ProptestConfig::with_cases(cases);
+    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+        c.rng_seed = RngSeed::Fixed(0x01DBF);
+    }
+    c
+}
+
+/// Any f32 a driver might put in a range: plausible, out of range, or garbage.
+fn any_range() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => 0.0f32..10.0,
+        1 => Just(f32::NAN),
+        1 => Just(f32::INFINITY),
+        1 => Just(f32::NEG_INFINITY),
+        1 => -5.0f32..0.0,
+        1 => Just(0.0f32),
+        1 => any::<f32>(),
+    ]
+}
+
+fn any_f32(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    prop_oneof![4 => lo..hi, 1 => any::<f32>(), 1 => Just(f32::NAN), 1 => Just(0.0f32)]
+}
+
+fn any_f64(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    prop_oneof![4 => lo..hi, 1 => any::<f64>(), 1 => Just(f64::NAN), 1 => Just(f64::INFINITY)]
+}
+
+/// A well-formed 360° scan of `n` beams, each a range in [0.12, 3.5) or "no return".
+fn valid_scan_ranges() -> impl Strategy<Value = Vec<f32>> {
+    prop::collection::vec(prop_oneof![5 => 0.12f32..3.49, 1 => Just(f32::INFINITY)], 1..400)
+}
+
+fn scan_of(ranges: &[f32], angle_min: f32, inc: f32) -> LaserScan<'_> {
+    LaserScan {
+        stamp_s: 5.0,
+        angle_min_rad: angle_min,
+        angle_increment_rad: inc,
+        range_min_m: 0.12,
+        range_max_m: 3.5,
+        ranges_m: ranges,
+        intensities: &[],
+    }
+}
+
+/// Valid points in the robot frame (laser at the origin), computed directly.
+fn points_of(ranges: &[f32], angle_min: f32, inc: f32) -> Vec<(f64, f64)> {
+    ranges
+        .iter()
+        .enumerate()
+        .filter(|(_, &p)| p.is_finite() && (0.12..3.5).contains(&p))
+        .map(|(i, &p)| {
+            let a = angle_min as f64 + i as f64 * inc as f64;
+            (p as f64 * a.cos(), p as f64 * a.sin())
+        })
+        .collect()
+}
+
+/// h after moving by Δt·v along +x (the Euler model with θ = 0), from the raw points.
+fn h_after(points: &[(f64, f64)], step_m: f64, p: &Params) -> f64 {
+    let d = points.iter().map(|&(x, y)| ((x - step_m).powi(2) + y * y).sqrt()).fold(f64::INFINITY, f64::min);
+    d - p.robot_radius_m() - p.barrier.d_safe_m
+}
+
+proptest! {
+    #![proptest_config(config(600))]
+
+    /// Any LaserScan, however malformed, and any nominal command: a finite
+    /// command inside the input box, never a panic.
+    #[test]
+    fn any_scan_gives_a_finite_command_in_the_box(
+        ranges in prop::collection::vec(any_range(), 0..300),
+        intensities_len in prop_oneof![Just(0usize), 0usize..300],
+        angle_min in any_f32(-4.0, 4.0),
+        inc in any_f32(-0.1, 0.1),
+        range_min in any_f32(0.0, 0.5),
+        range_max in any_f32(0.5, 20.0),
+        stamp in any_f64(4.0, 6.0),
+        v_nom in any_f64(-1.0, 1.0),
+        w_nom in any_f64(-3.0, 3.0),
+        v_now in any_f64(-1.0, 1.0),
+        allow_reverse in any::<bool>(),
+    ) {
+        let intensities = vec![1.0f32; if intensities_len == 0 { 0 } else { intensities_len }];
+        let scan = LaserScan {
+            stamp_s: stamp,
+            angle_min_rad: angle_min,
+            angle_increment_rad: inc,
+            range_min_m: range_min,
+            range_max_m: range_max,
+            ranges_m: &ranges,
+            intensities: &intensities,
+        };
+        let mut p = Params::default();
+        p.control.allow_reverse = allow_reverse;
+        let bx = InputBox::from_params(&p);
+        let mut pipe = SafetyPipeline::new(p);
+        for _ in 0..2 {
+            let rec = pipe.step(&scan, 5.0, Twist::new(v_nom, w_nom), v_now);
+            prop_assert!(rec.cmd.is_finite(), "{rec:?}");
+            prop_assert!(rec.cmd.v_mps >= bx.v_lo && rec.cmd.v_mps <= bx.v_hi, "{rec:?}");
+            prop_assert!(rec.cmd.omega_radps.abs() <= bx.omega_max, "{rec:?}");
+            if rec.stop_cause.is_some() && !rec.measured() {
+                prop_assert_eq!(rec.cmd, Twist::ZERO);
+            }
+        }
+    }
+
+    /// With h ≥ 0 a safe command always exists (standing still keeps h for a
+    /// static scene), so the command sent must satisfy h(k+1) ≥ (1 − γ) h(k),
+    /// checked here from the raw ranges. When the filter lowered v, the
+    /// result is the largest admissible v: on the boundary of the condition.
+    #[test]
+    fn the_sent_command_satisfies_the_dtcbf_condition(
+        // Scenes inside the safe set: r + d_safe ≤ 0.178 + 0.2 < 0.38 m, some points right at it.
+        ranges in prop::collection::vec(prop_oneof![5 => 0.38f32..3.49, 2 => 0.38f32..0.5, 1 => Just(f32::INFINITY)], 1..400),
+        v_nom in 0.0f64..0.3,
+        w_nom in -0.5f64..0.5,
+        gamma in 0.05f64..1.0,
+        d_safe in 0.05f64..0.2,
+    ) {
+        let n = ranges.len();
+        let inc = (2.0 * std::f64::consts::PI / n as f64) as f32;
+        let angle_min = -std::f32::consts::PI;
+        let mut p = Params::default();
+        p.dtcbf.gamma = gamma;
+        p.dtcbf.noise_margin_m = 0.0; // the plain definition
+        p.barrier.d_safe_m = d_safe;
+        let mut pipe = SafetyPipeline::new(p.clone());
+        let rec = pipe.step(&scan_of(&ranges, angle_min, inc), 5.0, Twist::new(v_nom, w_nom), v_nom);
+        let pts = points_of(&ranges, angle_min, inc);
+        let h = h_after(&pts, 0.0, &p);
+        prop_assume!(h >= 0.0 && h.is_finite());
+        let dt = p.control.dt_s();
+        let h_next = h_after(&pts, dt * rec.cmd.v_mps, &p);
+        prop_assert!((rec.h_m - h).abs() < 1e-6, "h {} vs {}", rec.h_m, h);
+        prop_assert!(h_next >= (1.0 - gamma) * h - 1e-7, "h {h} h_next {h_next} cmd {:?}", rec.cmd);
+        prop_assert!(rec.condition_held && !rec.stop_cause.is_some(), "{rec:?}");
+        if rec.filter_changed && rec.cmd.omega_radps == rec.doaa_cmd.omega_radps && rec.cmd.v_mps < rec.doaa_cmd.v_mps {
+            prop_assert!(h_next - (1.0 - gamma) * h < 1e-6, "not the largest admissible v: {rec:?}");
+        }
+    }
+
+    /// B_d is non-increasing in the distance, for any valid barrier shape.
+    #[test]
+    fn distance_barrier_is_monotone(
+        big_gamma in 0.1f64..5.0,
+        sigma in 0.5f64..5.0,
+        d_safe in 0.0f64..1.0,
+        d1 in -1.0f64..5.0,
+        gap in 0.0f64..3.0,
+    ) {
+        let p = BarrierParams { big_gamma, sigma, d_safe_m: d_safe, ..BarrierParams::default() };
+        let (b1, _) = distance_barrier(d1, &p);
+        let (b2, _) = distance_barrier(d1 + gap, &p);
+        prop_assert!(b1 >= b2, "B({d1}) = {b1} < B({}) = {b2}", d1 + gap);
+        prop_assert!(b2 >= 1.0 && b1 <= p.barrier_max);
+    }
+
+    /// The same scan with its beams in reverse order and a negated increment
+    /// describes the same points, so everything must come out the same.
+    #[test]
+    fn reversed_beam_order_gives_the_same_result(
+        ranges in valid_scan_ranges(),
+        angle_min in -3.14f32..-2.0,
+        v_nom in 0.0f64..0.22,
+        w_nom in -0.3f64..0.3,
+    ) {
+        let n = ranges.len();
+        let inc = (2.0 * std::f64::consts::PI / n as f64) as f32;
+        let last = (angle_min as f64 + (n - 1) as f64 * inc as f64) as f32;
+        let reversed: Vec<f32> = ranges.iter().rev().copied().collect();
+        let a = SafetyPipeline::new(Params::default()).step(&scan_of(&ranges, angle_min, inc), 5.0, Twist::new(v_nom, w_nom), v_nom);
+        let b = SafetyPipeline::new(Params::default()).step(&scan_of(&reversed, last, -inc), 5.0, Twist::new(v_nom, w_nom), v_nom);
+        let close = |x: f64, y: f64| (x == y) || (x - y).abs() <= 1e-5 * (1.0 + x.abs().max(y.abs()));
+        prop_assert!(close(a.h_m, b.h_m) && close(a.d_left_m, b.d_left_m) && close(a.d_right_m, b.d_right_m), "{a:?}\n{b:?}");
+        prop_assert!(close(a.b_left, b.b_left) && close(a.b_right, b.b_right), "{a:?}\n{b:?}");
+        prop_assert!(close(a.cmd.v_mps, b.cmd.v_mps) && close(a.cmd.omega_radps, b.cmd.omega_radps), "{a:?}\n{b:?}");
+        prop_assert_eq!(a.state, b.state);
+        prop_assert_eq!(a.valid_beams, b.valid_beams);
+    }
+}
