@@ -34,7 +34,10 @@ fn every_scan_of_the_intel_log_goes_through_the_pipeline() {
     assert!(summary.states.get("avoid").copied().unwrap_or(0) > 0, "{summary:?}");
     // The lab's corridors bring walls well inside d_act = 1.2 m, but the log never
     // touches anything.
-    assert!(summary.min_clearance_m > -0.178 && summary.min_clearance_m < 1.2, "{summary:?}");
+    assert!(
+        summary.min_clearance_m > -0.178 && summary.min_clearance_m < 1.2,
+        "{summary:?}"
+    );
 }
 
 #[test]
@@ -75,7 +78,9 @@ fn corrupted_real_scans_are_rejected_with_reasons() {
     assert_eq!(reasons.len(), 19);
     assert!(reasons.iter().any(|r| matches!(r, ScanRejection::Empty)));
     assert!(reasons.iter().any(|r| matches!(r, ScanRejection::BadIncrement { .. })));
-    assert!(reasons.iter().any(|r| matches!(r, ScanRejection::IntensityLengthMismatch { .. })));
+    assert!(reasons
+        .iter()
+        .any(|r| matches!(r, ScanRejection::IntensityLengthMismatch { .. })));
     assert!(reasons.iter().any(|r| matches!(r, ScanRejection::Stale { .. })));
     assert!(reasons.iter().any(|r| matches!(r, ScanRejection::FromFuture { .. })));
     // Every reason prints as a sentence for the logs.

@@ -16,7 +16,10 @@ fn stdout_of(out: &std::process::Output) -> String {
 
 #[test]
 fn sim_prints_a_summary_and_json_on_the_last_line() {
-    let out = oldbf().args(["sim", "config/scenarios/paper_line.yaml", "--json"]).output().unwrap();
+    let out = oldbf()
+        .args(["sim", "config/scenarios/paper_line.yaml", "--json"])
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = stdout_of(&out);
     assert!(text.contains("collisions 0"), "{text}");
@@ -53,7 +56,11 @@ fn sim_out_writes_csv_and_plots() {
     for f in ["trajectory", "barriers", "velocities"] {
         for ext in ["png", "svg"] {
             let p = dir.join(format!("{f}.{ext}"));
-            assert!(std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false), "{}", p.display());
+            assert!(
+                std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
+                "{}",
+                p.display()
+            );
         }
     }
     let summary: serde_json::Value =
@@ -74,9 +81,16 @@ fn bad_configuration_exits_2_naming_file_and_key() {
     let out = oldbf().arg("check-config").arg(&bad).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.yaml") && err.contains("dtcbf.gamma") && err.contains("(0, 1]"), "{err}");
+    assert!(
+        err.contains("bad.yaml") && err.contains("dtcbf.gamma") && err.contains("(0, 1]"),
+        "{err}"
+    );
     // The same file as the base of a run: nothing runs.
-    let out = oldbf().args(["sim", "config/scenarios/paper_line.yaml", "--config"]).arg(&bad).output().unwrap();
+    let out = oldbf()
+        .args(["sim", "config/scenarios/paper_line.yaml", "--config"])
+        .arg(&bad)
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(stdout_of(&out).is_empty());
     let out = oldbf().args(["sim", "no/such/scenario.yaml"]).output().unwrap();
@@ -103,7 +117,10 @@ fn help_explains_options_with_units() {
 
 #[test]
 fn carmen_replays_the_real_log() {
-    let out = oldbf().args(["carmen", "tests/data/intel-corrected.log.gz", "--json"]).output().unwrap();
+    let out = oldbf()
+        .args(["carmen", "tests/data/intel-corrected.log.gz", "--json"])
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = stdout_of(&out);
     let v: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();

@@ -15,15 +15,29 @@ use oldbf_ros::sim::scenario::Scenario;
 const SEEDS: [u64; 3] = [1, 7, 42];
 
 fn run(s: &Scenario, controller: Controller, seed: u64) -> RunSummary {
-    run_scenario(s, controller, seed).unwrap_or_else(|e| panic!("{}: {e}", s.file)).summary
+    run_scenario(s, controller, seed)
+        .unwrap_or_else(|e| panic!("{}: {e}", s.file))
+        .summary
 }
 
 #[test]
 fn six_scenarios_are_shipped() {
-    let names: Vec<String> =
-        shipped_scenarios().iter().map(|p| p.file_stem().unwrap().to_string_lossy().into_owned()).collect();
-    for required in ["paper_line", "paper_circle", "corridor", "dead_end", "crossing", "cluttered_room"] {
-        assert!(names.iter().any(|n| n == required), "missing scenario {required}: {names:?}");
+    let names: Vec<String> = shipped_scenarios()
+        .iter()
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    for required in [
+        "paper_line",
+        "paper_circle",
+        "corridor",
+        "dead_end",
+        "crossing",
+        "cluttered_room",
+    ] {
+        assert!(
+            names.iter().any(|n| n == required),
+            "missing scenario {required}: {names:?}"
+        );
     }
 }
 
@@ -55,7 +69,10 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
         assert!((40.0..70.0).contains(&t), "seed {seed}: {t}");
         // The crate on the line is passed, so the robot must have left the line and the barrier
         // must have been active.
-        assert!(r.steps_by_state.avoid > 0 && r.max_tracking_error_m.unwrap() > 0.3, "{r:?}");
+        assert!(
+            r.steps_by_state.avoid > 0 && r.max_tracking_error_m.unwrap() > 0.3,
+            "{r:?}"
+        );
     }
 }
 
@@ -81,7 +98,10 @@ fn the_dtcbf_filter_alone_keeps_the_robot_off_the_crate() {
     assert_eq!(r.collisions, 0, "{r:?}");
     assert_eq!(r.cbf_violations, 0, "{r:?}");
     assert!(r.min_clearance_m > 0.0, "{r:?}");
-    assert!(r.filter_changed_steps > 50, "the filter must have been slowing the robot: {r:?}");
+    assert!(
+        r.filter_changed_steps > 50,
+        "the filter must have been slowing the robot: {r:?}"
+    );
     assert!(!r.reached_goal, "it cannot pass the crate without steering: {r:?}");
     // The same without the filter hits the crate.
     let r = run(&s, Controller::None, 1);

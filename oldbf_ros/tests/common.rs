@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 
 /// The repository root (the workspace holds `config/` and `tests/`).
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("crate lives in the workspace").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("crate lives in the workspace")
+        .to_path_buf()
 }
 
 /// A shipped scenario by name, over the built-in parameters.

@@ -45,9 +45,7 @@ fn scans(beams: usize) -> Vec<Vec<f32>> {
     let ahead = |d: f32, half_width: usize| {
         let mut r = vec![f32::INFINITY; beams];
         let mid = beams / 2;
-        for i in mid - half_width..=mid + half_width {
-            r[i] = d;
-        }
+        r[mid - half_width..=mid + half_width].fill(d);
         r
     };
     let mut dead_end = ahead(0.6, beams / 8);
@@ -61,7 +59,15 @@ fn scans(beams: usize) -> Vec<Vec<f32>> {
         ahead(0.45, beams / 36),
         dead_end,
         ahead(0.3, beams / 36),
-        (0..beams).map(|i| if i % 7 == 0 { f32::NAN } else { 1.0 + (i % 13) as f32 * 0.1 }).collect(),
+        (0..beams)
+            .map(|i| {
+                if i % 7 == 0 {
+                    f32::NAN
+                } else {
+                    1.0 + (i % 13) as f32 * 0.1
+                }
+            })
+            .collect(),
     ]
 }
 
@@ -97,7 +103,10 @@ fn steady_state_steps_do_not_allocate() {
         let before = allocations();
         run(&mut pipe, &scans, 50);
         let during = allocations() - before;
-        assert_eq!(during, 0, "{beams} beams: {during} allocations in 250 steady-state steps");
+        assert_eq!(
+            during, 0,
+            "{beams} beams: {during} allocations in 250 steady-state steps"
+        );
     }
 }
 

@@ -174,18 +174,17 @@ impl Doaa {
 /// The side with more clearance; ties go to the less crowded side, then to
 /// the way the nominal command already turns, then left.
 fn pick_turn(c: &Clearances, nominal: Twist) -> TurnDirection {
-    if c.d_left_m > c.d_right_m + TIE_M {
-        TurnDirection::Left
-    } else if c.d_right_m > c.d_left_m + TIE_M {
-        TurnDirection::Right
-    } else if c.crowding_left < c.crowding_right {
-        TurnDirection::Left
-    } else if c.crowding_right < c.crowding_left {
-        TurnDirection::Right
-    } else if nominal.omega_radps < 0.0 {
-        TurnDirection::Right
+    let left_better = if (c.d_left_m - c.d_right_m).abs() > TIE_M {
+        c.d_left_m > c.d_right_m
+    } else if c.crowding_left != c.crowding_right {
+        c.crowding_left < c.crowding_right
     } else {
+        nominal.omega_radps >= 0.0
+    };
+    if left_better {
         TurnDirection::Left
+    } else {
+        TurnDirection::Right
     }
 }
 

@@ -3,19 +3,23 @@
 //! h(z) = d_min(z) − d_safe with d_min = min_i ‖P_i − p_robot‖ − r. In the robot
 //! frame at step k the robot sits at the origin; for a command (v, ω) the
 //! one-step prediction moves it by a displacement s·u(ω):
-//!   * Euler (paper eq. 6): u = (1, 0), s = Δt v;
-//!   * Arc (exact zero-order hold): u = (cos α, sin α), s = Δt v sin α / α, α = ωΔt/2.
+//!
+//! * Euler (paper eq. 6): u = (1, 0), s = Δt v;
+//! * Arc (exact zero-order hold): u = (cos α, sin α), s = Δt v sin α / α, α = ωΔt/2.
+//!
 //! The condition h(k+1) ≥ (1 − γ) h(k) is evaluated exactly over every valid
 //! point: point i forbids the open interval s ∈ (a_i − w_i, a_i + w_i) with
 //! a_i = P_i·u, w_i = √(c² − (P_i×u)²) and c = r + d_safe + (1 − γ) h(k) the
-//! required distance from the robot centre. So for each ω the admissible speeds
-//! are known in closed form, and
-//!   1. if the DOAA command is admissible it passes unchanged;
-//!   2. else ω is kept and v lowered to the largest admissible value ≥ 0;
-//!   3. else (e.g. points move towards the robot) the input box is searched,
-//!      over a grid of ω and exactly in v, for the admissible command closest
-//!      to the DOAA command in (v − v_d)² + w (ω − ω_d)²;
-//!   4. else the robot stops and the step is reported infeasible.
+//! required distance from the robot centre. So for each ω the admissible
+//! speeds are known in closed form, and:
+//!
+//! 1. if the DOAA command is admissible it passes unchanged;
+//! 2. else ω is kept and v lowered to the largest admissible value ≥ 0;
+//! 3. else (e.g. points move towards the robot) the input box is searched,
+//!    over a grid of ω and exactly in v, for the admissible command closest
+//!    to the DOAA command in (v − v_d)² + w (ω − ω_d)²;
+//! 4. else the robot stops and the step is reported infeasible.
+//!
 //! Inside the unsafe set (h < 0) the same search runs first with the DTCBF
 //! target (h must rise by γ|h|) and then with h(k+1) ≥ h(k) + ε (escape); if
 //! neither exists the robot may still turn in place (h is unchanged for a
@@ -28,6 +32,7 @@
 //! throws it into escape. If the margin cannot be met (0 ≤ h < δ), the robot
 //! must at least get no closer (h(k+1) ≥ h(k)), which standing still always
 //! meets for static points and which also implies the logged condition.
+//!
 //! A circular footprint is rotation-invariant: pure rotation keeps h.
 
 use super::geometry::{Twist, Vec2};

@@ -252,7 +252,10 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         let (h_next_pred, held) = if rec.measured() {
             let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
             let h_next = min_distance(pipeline.points(), disp) - r - d_safe;
-            (h_next, !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M)
+            (
+                h_next,
+                !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
+            )
         } else {
             (f64::NAN, true)
         };
