@@ -28,7 +28,7 @@
 //! do safely; otherwise the two turns would alternate.
 //!
 //! Departure from ALGORITHM.md §4: the "front is the nearest" condition is
-//! ours. In a corridor narrower than 2 (r + d_act) (3.2 m at the defaults)
+//! ours. In a corridor narrower than 2 (r + d_act) (2.8 m at the defaults)
 //! both sides are always inside d_act, so without it anything within d_act
 //! ahead, such as a cabinet ahead-left, would turn the corridor into a dead end
 //! and the robot round.
