@@ -55,12 +55,13 @@ group_rust() {
 
 group_run() {
   need_cargo
-  local out="$ROOT/target/run-main"
+  local out="$ROOT/out/paper_line"
   rm -rf "$out"
-  # The README run command, plus --out so the plots are checked too.
-  cargo run --release --locked --bin oldbf -- sim config/scenarios/paper_line.yaml --out "$out" | tee "$out.log"
-  grep -q "collisions 0 " "$out.log" || die "the main job reported collisions"
-  grep -q "goal reached" "$out.log" || die "the main job did not reach its goal"
+  mkdir -p "$ROOT/out"
+  # Exactly the README run command.
+  cargo run --release --locked --bin oldbf -- sim config/scenarios/paper_line.yaml --out out/paper_line | tee "$ROOT/out/paper_line.log"
+  grep -q "collisions 0 " "$ROOT/out/paper_line.log" || die "the main job reported collisions"
+  grep -q "goal reached" "$ROOT/out/paper_line.log" || die "the main job did not reach its goal"
   for f in steps.csv summary.json trajectory.png trajectory.svg barriers.png barriers.svg velocities.png velocities.svg; do
     [ -s "$out/$f" ] || die "the main job did not write $f"
   done

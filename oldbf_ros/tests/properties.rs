@@ -159,6 +159,43 @@ proptest! {
         }
     }
 
+    /// Inside the unsafe set a safe command may or may not exist. Whenever one
+    /// does (found here by brute force over the whole input box, backing up
+    /// allowed), the filter must send one that satisfies the condition.
+    #[test]
+    fn inside_the_unsafe_set_a_feasible_command_is_found(
+        ranges in prop::collection::vec(prop_oneof![3 => 0.25f32..3.49, 1 => 0.2f32..0.4, 1 => Just(f32::INFINITY)], 1..300),
+        v_nom in 0.0f64..0.22,
+        gamma in 0.05f64..1.0,
+        v_rev in 0.0f64..0.3,
+    ) {
+        let n = ranges.len();
+        let inc = (2.0 * std::f64::consts::PI / n as f64) as f32;
+        let angle_min = -std::f32::consts::PI;
+        let mut p = Params::default();
+        p.dtcbf.gamma = gamma;
+        p.control.allow_reverse = true;
+        p.control.v_reverse_max_mps = v_rev;
+        let pts = points_of(&ranges, angle_min, inc);
+        let h = h_after(&pts, 0.0, &p);
+        prop_assume!(h < 0.0);
+        let dt = p.control.dt_s();
+        let target = (1.0 - gamma) * h;
+        // Brute force: with the Euler model the yaw rate does not move the robot in one step.
+        let feasible = (0..=4000).any(|i| {
+            let v = -v_rev + (v_rev + p.control.v_max_mps) * i as f64 / 4000.0;
+            h_after(&pts, dt * v, &p) >= target + 1e-6
+        });
+        let rec = SafetyPipeline::new(p.clone()).step(&scan_of(&ranges, angle_min, inc), 5.0, Twist::new(v_nom, 0.0), v_nom);
+        let h_next = h_after(&pts, dt * rec.cmd.v_mps, &p);
+        if feasible {
+            prop_assert!(h_next >= target - 1e-7, "feasible but not found: h {h}, h_next {h_next}, {rec:?}");
+            prop_assert!(rec.condition_held && rec.stop_cause.is_none(), "{rec:?}");
+        }
+        // Feasible or not: never closer than now by more than the escape rules allow.
+        prop_assert!(rec.cmd.is_finite());
+    }
+
     /// B_d is non-increasing in the distance, for any valid barrier shape.
     #[test]
     fn distance_barrier_is_monotone(
