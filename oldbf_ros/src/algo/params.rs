@@ -321,6 +321,11 @@ impl Check {
         self.rule(ok, key, format!("{v}"), allowed);
     }
 
+    /// `v` may not exceed another key's value (NaN is reported by its own range check).
+    fn at_most(&mut self, key: &'static str, v: f64, limit: f64, allowed: &'static str) {
+        self.rule(v <= limit || v.is_nan(), key, format!("{v}"), allowed);
+    }
+
     fn rule(&mut self, ok: bool, key: &'static str, value: String, allowed: &'static str) {
         if !ok {
             self.errors.push(ParamError { key, value, allowed });
@@ -340,10 +345,10 @@ impl Params {
         let ctl = &self.control;
         c.range("control.rate_hz", ctl.rate_hz, "(0, 1000] Hz");
         c.range("control.v_nom_mps", ctl.v_nom_mps, "[0, 5] m/s");
-        c.rule(
-            ctl.v_nom_mps <= ctl.v_max_mps || ctl.v_nom_mps.is_nan(),
+        c.at_most(
             "control.v_nom_mps",
-            format!("{}", ctl.v_nom_mps),
+            ctl.v_nom_mps,
+            ctl.v_max_mps,
             "at most control.v_max_mps",
         );
         c.range("control.v_max_mps", ctl.v_max_mps, "(0, 5] m/s");
@@ -387,10 +392,10 @@ impl Params {
         let d = &self.doaa;
         c.range("doaa.gain_k_radps", d.gain_k_radps, "[0, 100] rad/s");
         c.range("doaa.omega_0_radps", d.omega_0_radps, "(0, 10] rad/s");
-        c.rule(
-            d.omega_0_radps <= ctl.omega_max_radps || d.omega_0_radps.is_nan(),
+        c.at_most(
             "doaa.omega_0_radps",
-            format!("{}", d.omega_0_radps),
+            d.omega_0_radps,
+            ctl.omega_max_radps,
             "at most control.omega_max_radps",
         );
         c.range("doaa.both_sides_release_m", d.both_sides_release_m, "[0, 10] m");
