@@ -12,7 +12,10 @@
 pub mod algo;
 pub mod carmen;
 pub mod config;
+pub mod node_core;
 pub mod plot;
 pub mod replay;
 pub mod report;
+#[cfg(feature = "ros")]
+pub mod ros;
 pub mod sim;

@@ -53,6 +53,22 @@ pub fn summary_text(s: &RunSummary) -> String {
         "  pipeline {:.1} µs/step mean, {:.1} µs max",
         s.mean_step_us, s.max_step_us
     );
+    if s.robots.len() > 1 {
+        for r in &s.robots {
+            let _ = write!(
+                out,
+                "\n  robot {}: goal {} | collisions {} | min clearance {:.3} m | CBF violations {} / {} | path {:.2} m",
+                r.name,
+                r.time_to_goal_s
+                    .map_or("not reached".to_string(), |t| format!("reached at {t:.1} s")),
+                r.collisions,
+                r.min_clearance_m,
+                r.cbf_violations,
+                r.true_cbf_violations,
+                r.path_length_m
+            );
+        }
+    }
     out
 }
 
@@ -113,17 +129,31 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes `steps.csv`, `summary.json`, `trajectory.{png,svg}`,
-/// `barriers.{png,svg}` and `velocities.{png,svg}` into `dir`.
+/// Writes `steps.csv` (`steps_<robot>.csv` for each robot of a multi-robot
+/// scenario), `summary.json`, `trajectory.{png,svg}`, `barriers.{png,svg}`
+/// and `velocities.{png,svg}` into `dir`. The time plots show the first robot.
 pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    write_steps_csv(&dir.join("steps.csv"), &result.rows)?;
+    for robot in &result.robots {
+        let name = if result.robots.len() == 1 {
+            "steps.csv".to_string()
+        } else {
+            format!("steps_{}.csv", robot.name)
+        };
+        write_steps_csv(&dir.join(name), &robot.rows)?;
+    }
     std::fs::write(dir.join("summary.json"), serde_json::to_string_pretty(&result.summary)?)?;
 
-    let rows = &result.rows;
+    let first = &result.robots[0];
+    let rows = &first.rows;
     let col = |f: fn(&StepRow) -> f64| rows.iter().map(f).collect::<Vec<f64>>();
     let t = col(|r| r.t_s);
-    let robot_path: Vec<_> = rows.iter().map(|r| nalgebra::Vector2::new(r.x_m, r.y_m)).collect();
+    let path_of = |rows: &[StepRow]| {
+        rows.iter()
+            .map(|r| nalgebra::Vector2::new(r.x_m, r.y_m))
+            .collect::<Vec<_>>()
+    };
+    let robot_path = path_of(rows);
     let reference_path: Vec<_> = rows
         .iter()
         .filter(|r| r.ref_x_m.is_finite())
@@ -131,7 +161,26 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
         .collect();
     let walls: Vec<_> = result.world.segments().iter().map(|s| (s.a, s.b)).collect();
     let circles: Vec<_> = result.world.circles().iter().map(|c| (c.center, c.radius_m)).collect();
-    let title = format!("{} ({:?})", scenario.spec.name, result.summary.controller);
+    // Other robots are drawn like moving obstacles: their track and their body.
+    let mut movers = result.mover_tracks.clone();
+    movers.extend(
+        result.robots[1..]
+            .iter()
+            .map(|r| (path_of(&r.rows), scenario.robot.body_radius_m)),
+    );
+    let collisions: Vec<_> = result
+        .robots
+        .iter()
+        .flat_map(|r| r.collision_points.iter().copied())
+        .collect();
+    let title = if result.robots.len() == 1 {
+        format!("{} ({:?})", scenario.spec.name, result.summary.controller)
+    } else {
+        format!(
+            "{} ({:?}), robot {}",
+            scenario.spec.name, result.summary.controller, first.name
+        )
+    };
     plot_trajectory(
         &dir.join("trajectory"),
         &TrajectoryPlot {
@@ -140,11 +189,11 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
             reference_path: &reference_path,
             walls: &walls,
             circles: &circles,
-            mover_paths: &result.mover_tracks,
+            mover_paths: &movers,
             safety_radius_m: scenario.params.robot_radius_m() + scenario.params.barrier.d_safe_m,
             body_radius_m: scenario.robot.body_radius_m,
-            collisions: &result.collision_points,
-            goal: result.goal,
+            collisions: &collisions,
+            goal: first.goal,
         },
     )?;
 

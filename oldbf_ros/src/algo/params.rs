@@ -70,7 +70,9 @@ pub struct FootprintParams {
     pub semi_axis_2_m: f64,
     /// b: the robot's overall dimension in the paper's formula (m).
     pub overall_dimension_m: f64,
-    /// If set, used as r instead of the formula (m).
+    /// If set, used as r instead of the formula (m). Absent rather than null in
+    /// YAML: ROS parameters travel over XML-RPC, which has no null.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius_override_m: Option<f64>,
 }
 

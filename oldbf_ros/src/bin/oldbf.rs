@@ -124,7 +124,7 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
             println!("{}", summary_text(&result.summary));
             if let Some(dir) = out {
                 write_outputs(&dir, &scn, &result).with_context(|| format!("writing outputs to {}", dir.display()))?;
-                println!("  wrote steps.csv, summary.json and plots to {}", dir.display());
+                println!("  wrote the per-step CSV, summary.json and plots to {}", dir.display());
             }
             if json {
                 println!("{}", serde_json::to_string(&result.summary)?);

@@ -18,6 +18,7 @@
 //! in `_deg`. Every spec type rejects unknown YAML keys and every constructor
 //! returns an error (naming the key) instead of panicking on bad values.
 
+pub mod fleet;
 pub mod lidar;
 pub mod motion;
 pub mod robot;

@@ -1,11 +1,13 @@
 //! The closed loop: simulated LiDAR → controller → simulated robot, with the
 //! metrics the CLI prints and the tests assert.
 //!
-//! Every control period Δt: take a scan when the LiDAR is due (stamped with
-//! the sim time), compute the nominal command (tracking the governed
-//! reference, or the constant command), run the controller, then integrate the robot and
-//! the moving obstacles in physics sub-steps, checking the robot circle
-//! against the geometry exactly at each sub-step.
+//! Every control period Δt, for every robot: take a scan when the LiDAR is
+//! due (stamped with the sim time), compute the nominal command (tracking the
+//! governed reference, or the constant command) and run the controller; then
+//! integrate the robots and the moving obstacles in physics sub-steps
+//! ([`Fleet`]), checking each robot circle against the geometry (and the
+//! other robots) exactly at each sub-step. A robot that reaches its goal
+//! stops there and stays as an obstacle; the run ends when all have.
 //!
 //! Two CBF figures are reported. `cbf_violations` counts steps where the DTCBF
 //! condition h(k+1) ≥ (1 − γ) h(k), predicted from the scan the controller
@@ -15,9 +17,8 @@
 //! simulator's exact geometry after the step: it also sees sensor noise,
 //! actuator lag and obstacle motion that a static one-step prediction cannot.
 
-use super::lidar::Lidar;
-use super::robot::SimRobot;
-use super::scenario::Scenario;
+use super::fleet::Fleet;
+use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
 use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
@@ -74,15 +75,12 @@ pub struct StepRow {
     pub step_us: f64,
 }
 
-/// The run's figures; `--json` prints this.
+/// One robot's figures.
 #[derive(Debug, Clone, Serialize)]
-pub struct RunSummary {
-    pub scenario: String,
-    pub controller: Controller,
-    pub seed: u64,
-    pub steps: usize,
-    pub sim_time_s: f64,
-    /// Distinct contacts between the robot circle and any obstacle.
+pub struct RobotSummary {
+    /// Namespace (empty for a single robot).
+    pub name: String,
+    /// Distinct contacts between the robot circle and any obstacle (other robots included).
     pub collisions: usize,
     /// Least distance between the robot's body and any obstacle over the run (m; < 0 = penetration).
     pub min_clearance_m: f64,
@@ -96,15 +94,42 @@ pub struct RunSummary {
     /// Largest distance from the (governed) reference point (m); null without a reference.
     pub max_tracking_error_m: Option<f64>,
     pub mean_tracking_error_m: Option<f64>,
-    /// Mean / largest wall-clock time of the pipeline per step (µs).
-    pub mean_step_us: f64,
-    pub max_step_us: f64,
     /// Steps where the DTCBF check changed the DOAA command.
     pub filter_changed_steps: usize,
     pub steps_by_state: StateCounts,
     /// Least h(k) the controller measured (m).
     pub min_h_m: f64,
     pub final_pose: Pose2,
+}
+
+/// The run's figures; `--json` prints this. The top-level figures are over
+/// all robots (sums of counts, the least clearance, the worst error; the goal
+/// counts as reached when every robot reached its own); `robots` has each.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    pub scenario: String,
+    pub controller: Controller,
+    pub seed: u64,
+    pub steps: usize,
+    pub sim_time_s: f64,
+    pub collisions: usize,
+    pub min_clearance_m: f64,
+    pub cbf_violations: usize,
+    pub true_cbf_violations: usize,
+    pub reached_goal: bool,
+    pub time_to_goal_s: Option<f64>,
+    pub path_length_m: f64,
+    pub max_tracking_error_m: Option<f64>,
+    pub mean_tracking_error_m: Option<f64>,
+    /// Mean / largest wall-clock time of the pipeline per step (µs).
+    pub mean_step_us: f64,
+    pub max_step_us: f64,
+    pub filter_changed_steps: usize,
+    pub steps_by_state: StateCounts,
+    pub min_h_m: f64,
+    /// The first robot's final pose.
+    pub final_pose: Pose2,
+    pub robots: Vec<RobotSummary>,
 }
 
 /// How many steps were spent in each DOAA state.
@@ -127,240 +152,330 @@ impl StateCounts {
             DoaaState::Escape => self.escape += 1,
         }
     }
+
+    fn sum(&self, o: &StateCounts) -> StateCounts {
+        StateCounts {
+            forward: self.forward + o.forward,
+            avoid: self.avoid + o.avoid,
+            both_sides: self.both_sides + o.both_sides,
+            stop: self.stop + o.stop,
+            escape: self.escape + o.escape,
+        }
+    }
+}
+
+/// One robot's part of a run.
+#[derive(Debug, Clone)]
+pub struct RobotRun {
+    pub name: String,
+    pub summary: RobotSummary,
+    /// One row per control step until the robot reached its goal.
+    pub rows: Vec<StepRow>,
+    /// Robot positions where a collision began.
+    pub collision_points: Vec<Vec2>,
+    /// The reference's end, if any.
+    pub goal: Option<Vec2>,
 }
 
 /// Everything a run produced.
 #[derive(Debug, Clone)]
 pub struct RunResult {
     pub summary: RunSummary,
-    pub rows: Vec<StepRow>,
+    pub robots: Vec<RobotRun>,
     /// Each moving obstacle's centre per control step, and its radius (m).
     pub mover_tracks: Vec<(Vec<Vec2>, f64)>,
-    /// Robot positions where a collision began.
-    pub collision_points: Vec<Vec2>,
-    /// The reference's end, if any.
-    pub goal: Option<Vec2>,
     /// The world at the start (for plots).
     pub world: World,
+}
+
+/// A robot's controller and its bookkeeping.
+struct AgentLoop {
+    plan: AgentPlan,
+    pipeline: SafetyPipeline,
+    progress: ReferenceProgress,
+    ranges: Vec<f32>,
+    scan_stamp: f64,
+    rows: Vec<StepRow>,
+    counts: StateCounts,
+    cbf_violations: usize,
+    true_violations: usize,
+    changed_steps: usize,
+    max_err: f64,
+    sum_err: f64,
+    tracked_steps: usize,
+    min_h: f64,
+    time_to_goal: Option<f64>,
+    /// h on the exact geometry when the step's command was chosen.
+    h_true_now: f64,
+    row: Option<StepRow>,
 }
 
 /// Runs `scenario` in closed loop with `controller`.
 pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> Result<RunResult, String> {
     let spec = &scenario.spec;
     let params = &scenario.params;
-    let mut world = World::new(&spec.world)?;
-    let world_at_start = world.clone();
-    let mut robot = SimRobot::new(spec.start.pose(), scenario.robot);
-    let mut lidar = Lidar::new(spec.lidar.clone(), seed)?;
-    let mut pipeline = SafetyPipeline::new(params.clone());
+    let mut fleet = Fleet::new(scenario, seed)?;
+    let world_at_start = fleet.world().clone();
 
     let dt = params.control.dt_s();
     let substeps = (dt / spec.physics_dt_s).ceil().max(1.0) as usize;
     let h_dt = dt / substeps as f64;
-    let scan_period = 1.0 / lidar.spec().rate_hz;
-    let mount = Pose2::new(
-        params.laser.mount_x_m,
-        params.laser.mount_y_m,
-        params.laser.mount_yaw_deg.to_radians(),
-    );
-    let (angle_min, angle_inc) = (lidar.spec().angle_min_rad(), lidar.spec().angle_increment_rad());
-    let (range_min, range_max) = (lidar.spec().range_min_m as f32, lidar.spec().range_max_m as f32);
+    let lidar = fleet.lidar_spec().clone();
+    let scan_period = 1.0 / lidar.rate_hz;
+    let (angle_min, angle_inc) = (lidar.angle_min_rad(), lidar.angle_increment_rad());
+    let (range_min, range_max) = (lidar.range_min_m as f32, lidar.range_max_m as f32);
     let r = params.robot_radius_m();
     let d_safe = params.barrier.d_safe_m;
     let gamma = params.dtcbf.gamma;
     let input_box = InputBox::from_params(params);
-    let true_h = |w: &World, p: Vec2| w.distance_to_nearest(p) - r - d_safe;
-
     let steps_max = (spec.duration_s / dt).ceil() as usize;
-    let mut ranges: Vec<f32> = Vec::with_capacity(lidar.spec().beams);
-    let mut scan_stamp = f64::NEG_INFINITY;
-    let mut next_scan_t = 0.0;
-    let goal = scenario.reference.map(|r| r.goal().position());
-    let mut progress = ReferenceProgress::default();
 
-    let mut rows = Vec::with_capacity(steps_max);
-    let mut mover_tracks: Vec<(Vec<Vec2>, f64)> = world
+    let mut agents: Vec<AgentLoop> = scenario
+        .agents
+        .iter()
+        .map(|plan| AgentLoop {
+            plan: plan.clone(),
+            pipeline: SafetyPipeline::new(params.clone()),
+            progress: ReferenceProgress::default(),
+            ranges: Vec::with_capacity(lidar.beams),
+            scan_stamp: f64::NEG_INFINITY,
+            rows: Vec::with_capacity(steps_max),
+            counts: StateCounts::default(),
+            cbf_violations: 0,
+            true_violations: 0,
+            changed_steps: 0,
+            max_err: 0.0,
+            sum_err: 0.0,
+            tracked_steps: 0,
+            min_h: f64::INFINITY,
+            time_to_goal: None,
+            h_true_now: f64::NAN,
+            row: None,
+        })
+        .collect();
+    let mut mover_tracks: Vec<(Vec<Vec2>, f64)> = fleet
+        .world()
         .moving()
         .iter()
         .map(|m| (Vec::with_capacity(steps_max), m.radius_m()))
         .collect();
-    let mut collision_points = Vec::new();
-    let mut counts = StateCounts::default();
-    let (mut collisions, mut in_collision) = (0usize, robot.collides(&world));
-    if in_collision {
-        collisions += 1;
-        collision_points.push(robot.pose.position());
-    }
-    let mut min_clearance = robot.clearance_m(&world);
-    let (mut cbf_violations, mut true_violations, mut changed_steps) = (0usize, 0usize, 0usize);
-    let (mut path_length, mut max_err, mut sum_err) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut sum_us, mut max_us) = (0.0f64, 0.0f64);
-    let mut min_h = f64::INFINITY;
-    let mut time_to_goal = None;
+    let (mut sum_us, mut max_us, mut timed_steps) = (0.0f64, 0.0f64, 0usize);
+    let mut next_scan_t = 0.0;
     let mut steps = 0;
 
     for k in 0..steps_max {
         let t = k as f64 * dt;
         steps = k + 1;
-        if t + 1e-9 >= next_scan_t {
-            let origin = robot.pose.transform_point(mount.position());
-            let laser_pose = Pose2::new(origin.x, origin.y, robot.pose.theta + mount.theta);
-            lidar.scan_into(&world, laser_pose, &mut ranges);
-            scan_stamp = t;
+        let scan_due = t + 1e-9 >= next_scan_t;
+        if scan_due {
             next_scan_t += scan_period;
         }
-        let scan = LaserScan {
-            stamp_s: scan_stamp,
-            angle_min_rad: angle_min,
-            angle_increment_rad: angle_inc,
-            range_min_m: range_min,
-            range_max_m: range_max,
-            ranges_m: &ranges,
-            intensities: &[],
-        };
+        for (i, a) in agents.iter_mut().enumerate() {
+            if a.time_to_goal.is_some() {
+                fleet.set_cmd(i, Twist::ZERO);
+                continue;
+            }
+            if scan_due {
+                fleet.scan(i, &mut a.ranges);
+                a.scan_stamp = t;
+            }
+            let scan = LaserScan {
+                stamp_s: a.scan_stamp,
+                angle_min_rad: angle_min,
+                angle_increment_rad: angle_inc,
+                range_min_m: range_min,
+                range_max_m: range_max,
+                ranges_m: &a.ranges,
+                intensities: &[],
+            };
+            let pose = fleet.agents()[i].robot.pose;
+            let (nominal, ref_pos) = match &a.plan.reference {
+                Some(reference) => {
+                    let ref_pose = reference.pose_at(a.progress.t_s);
+                    let e = TrackingError::between(pose, ref_pose).distance_m();
+                    a.max_err = a.max_err.max(e);
+                    a.sum_err += e;
+                    a.tracked_steps += 1;
+                    let rate = ReferenceProgress::rate(e, params.tracking.capture_radius_m);
+                    let (ref_pose, ref_twist) = a.progress.reference(reference, rate);
+                    a.progress.advance(dt, rate);
+                    (track(pose, ref_pose, ref_twist, &params.tracking), ref_pose.position())
+                }
+                None => (a.plan.constant.unwrap_or(Twist::ZERO), Vec2::new(f64::NAN, f64::NAN)),
+            };
 
-        let (nominal, ref_pos) = match &scenario.reference {
-            Some(reference) => {
-                let ref_pose = reference.pose_at(progress.t_s);
-                let e = TrackingError::between(robot.pose, ref_pose).distance_m();
-                max_err = max_err.max(e);
-                sum_err += e;
-                let rate = ReferenceProgress::rate(e, params.tracking.capture_radius_m);
-                let (ref_pose, ref_twist) = progress.reference(reference, rate);
-                progress.advance(dt, rate);
+            let v_now = fleet.agents()[i].robot.twist.v_mps;
+            let t0 = Instant::now();
+            let rec: StepRecord = a.pipeline.step(&scan, t, nominal, v_now);
+            let step_us = t0.elapsed().as_secs_f64() * 1e6;
+            let cmd = match controller {
+                Controller::Oldbf => rec.cmd,
+                // Same input box as the filter, so the comparison is only about safety.
+                Controller::None => input_box.clamp(nominal),
+            };
+            // The logged condition, recomputed here from the scan's points for the command
+            // actually sent (not taken from the filter's own record).
+            let (h_next_pred, held) = if rec.measured() {
+                let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
+                let h_next = min_distance(a.pipeline.points(), disp) - r - d_safe;
                 (
-                    track(robot.pose, ref_pose, ref_twist, &params.tracking),
-                    ref_pose.position(),
+                    h_next,
+                    !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
                 )
+            } else {
+                (f64::NAN, true)
+            };
+            if rec.measured() && !held {
+                a.cbf_violations += 1;
             }
-            None => (
-                scenario.constant_nominal().unwrap_or(Twist::ZERO),
-                Vec2::new(f64::NAN, f64::NAN),
-            ),
-        };
+            if rec.measured() {
+                a.min_h = a.min_h.min(rec.h_m);
+            }
+            if rec.filter_changed {
+                a.changed_steps += 1;
+            }
+            a.counts.add(rec.state);
+            sum_us += step_us;
+            max_us = max_us.max(step_us);
+            timed_steps += 1;
+            fleet.set_cmd(i, cmd);
+            a.h_true_now = fleet.distance_from_centre(i) - r - d_safe;
+            let boxed = input_box.clamp(nominal);
+            a.row = Some(StepRow {
+                t_s: t,
+                x_m: pose.x,
+                y_m: pose.y,
+                theta_rad: pose.theta,
+                ref_x_m: ref_pos.x,
+                ref_y_m: ref_pos.y,
+                v_nominal_mps: boxed.v_mps,
+                omega_nominal_radps: boxed.omega_radps,
+                v_cmd_mps: cmd.v_mps,
+                omega_cmd_radps: cmd.omega_radps,
+                v_actual_mps: f64::NAN,
+                omega_actual_radps: f64::NAN,
+                b_left: rec.b_left,
+                b_right: rec.b_right,
+                d_left_m: rec.d_left_m,
+                d_right_m: rec.d_right_m,
+                h_m: rec.h_m,
+                h_next_pred_m: h_next_pred,
+                h_true_m: a.h_true_now,
+                clearance_true_m: f64::NAN,
+                state: rec.state,
+                filter_changed: rec.filter_changed,
+                condition_held: held,
+                in_collision: false,
+                step_us,
+            });
+        }
 
-        let t0 = Instant::now();
-        let rec: StepRecord = pipeline.step(&scan, t, nominal, robot.twist.v_mps);
-        let step_us = t0.elapsed().as_secs_f64() * 1e6;
-        let cmd = match controller {
-            Controller::Oldbf => rec.cmd,
-            // Same input box as the filter, so the comparison is only about safety.
-            Controller::None => input_box.clamp(nominal),
-        };
-        // The logged condition, recomputed here from the scan's points for the command
-        // actually sent (not taken from the filter's own record).
-        let (h_next_pred, held) = if rec.measured() {
-            let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
-            let h_next = min_distance(pipeline.points(), disp) - r - d_safe;
-            (
-                h_next,
-                !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
-            )
-        } else {
-            (f64::NAN, true)
-        };
-        if rec.measured() && !held {
-            cbf_violations += 1;
-        }
-        if rec.measured() {
-            min_h = min_h.min(rec.h_m);
-        }
-        if rec.filter_changed {
-            changed_steps += 1;
-        }
-        counts.add(rec.state);
-        sum_us += step_us;
-        max_us = max_us.max(step_us);
-
-        let h_true_now = true_h(&world, robot.pose.position());
-        let start_pos = robot.pose.position();
         for _ in 0..substeps {
-            let before = robot.pose.position();
-            robot.step(cmd, h_dt);
-            world.advance(h_dt);
-            path_length += (robot.pose.position() - before).norm();
-            let clearance = robot.clearance_m(&world);
-            min_clearance = min_clearance.min(clearance);
-            let hit = clearance < 0.0;
-            if hit && !in_collision {
-                collisions += 1;
-                collision_points.push(robot.pose.position());
-            }
-            in_collision = hit;
+            fleet.step(h_dt);
         }
-        let h_true_next = true_h(&world, robot.pose.position());
-        if h_true_now.is_finite() && h_true_next < (1.0 - gamma) * h_true_now - TOL_M {
-            true_violations += 1;
-        }
-        for (track, m) in mover_tracks.iter_mut().zip(world.moving_circles()) {
+        for (track, m) in mover_tracks.iter_mut().zip(fleet.world().moving_circles()) {
             track.0.push(m.center);
         }
-        rows.push(StepRow {
-            t_s: t,
-            x_m: start_pos.x,
-            y_m: start_pos.y,
-            theta_rad: robot.pose.theta,
-            ref_x_m: ref_pos.x,
-            ref_y_m: ref_pos.y,
-            v_nominal_mps: input_box.clamp(nominal).v_mps,
-            omega_nominal_radps: input_box.clamp(nominal).omega_radps,
-            v_cmd_mps: cmd.v_mps,
-            omega_cmd_radps: cmd.omega_radps,
-            v_actual_mps: robot.twist.v_mps,
-            omega_actual_radps: robot.twist.omega_radps,
-            b_left: rec.b_left,
-            b_right: rec.b_right,
-            d_left_m: rec.d_left_m,
-            d_right_m: rec.d_right_m,
-            h_m: rec.h_m,
-            h_next_pred_m: h_next_pred,
-            h_true_m: h_true_now,
-            clearance_true_m: robot.clearance_m(&world),
-            state: rec.state,
-            filter_changed: rec.filter_changed,
-            condition_held: held,
-            in_collision,
-            step_us,
-        });
 
-        // The goal counts once the (governed) reference has run to its end.
-        if let (Some(reference), Some(g)) = (&scenario.reference, goal) {
-            if progress.finished(reference) && (robot.pose.position() - g).norm() <= spec.goal_tolerance_m {
-                time_to_goal = Some(t + dt);
-                break;
+        for (i, a) in agents.iter_mut().enumerate() {
+            let Some(mut row) = a.row.take() else { continue };
+            let h_true_next = fleet.distance_from_centre(i) - r - d_safe;
+            if a.h_true_now.is_finite() && h_true_next < (1.0 - gamma) * a.h_true_now - TOL_M {
+                a.true_violations += 1;
             }
+            let sim = &fleet.agents()[i];
+            row.v_actual_mps = sim.robot.twist.v_mps;
+            row.omega_actual_radps = sim.robot.twist.omega_radps;
+            row.clearance_true_m = sim.robot.clearance_m(fleet.world());
+            row.in_collision = sim.in_collision;
+            a.rows.push(row);
+            // The goal counts once the (governed) reference has run to its end.
+            if let Some(reference) = &a.plan.reference {
+                let at_goal = (sim.robot.pose.position() - reference.goal().position()).norm() <= spec.goal_tolerance_m;
+                if a.progress.finished(reference) && at_goal {
+                    a.time_to_goal = Some(t + dt);
+                }
+            }
+        }
+        let all_done = agents
+            .iter()
+            .all(|a| a.plan.reference.is_some() && a.time_to_goal.is_some());
+        if all_done {
+            break;
         }
     }
 
-    let tracked = scenario.reference.is_some() && steps > 0;
+    let robots: Vec<RobotRun> = agents
+        .into_iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let sim = &fleet.agents()[i];
+            let tracked = a.tracked_steps > 0;
+            RobotRun {
+                name: a.plan.name.clone(),
+                summary: RobotSummary {
+                    name: a.plan.name.clone(),
+                    collisions: sim.collisions,
+                    min_clearance_m: sim.min_clearance_m,
+                    cbf_violations: a.cbf_violations,
+                    true_cbf_violations: a.true_violations,
+                    reached_goal: a.time_to_goal.is_some(),
+                    time_to_goal_s: a.time_to_goal,
+                    path_length_m: sim.path_length_m,
+                    max_tracking_error_m: tracked.then_some(a.max_err),
+                    mean_tracking_error_m: tracked.then(|| a.sum_err / a.tracked_steps as f64),
+                    filter_changed_steps: a.changed_steps,
+                    steps_by_state: a.counts,
+                    min_h_m: a.min_h,
+                    final_pose: sim.robot.pose,
+                },
+                rows: a.rows,
+                collision_points: sim.collision_points.clone(),
+                goal: a.plan.reference.map(|r| r.goal().position()),
+            }
+        })
+        .collect();
+    let each = || robots.iter().map(|r| &r.summary);
+    let max_opt = |f: fn(&RobotSummary) -> Option<f64>| each().filter_map(f).reduce(f64::max);
+    let n = robots.len() as f64;
     let summary = RunSummary {
         scenario: spec.name.clone(),
         controller,
         seed,
         steps,
         sim_time_s: steps as f64 * dt,
-        collisions,
-        min_clearance_m: min_clearance,
-        cbf_violations,
-        true_cbf_violations: true_violations,
-        reached_goal: time_to_goal.is_some(),
-        time_to_goal_s: time_to_goal,
-        path_length_m: path_length,
-        max_tracking_error_m: tracked.then_some(max_err),
-        mean_tracking_error_m: tracked.then(|| sum_err / steps as f64),
-        mean_step_us: if steps > 0 { sum_us / steps as f64 } else { 0.0 },
+        collisions: each().map(|s| s.collisions).sum(),
+        min_clearance_m: each().map(|s| s.min_clearance_m).fold(f64::INFINITY, f64::min),
+        cbf_violations: each().map(|s| s.cbf_violations).sum(),
+        true_cbf_violations: each().map(|s| s.true_cbf_violations).sum(),
+        reached_goal: each().all(|s| s.reached_goal),
+        time_to_goal_s: if each().all(|s| s.reached_goal) {
+            max_opt(|s| s.time_to_goal_s)
+        } else {
+            None
+        },
+        path_length_m: each().map(|s| s.path_length_m).sum(),
+        max_tracking_error_m: max_opt(|s| s.max_tracking_error_m),
+        mean_tracking_error_m: each()
+            .map(|s| s.mean_tracking_error_m)
+            .collect::<Option<Vec<f64>>>()
+            .map(|v| v.iter().sum::<f64>() / n),
+        mean_step_us: if timed_steps > 0 {
+            sum_us / timed_steps as f64
+        } else {
+            0.0
+        },
         max_step_us: max_us,
-        filter_changed_steps: changed_steps,
-        steps_by_state: counts,
-        min_h_m: min_h,
-        final_pose: robot.pose,
+        filter_changed_steps: each().map(|s| s.filter_changed_steps).sum(),
+        steps_by_state: each().fold(StateCounts::default(), |acc, s| acc.sum(&s.steps_by_state)),
+        min_h_m: each().map(|s| s.min_h_m).fold(f64::INFINITY, f64::min),
+        final_pose: robots[0].summary.final_pose,
+        robots: robots.iter().map(|r| r.summary.clone()).collect(),
     };
     Ok(RunResult {
         summary,
-        rows,
+        robots,
         mover_tracks,
-        collision_points,
-        goal,
         world: world_at_start,
     })
 }

@@ -51,6 +51,30 @@ pub enum NominalSpec {
     Constant { v_mps: f64, omega_radps: f64 },
 }
 
+/// One robot of a multi-robot scenario.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotEntry {
+    /// Its namespace in ROS (e.g. `robot1`); letters, digits and `_`.
+    pub name: String,
+    pub start: StartSpec,
+    #[serde(default)]
+    pub reference_start: Option<StartSpec>,
+    pub nominal: NominalSpec,
+}
+
+/// What one robot of a scenario does: where it starts and what it is told.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AgentPlan {
+    /// Namespace (empty for a single-robot scenario).
+    pub name: String,
+    pub start: Pose2,
+    /// The reference trajectory to track, unless the nominal is constant.
+    pub reference: Option<ReferenceTrajectory>,
+    /// The upstream command for `kind: constant`.
+    pub constant: Option<Twist>,
+}
+
 fn default_seed() -> u64 {
     1
 }
@@ -77,14 +101,22 @@ pub struct ScenarioSpec {
     #[serde(default = "default_physics_dt")]
     pub physics_dt_s: f64,
     pub robot: RobotSpec,
-    pub start: StartSpec,
+    /// The robot's start pose (single-robot scenarios).
+    #[serde(default)]
+    pub start: Option<StartSpec>,
     /// Where the reference trajectory starts [default: `start`], for runs that
     /// begin off the path.
     #[serde(default)]
     pub reference_start: Option<StartSpec>,
     #[serde(default)]
     pub lidar: LidarSpec,
-    pub nominal: NominalSpec,
+    /// The nominal command (single-robot scenarios).
+    #[serde(default)]
+    pub nominal: Option<NominalSpec>,
+    /// Several robots in one world, each with its own namespace, start and
+    /// nominal command; they see each other. Replaces `start`/`nominal`.
+    #[serde(default)]
+    pub robots: Vec<RobotEntry>,
     /// The goal counts as reached within this distance of the reference's end (m).
     #[serde(default = "default_goal_tolerance")]
     pub goal_tolerance_m: f64,
@@ -104,8 +136,8 @@ pub struct Scenario {
     /// Filter parameters after the scenario's overrides.
     pub params: Params,
     pub robot: RobotLimits,
-    /// The reference trajectory, unless the nominal command is constant.
-    pub reference: Option<ReferenceTrajectory>,
+    /// The robots: one for a single-robot scenario.
+    pub agents: Vec<AgentPlan>,
 }
 
 fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
@@ -128,18 +160,30 @@ impl Scenario {
     /// Loads a scenario file over the base parameters (`base_params`: a
     /// parameter file, or None for the built-in `config/oldbf.yaml`).
     pub fn load(path: &Path, base_params: Option<&Path>) -> Result<Scenario, ConfigError> {
+        let (base, _) = config::base_params_value(base_params)?;
+        Self::load_over(path, base)
+    }
+
+    /// Loads a scenario file over an already merged parameter document (the
+    /// ROS node's parameters).
+    pub fn load_over(path: &Path, base: Value) -> Result<Scenario, ConfigError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
             file: file.clone(),
             error,
         })?;
-        Self::from_str(&text, &file, base_params)
+        Self::from_str_over(&text, &file, base)
     }
 
     /// As `load`, from text.
     pub fn from_str(text: &str, file: &str, base_params: Option<&Path>) -> Result<Scenario, ConfigError> {
+        let (base, _) = config::base_params_value(base_params)?;
+        Self::from_str_over(text, file, base)
+    }
+
+    /// As `load_over`, from text.
+    pub fn from_str_over(text: &str, file: &str, mut base: Value) -> Result<Scenario, ConfigError> {
         let spec: ScenarioSpec = config::from_value(config::parse_yaml(text, file)?, file, "")?;
-        let (mut base, _) = config::base_params_value(base_params)?;
         if let Some(over) = &spec.oldbf {
             config::merge(&mut base, over);
         }
@@ -148,55 +192,133 @@ impl Scenario {
         check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
         check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;
         check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
-        for (k, v) in [
-            ("start.x_m", spec.start.x_m),
-            ("start.y_m", spec.start.y_m),
-            ("start.theta_deg", spec.start.theta_deg),
-        ] {
-            if !v.is_finite() {
-                return Err(invalid(file, k, format!("{v} is not a finite number")));
-            }
-        }
         spec.lidar.validate().map_err(|m| invalid(file, "lidar", m))?;
         let robot = spec.robot.resolve().map_err(|m| invalid(file, "robot", m))?;
         World::new(&spec.world).map_err(|m| invalid(file, "world", m))?;
-        let reference = Self::reference_of(&spec, file)?;
+        let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),
             spec,
             params,
             robot,
-            reference,
+            agents,
         })
     }
 
-    fn reference_of(spec: &ScenarioSpec, file: &str) -> Result<Option<ReferenceTrajectory>, ConfigError> {
-        let start = spec.reference_start.unwrap_or(spec.start).pose();
+    fn agents_of(spec: &ScenarioSpec, file: &str) -> Result<Vec<AgentPlan>, ConfigError> {
+        match ((spec.start, spec.nominal), spec.robots.is_empty()) {
+            ((Some(start), Some(nominal)), true) => Ok(vec![Self::agent(
+                file,
+                "",
+                String::new(),
+                start,
+                spec.reference_start,
+                nominal,
+            )?]),
+            ((None, None), false) => {
+                let mut names = std::collections::HashSet::new();
+                spec.robots
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| {
+                        let key = format!("robots[{i}]");
+                        let valid = !r.name.is_empty()
+                            && r.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                            && !r.name.starts_with(|c: char| c.is_ascii_digit());
+                        if !valid || !names.insert(r.name.clone()) {
+                            return Err(invalid(
+                                file,
+                                &format!("{key}.name"),
+                                format!("`{}` must be a unique ROS name (letters, digits, _)", r.name),
+                            ));
+                        }
+                        Self::agent(
+                            file,
+                            &format!("{key}."),
+                            r.name.clone(),
+                            r.start,
+                            r.reference_start,
+                            r.nominal,
+                        )
+                    })
+                    .collect()
+            }
+            _ => Err(invalid(
+                file,
+                "robots",
+                "give either `start` and `nominal` (one robot) or a non-empty `robots` list",
+            )),
+        }
+    }
+
+    fn agent(
+        file: &str,
+        prefix: &str,
+        name: String,
+        start: StartSpec,
+        reference_start: Option<StartSpec>,
+        nominal: NominalSpec,
+    ) -> Result<AgentPlan, ConfigError> {
         for (k, v) in [
-            ("reference_start.x_m", start.x),
-            ("reference_start.y_m", start.y),
-            ("reference_start.theta_deg", start.theta),
+            ("start.x_m", start.x_m),
+            ("start.y_m", start.y_m),
+            ("start.theta_deg", start.theta_deg),
         ] {
             if !v.is_finite() {
-                return Err(invalid(file, k, format!("{v} is not a finite number")));
+                return Err(invalid(
+                    file,
+                    &format!("{prefix}{k}"),
+                    format!("{v} is not a finite number"),
+                ));
             }
         }
-        let speed = |v: f64| check(file, "nominal.v_mps", v, 0.0, 5.0, "(0, 5] m/s");
+        let reference = Self::reference_of(nominal, reference_start.unwrap_or(start), file, prefix)?;
+        let constant = match nominal {
+            NominalSpec::Constant { v_mps, omega_radps } => Some(Twist::new(v_mps, omega_radps)),
+            _ => None,
+        };
+        Ok(AgentPlan {
+            name,
+            start: start.pose(),
+            reference,
+            constant,
+        })
+    }
+
+    fn reference_of(
+        nominal: NominalSpec,
+        start: StartSpec,
+        file: &str,
+        prefix: &str,
+    ) -> Result<Option<ReferenceTrajectory>, ConfigError> {
+        let key = |k: &str| format!("{prefix}{k}");
+        let invalid = |k: &str, m: String| invalid(file, &key(k), m);
+        let check = |k: &str, v: f64, lo: f64, hi: f64, allowed: &str| check(file, &key(k), v, lo, hi, allowed);
+        for (k, v) in [
+            ("reference_start.x_m", start.x_m),
+            ("reference_start.y_m", start.y_m),
+            ("reference_start.theta_deg", start.theta_deg),
+        ] {
+            if !v.is_finite() {
+                return Err(invalid(k, format!("{v} is not a finite number")));
+            }
+        }
+        let start = start.pose();
+        let speed = |v: f64| check("nominal.v_mps", v, 0.0, 5.0, "(0, 5] m/s");
         let turn = |w: f64| {
             if w.is_finite() && w.abs() <= 10.0 {
                 Ok(())
             } else {
                 Err(invalid(
-                    file,
                     "nominal.omega_radps",
                     format!("{w} is out of range; allowed: [-10, 10] rad/s"),
                 ))
             }
         };
-        Ok(match spec.nominal {
+        Ok(match nominal {
             NominalSpec::Line { v_mps, length_m } => {
                 speed(v_mps)?;
-                check(file, "nominal.length_m", length_m, 0.0, 10_000.0, "(0, 10000] m")?;
+                check("nominal.length_m", length_m, 0.0, 10_000.0, "(0, 10000] m")?;
                 Some(ReferenceTrajectory::line(start, v_mps, length_m))
             }
             NominalSpec::Circle {
@@ -208,12 +330,11 @@ impl Scenario {
                 turn(omega_radps)?;
                 if omega_radps == 0.0 {
                     return Err(invalid(
-                        file,
                         "nominal.omega_radps",
-                        "a circle needs a non-zero yaw rate",
+                        "a circle needs a non-zero yaw rate".into(),
                     ));
                 }
-                check(file, "nominal.laps", laps, 0.0, 1000.0, "(0, 1000]")?;
+                check("nominal.laps", laps, 0.0, 1000.0, "(0, 1000]")?;
                 Some(ReferenceTrajectory::circle(start, v_mps, omega_radps, laps))
             }
             NominalSpec::Reference {
@@ -223,7 +344,7 @@ impl Scenario {
             } => {
                 speed(v_mps)?;
                 turn(omega_radps)?;
-                check(file, "nominal.duration_s", duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
+                check("nominal.duration_s", duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
                 Some(ReferenceTrajectory {
                     start,
                     v_mps,
@@ -234,7 +355,6 @@ impl Scenario {
             NominalSpec::Constant { v_mps, omega_radps } => {
                 if !(v_mps.is_finite() && v_mps.abs() <= 5.0) {
                     return Err(invalid(
-                        file,
                         "nominal.v_mps",
                         format!("{v_mps} is out of range; allowed: [-5, 5] m/s"),
                     ));
@@ -243,14 +363,6 @@ impl Scenario {
                 None
             }
         })
-    }
-
-    /// The constant nominal command, for `kind: constant`.
-    pub fn constant_nominal(&self) -> Option<Twist> {
-        match self.spec.nominal {
-            NominalSpec::Constant { v_mps, omega_radps } => Some(Twist::new(v_mps, omega_radps)),
-            _ => None,
-        }
     }
 }
 
@@ -270,7 +382,8 @@ nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
     fn minimal_scenario_loads_with_defaults() {
         let s = Scenario::from_str(MINIMAL, "t.yaml", None).unwrap();
         assert_eq!(s.params, Params::default());
-        let r = s.reference.unwrap();
+        assert_eq!(s.agents.len(), 1);
+        let r = s.agents[0].reference.unwrap();
         assert!((r.duration_s - 1.0 / 0.15).abs() < 1e-12);
         assert_eq!(s.spec.seed, 1);
     }
@@ -292,8 +405,37 @@ nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
     #[test]
     fn reference_may_start_elsewhere() {
         let text = format!("{MINIMAL}reference_start: {{x_m: 1.0, y_m: 2.0, theta_deg: 90}}\n");
-        let r = Scenario::from_str(&text, "t.yaml", None).unwrap().reference.unwrap();
+        let r = Scenario::from_str(&text, "t.yaml", None).unwrap().agents[0]
+            .reference
+            .unwrap();
         assert!((r.goal().x - 1.0).abs() < 1e-12 && (r.goal().y - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn multi_robot_scenarios_name_their_robots() {
+        let text = "
+name: two
+duration_s: 10
+robot: {preset: turtlebot3_burger}
+robots:
+  - {name: robot1, start: {x_m: 0, y_m: 0}, nominal: {kind: line, v_mps: 0.15, length_m: 2}}
+  - {name: robot2, start: {x_m: 0, y_m: 2}, nominal: {kind: constant, v_mps: 0.1, omega_radps: 0}}
+";
+        let s = Scenario::from_str(text, "t.yaml", None).unwrap();
+        assert_eq!(s.agents.len(), 2);
+        assert_eq!(s.agents[1].name, "robot2");
+        assert_eq!(s.agents[1].constant, Some(Twist::new(0.1, 0.0)));
+        assert!(s.agents[0].reference.is_some() && s.agents[1].reference.is_none());
+        let dup = text.replace("name: robot2", "name: robot1");
+        let e = Scenario::from_str(&dup, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["robots[1].name"], "{e}");
+        let bad = text.replace("length_m: 2", "length_m: -2");
+        let e = Scenario::from_str(&bad, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["robots[0].nominal.length_m"], "{e}");
+        let both =
+            format!("{text}start: {{x_m: 0, y_m: 0}}\nnominal: {{kind: constant, v_mps: 0.1, omega_radps: 0}}\n");
+        let e = Scenario::from_str(&both, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["robots"], "{e}");
     }
 
     #[test]

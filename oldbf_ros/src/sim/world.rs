@@ -74,6 +74,9 @@ pub struct World {
     moving: Vec<MovingObstacle>,
     /// Moving discs at `time_s` (same order as `moving`).
     moving_now: Vec<Circle>,
+    /// Discs placed from outside (other robots in a multi-robot world), part
+    /// of every query until replaced.
+    agents: Vec<Circle>,
     time_s: f64,
     bounds: Option<(Vec2, Vec2)>,
 }
@@ -170,6 +173,7 @@ impl World {
             segments,
             circles,
             moving_now: Vec::with_capacity(moving.len()),
+            agents: Vec::new(),
             moving,
             time_s: 0.0,
             bounds,
@@ -228,6 +232,18 @@ impl World {
         self.moving_now.iter().copied()
     }
 
+    /// Replaces the externally placed discs (other robots, seen by the one
+    /// being queried). Allocates only while the buffer grows.
+    pub fn set_agents(&mut self, agents: impl Iterator<Item = Circle>) {
+        self.agents.clear();
+        self.agents.extend(agents);
+    }
+
+    /// The externally placed discs.
+    pub fn agents(&self) -> &[Circle] {
+        &self.agents
+    }
+
     /// Exact distance from `p` (m) to the nearest obstacle surface: segments,
     /// static circles and moving circles at the current time. Negative inside
     /// a circle (minus the penetration depth); `+inf` for an empty world.
@@ -236,7 +252,7 @@ impl World {
         for s in &self.segments {
             best = best.min(s.distance_to(p));
         }
-        for c in self.circles.iter().chain(&self.moving_now) {
+        for c in self.circles.iter().chain(&self.moving_now).chain(&self.agents) {
             best = best.min(c.signed_distance_to(p));
         }
         best
@@ -246,14 +262,19 @@ impl World {
     /// with `t < max_range_m`, `None` if nothing is hit that close. A ray
     /// starting inside a circle hits at 0.
     pub fn ray_cast(&self, origin: Vec2, dir_unit: Vec2, max_range_m: f64) -> Option<f64> {
-        ray_cast_shapes(
+        let hit = ray_cast_shapes(
             &self.segments,
             &self.circles,
             &self.moving_now,
             origin,
             dir_unit,
             max_range_m,
-        )
+        );
+        let agents = ray_cast_shapes(&[], &self.agents, &[], origin, dir_unit, max_range_m);
+        match (hit, agents) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
 
     /// Fills `scratch` with the shapes (static and moving, at the current
@@ -269,6 +290,7 @@ impl World {
             self.circles
                 .iter()
                 .chain(&self.moving_now)
+                .chain(&self.agents)
                 .filter(|c| c.signed_distance_to(origin) < max_range_m),
         );
     }
@@ -531,6 +553,19 @@ mod tests {
             name: None,
         }];
         assert!(World::new(&s).unwrap_err().starts_with("world.moving[0]: radius_m"));
+    }
+
+    #[test]
+    fn agents_are_seen_by_every_query_until_replaced() {
+        let mut w = World::new(&WorldSpec::default()).unwrap();
+        w.set_agents([Circle::new(v(2.0, 0.0), 0.5)].into_iter());
+        assert!((w.distance_to_nearest(v(0.0, 0.0)) - 1.5).abs() < 1e-12);
+        assert_eq!(w.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.5));
+        let mut scratch = ScanScratch::default();
+        w.prepare_scan(v(0.0, 0.0), 10.0, &mut scratch);
+        assert_eq!(scratch.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.5));
+        w.set_agents(std::iter::empty());
+        assert_eq!(w.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), None);
     }
 
     #[test]
