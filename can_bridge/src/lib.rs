@@ -1,1 +1,40 @@
-//! CAN motor bridge (issue 4).
+//! can_bridge: a velocity command (twist) → differential-drive wheel speeds
+//! → CAN frames for a motor drive, with the safety rules of issue 4:
+//! periodic transmission, command watchdog, latched e-stop, drive heartbeat
+//! and feedback monitoring, bus error handling, bounded transmit queue, and
+//! odometry from wheel feedback.
+//!
+//! The core is pure: no socketcan import outside `socketcan_bus.rs`, and
+//! time is an argument. Adapters (the `can_bridge_cli` binary here, the ROS
+//! node later) own a [`bridge::Bridge`], feed it commands and call
+//! [`bridge::Bridge::spin_once`] in a loop.
+//!
+//! One concept per file:
+//! [`kinematics`], [`limits`], [`protocol`] (trait, [`protocol::generic`],
+//! [`protocol::odrive`]), [`bus`] (frames, the [`bus::CanBus`] trait),
+//! [`fake_bus`], `socketcan_bus` (feature `socketcan`), [`tx_queue`],
+//! [`bridge`], [`odometry`], [`config`], [`diagnostics`], [`virtual_drive`],
+//! [`script`] (the CLI's command scripts), [`time`].
+
+pub mod bridge;
+pub mod bus;
+pub mod config;
+pub mod diagnostics;
+pub mod fake_bus;
+pub mod kinematics;
+pub mod limits;
+pub mod odometry;
+pub mod protocol;
+pub mod script;
+#[cfg(feature = "socketcan")]
+pub mod socketcan_bus;
+pub mod time;
+pub mod tx_queue;
+pub mod virtual_drive;
+
+pub use bridge::Bridge;
+pub use bus::{BusEvent, CanBus, CanErrorFrame, CanFrame, RxFilter, SendError};
+pub use config::BridgeConfig;
+pub use kinematics::{DiffDrive, MotorSpeeds, Twist, Wheel, WheelSpeeds};
+pub use protocol::{Protocol, ProtocolKind};
+pub use time::{Clock, ManualClock, MonotonicClock, Timestamp};

@@ -1,0 +1,436 @@
+//! The bridge's configuration (`config/can_bridge.yaml`), parsed strictly.
+//!
+//! Unknown keys, wrong types and missing keys are errors naming the file and
+//! the dotted key; then every value is range-checked and the message gives
+//! the allowed range, as `oldbf_ros` does for its parameters. The shipped
+//! file is embedded as the defaults, so the binaries run from any directory.
+
+use crate::kinematics::DiffDrive;
+use crate::protocol::generic::{GenericProtocol, MAX_BASE_ID, VEL_LIMIT_RADPS};
+use crate::protocol::odrive::{OdriveProtocol, MAX_NODE_ID};
+use crate::protocol::{Protocol, ProtocolKind};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::Path;
+use std::time::Duration;
+
+/// The shipped configuration.
+pub const DEFAULT_CONFIG_YAML: &str = include_str!("../../config/can_bridge.yaml");
+/// How the embedded defaults are named in messages.
+pub const DEFAULT_CONFIG_NAME: &str = "config/can_bridge.yaml (built-in)";
+
+/// Everything the bridge needs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BridgeConfig {
+    /// SocketCAN interface name.
+    pub interface: String,
+    /// Drive protocol.
+    pub protocol: ProtocolKind,
+    pub timing: TimingConfig,
+    pub kinematics: KinematicsConfig,
+    pub limits: LimitsConfig,
+    pub generic: GenericConfig,
+    pub odrive: OdriveConfig,
+}
+
+/// Rates and timeouts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimingConfig {
+    /// Setpoint transmission rate (Hz).
+    pub tx_rate_hz: f64,
+    /// Commands older than this give zero setpoints (s).
+    pub cmd_timeout_s: f64,
+    /// Wheel feedback older than this stops the robot (s).
+    pub feedback_timeout_s: f64,
+    /// Heartbeat/status older than this stops the robot (s).
+    pub heartbeat_timeout_s: f64,
+    /// Time the drive gets to report running after the start-up sequence (s).
+    pub startup_timeout_s: f64,
+    /// Quiet time after a bus error before motion may resume (s).
+    pub bus_recovery_s: f64,
+}
+
+/// Differential-drive geometry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicsConfig {
+    pub wheel_separation_m: f64,
+    pub wheel_radius_m: f64,
+    pub gear_ratio: f64,
+    /// +1 or −1.
+    pub left_direction: i32,
+    /// +1 or −1.
+    pub right_direction: i32,
+}
+
+/// Limits enforced on every command.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LimitsConfig {
+    pub v_max_mps: f64,
+    pub omega_max_radps: f64,
+    /// At the wheel (rad/s).
+    pub max_wheel_speed_radps: f64,
+    /// At the wheel (rad/s²).
+    pub wheel_accel_radps2: f64,
+    /// At the wheel (rad/s²).
+    pub wheel_decel_radps2: f64,
+}
+
+/// Generic protocol settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GenericConfig {
+    pub base_id: u32,
+}
+
+/// ODrive settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OdriveConfig {
+    pub left_node_id: u32,
+    pub right_node_id: u32,
+    pub torque_ff_nm: f64,
+}
+
+impl BridgeConfig {
+    /// The kinematics these values describe.
+    pub fn diff_drive(&self) -> DiffDrive {
+        let k = &self.kinematics;
+        DiffDrive {
+            wheel_separation_m: k.wheel_separation_m,
+            wheel_radius_m: k.wheel_radius_m,
+            gear_ratio: k.gear_ratio,
+            left_direction: f64::from(k.left_direction.signum()),
+            right_direction: f64::from(k.right_direction.signum()),
+        }
+    }
+
+    /// 1 / tx_rate_hz.
+    pub fn tx_period(&self) -> Duration {
+        Duration::from_secs_f64(1.0 / self.timing.tx_rate_hz)
+    }
+
+    /// The selected protocol's bridge side.
+    pub fn make_protocol(&self) -> Box<dyn Protocol> {
+        match self.protocol {
+            ProtocolKind::Generic => Box::new(GenericProtocol::new(self.generic.base_id)),
+            ProtocolKind::Odrive => Box::new(OdriveProtocol::new(
+                self.odrive.left_node_id,
+                self.odrive.right_node_id,
+                self.odrive.torque_ff_nm,
+            )),
+        }
+    }
+
+    /// Every out-of-range value, each naming its key; empty when valid.
+    pub fn validate(&self) -> Result<(), Vec<RangeError>> {
+        let mut c = Check { errors: Vec::new() };
+        let name = &self.interface;
+        c.rule(
+            !name.is_empty() && name.len() <= 15 && !name.contains('/') && !name.chars().any(char::is_whitespace),
+            "interface",
+            format!("{name:?}"),
+            "1-15 characters, no '/' or whitespace",
+        );
+        let t = &self.timing;
+        c.range("timing.tx_rate_hz", t.tx_rate_hz, "(0, 1000] Hz");
+        c.range("timing.cmd_timeout_s", t.cmd_timeout_s, "(0, 10] s");
+        if t.tx_rate_hz.is_finite() && t.tx_rate_hz > 0.0 {
+            c.rule(
+                t.cmd_timeout_s.is_nan() || t.cmd_timeout_s >= 1.0 / t.tx_rate_hz,
+                "timing.cmd_timeout_s",
+                format!("{}", t.cmd_timeout_s),
+                "at least one tx period, 1/timing.tx_rate_hz",
+            );
+        }
+        c.range("timing.feedback_timeout_s", t.feedback_timeout_s, "(0, 10] s");
+        c.range("timing.heartbeat_timeout_s", t.heartbeat_timeout_s, "(0, 10] s");
+        c.range("timing.startup_timeout_s", t.startup_timeout_s, "(0, 60] s");
+        c.range("timing.bus_recovery_s", t.bus_recovery_s, "[0, 60] s");
+
+        let k = &self.kinematics;
+        c.range("kinematics.wheel_separation_m", k.wheel_separation_m, "(0, 10] m");
+        c.range("kinematics.wheel_radius_m", k.wheel_radius_m, "(0, 5] m");
+        c.range("kinematics.gear_ratio", k.gear_ratio, "(0, 1000]");
+        for (key, v) in [
+            ("kinematics.left_direction", k.left_direction),
+            ("kinematics.right_direction", k.right_direction),
+        ] {
+            c.rule(v == 1 || v == -1, key, format!("{v}"), "-1 or 1");
+        }
+
+        let l = &self.limits;
+        c.range("limits.v_max_mps", l.v_max_mps, "(0, 20] m/s");
+        c.range("limits.omega_max_radps", l.omega_max_radps, "(0, 50] rad/s");
+        c.range("limits.max_wheel_speed_radps", l.max_wheel_speed_radps, "(0, 2000] rad/s");
+        c.range("limits.wheel_accel_radps2", l.wheel_accel_radps2, "(0, 100000] rad/s²");
+        c.range("limits.wheel_decel_radps2", l.wheel_decel_radps2, "(0, 100000] rad/s²");
+        if self.protocol == ProtocolKind::Generic {
+            let motor_max = l.max_wheel_speed_radps * k.gear_ratio;
+            c.rule(
+                motor_max.is_nan() || motor_max <= VEL_LIMIT_RADPS,
+                "limits.max_wheel_speed_radps",
+                format!("{}", l.max_wheel_speed_radps),
+                "times kinematics.gear_ratio at most 21474.83647 rad/s (the generic Vel_Cmd range)",
+            );
+        }
+
+        c.rule(
+            self.generic.base_id <= MAX_BASE_ID,
+            "generic.base_id",
+            format!("0x{:X}", self.generic.base_id),
+            "[0, 0x7ED] (base + 0x12 must be a standard id)",
+        );
+        let o = &self.odrive;
+        for (key, v) in [("odrive.left_node_id", o.left_node_id), ("odrive.right_node_id", o.right_node_id)] {
+            c.rule(v <= MAX_NODE_ID, key, format!("{v}"), "[0, 63]");
+        }
+        c.rule(
+            o.left_node_id != o.right_node_id,
+            "odrive.right_node_id",
+            format!("{}", o.right_node_id),
+            "different from odrive.left_node_id",
+        );
+        c.range("odrive.torque_ff_nm", o.torque_ff_nm, "[-100, 100] Nm");
+        if c.errors.is_empty() {
+            Ok(())
+        } else {
+            Err(c.errors)
+        }
+    }
+}
+
+/// A value outside its allowed range.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RangeError {
+    /// Dotted key, as in the YAML file.
+    pub key: &'static str,
+    /// The offending value, printed.
+    pub value: String,
+    /// The allowed range or rule.
+    pub allowed: &'static str,
+}
+
+impl fmt::Display for RangeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "key `{}` = {} is out of range; allowed: {}",
+            self.key, self.value, self.allowed
+        )
+    }
+}
+
+/// Parses `(0, 1]` or `[-5, 5] m` into (lo, lo_open, hi, hi_open).
+fn parse_interval(allowed: &str) -> Option<(f64, bool, f64, bool)> {
+    let lo_open = allowed.starts_with('(');
+    let close = allowed.find([']', ')'])?;
+    let hi_open = allowed[close..].starts_with(')');
+    let (lo, hi) = allowed[1..close].split_once(',')?;
+    Some((lo.trim().parse().ok()?, lo_open, hi.trim().parse().ok()?, hi_open))
+}
+
+struct Check {
+    errors: Vec<RangeError>,
+}
+
+impl Check {
+    /// `allowed` is both the message and what is checked.
+    fn range(&mut self, key: &'static str, v: f64, allowed: &'static str) {
+        let (lo, lo_open, hi, hi_open) = parse_interval(allowed).expect("interval literal is well formed");
+        let ok = v.is_finite() && (if lo_open { v > lo } else { v >= lo }) && (if hi_open { v < hi } else { v <= hi });
+        self.rule(ok, key, format!("{v}"), allowed);
+    }
+
+    fn rule(&mut self, ok: bool, key: &'static str, value: String, allowed: &'static str) {
+        if !ok {
+            self.errors.push(RangeError { key, value, allowed });
+        }
+    }
+}
+
+/// A configuration problem, naming the file and, where there is one, the key.
+#[derive(Debug)]
+pub enum ConfigError {
+    /// The file could not be read.
+    Io { file: String, error: std::io::Error },
+    /// Not YAML, a wrong type, an unknown or a missing key.
+    Parse { file: String, key: String, message: String },
+    /// Values outside their allowed ranges.
+    Range { file: String, errors: Vec<RangeError> },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Io { file, error } => write!(f, "{file}: cannot read: {error}"),
+            Self::Parse { file, key, message } if key.is_empty() || key == "." => write!(f, "{file}: {message}"),
+            Self::Parse { file, key, message } => write!(f, "{file}: key `{key}`: {message}"),
+            Self::Range { file, errors } => {
+                for (i, e) in errors.iter().enumerate() {
+                    if i > 0 {
+                        writeln!(f)?;
+                    }
+                    write!(f, "{file}: {e}")?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl ConfigError {
+    /// The keys this error is about.
+    pub fn keys(&self) -> Vec<String> {
+        match self {
+            Self::Io { .. } => vec![],
+            Self::Parse { key, .. } => vec![key.clone()],
+            Self::Range { errors, .. } => errors.iter().map(|e| e.key.to_string()).collect(),
+        }
+    }
+}
+
+/// Validated configuration from YAML text; `file` names it in messages.
+pub fn load_config_str(text: &str, file: &str) -> Result<BridgeConfig, ConfigError> {
+    let value: serde_yaml::Value = serde_yaml::from_str(text).map_err(|e| ConfigError::Parse {
+        file: file.to_string(),
+        key: String::new(),
+        message: e.to_string(),
+    })?;
+    let cfg: BridgeConfig = serde_path_to_error::deserialize(value).map_err(|e| ConfigError::Parse {
+        file: file.to_string(),
+        key: e.path().to_string(),
+        message: e.into_inner().to_string(),
+    })?;
+    cfg.validate().map_err(|errors| ConfigError::Range {
+        file: file.to_string(),
+        errors,
+    })?;
+    Ok(cfg)
+}
+
+/// Validated configuration from a file.
+pub fn load_config_file(path: &Path) -> Result<BridgeConfig, ConfigError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
+        file: file.clone(),
+        error,
+    })?;
+    load_config_str(&text, &file)
+}
+
+/// The shipped defaults.
+pub fn default_config() -> BridgeConfig {
+    load_config_str(DEFAULT_CONFIG_YAML, DEFAULT_CONFIG_NAME).expect("the shipped config/can_bridge.yaml is valid (tested)")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(key: &str, value: &str) -> String {
+        let mut v: serde_yaml::Value = serde_yaml::from_str(DEFAULT_CONFIG_YAML).unwrap();
+        let mut slot = &mut v;
+        for k in key.split('.') {
+            slot = slot.get_mut(k).unwrap_or_else(|| panic!("no key {k}"));
+        }
+        *slot = serde_yaml::from_str(value).unwrap();
+        serde_yaml::to_string(&v).unwrap()
+    }
+
+    #[test]
+    fn shipped_file_is_valid_and_documented() {
+        let c = default_config();
+        assert_eq!(c.interface, "vcan0");
+        assert_eq!(c.protocol, ProtocolKind::Generic);
+        assert_eq!(c.generic.base_id, 0x100, "hex in YAML");
+        assert_eq!(c.tx_period(), Duration::from_millis(20));
+        assert_eq!(c.diff_drive().right_direction, -1.0);
+        // Every leaf key's own line ends its comment with the allowed range:
+        // an interval like `(0, 10]`, or alternatives (`-1 or 1`, `a | b`).
+        let has_interval = |c: &str| {
+            c.find(['[', '(']).is_some_and(|i| {
+                let rest = &c[i..];
+                rest.find(',').is_some_and(|j| rest[j..].contains([']', ')']))
+            })
+        };
+        let mut leaves = 0;
+        for line in DEFAULT_CONFIG_YAML.lines() {
+            let l = line.trim_start();
+            if l.starts_with('#') || l.is_empty() || l.ends_with(':') {
+                continue;
+            }
+            leaves += 1;
+            let (_, comment) = l.split_once('#').unwrap_or_else(|| panic!("no comment: {line}"));
+            assert!(
+                has_interval(comment) || comment.contains(" or ") || comment.contains(" | "),
+                "no range: {line}"
+            );
+        }
+        assert_eq!(leaves, 22, "every key of BridgeConfig is in the shipped file");
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let text = DEFAULT_CONFIG_YAML.replace("  gear_ratio: 1.0", "  gear_ratio: 1.0\n  gear_ration: 2");
+        let e = load_config_str(&text, "my.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["kinematics.gear_ration"], "{e}");
+        assert!(e.to_string().starts_with("my.yaml: key `kinematics.gear_ration`: unknown field"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_and_bad_enum_are_named() {
+        let e = load_config_str(&with("timing.tx_rate_hz", "\"fast\""), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["timing.tx_rate_hz"], "{e}");
+        let e = load_config_str(&with("protocol", "canopen"), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["protocol"], "{e}");
+        assert!(e.to_string().contains("generic") && e.to_string().contains("odrive"), "{e}");
+    }
+
+    #[test]
+    fn missing_key_is_named() {
+        let text = DEFAULT_CONFIG_YAML.replace("  cmd_timeout_s: 0.5", "");
+        let e = load_config_str(&text, "f.yaml").unwrap_err();
+        assert!(e.to_string().contains("missing field `cmd_timeout_s`"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_messages_give_the_range() {
+        let e = load_config_str(&with("timing.tx_rate_hz", "0"), "f.yaml").unwrap_err();
+        assert_eq!(
+            e.to_string().lines().next().unwrap(),
+            "f.yaml: key `timing.tx_rate_hz` = 0 is out of range; allowed: (0, 1000] Hz"
+        );
+        let e = load_config_str(&with("kinematics.left_direction", "0"), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["kinematics.left_direction"]);
+        let e = load_config_str(&with("timing.cmd_timeout_s", "0.01"), "f.yaml").unwrap_err();
+        assert!(e.to_string().contains("at least one tx period"), "{e}");
+        let e = load_config_str(&with("generic.base_id", "0x7F0"), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["generic.base_id"]);
+        let e = load_config_str(&with("odrive.right_node_id", "0"), "f.yaml").unwrap_err();
+        assert!(e.to_string().contains("different from odrive.left_node_id"), "{e}");
+        let e = load_config_str(&with("odrive.left_node_id", "64"), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["odrive.left_node_id"]);
+        let e = load_config_str(&with("limits.v_max_mps", ".nan"), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["limits.v_max_mps"]);
+        let e = load_config_str(&with("interface", "\"can 0\""), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["interface"]);
+        // The generic i32 field must hold max wheel speed × gear (100 × 1000 > 21474.8).
+        let text = with("kinematics.gear_ratio", "1000").replace("max_wheel_speed_radps: 7.0", "max_wheel_speed_radps: 100.0");
+        let e = load_config_str(&text, "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
+        let text = text.replace("protocol: generic", "protocol: odrive");
+        assert!(load_config_str(&text, "f.yaml").is_ok(), "floats on ODrive have the range");
+    }
+
+    #[test]
+    fn missing_file_is_named() {
+        let e = load_config_file(Path::new("/nonexistent/can_bridge.yaml")).unwrap_err();
+        assert!(e.to_string().starts_with("/nonexistent/can_bridge.yaml: cannot read"), "{e}");
+    }
+}

@@ -1,0 +1,232 @@
+//! Drive protocols: how setpoints become frames and frames become drive state.
+//!
+//! A [`Protocol`] is the bridge's side of one drive protocol. It knows the
+//! frame layouts and the drive's start-up, e-stop and shutdown sequences,
+//! and decodes what the drive sends into protocol-neutral
+//! [`DriveMessage`]s. It holds no timing or safety policy: that is
+//! [`crate::bridge::Bridge`]'s job. The same modules also hold the drive's
+//! side of each layout, used by [`crate::virtual_drive`].
+
+pub mod generic;
+pub mod odrive;
+
+use crate::bus::{CanFrame, RxFilter};
+use crate::kinematics::{MotorSpeeds, Wheel};
+use serde::{Deserialize, Serialize};
+
+/// Which protocol a configuration selects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProtocolKind {
+    /// Our own layout (`can_bridge/dbc/oldbf_generic.dbc`).
+    Generic,
+    /// ODrive CANSimple, one node per wheel.
+    Odrive,
+}
+
+impl ProtocolKind {
+    /// `generic` or `odrive`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ProtocolKind::Generic => "generic",
+            ProtocolKind::Odrive => "odrive",
+        }
+    }
+}
+
+impl std::str::FromStr for ProtocolKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "generic" => Ok(ProtocolKind::Generic),
+            "odrive" => Ok(ProtocolKind::Odrive),
+            _ => Err(format!("unknown protocol `{s}`; allowed: generic, odrive")),
+        }
+    }
+}
+
+/// The most frames one call produces (ODrive start-up: 4 per node).
+pub const FRAME_BATCH_CAPACITY: usize = 8;
+
+/// A fixed-capacity list of frames (no allocation per period).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameBatch {
+    frames: [CanFrame; FRAME_BATCH_CAPACITY],
+    len: usize,
+}
+
+impl Default for FrameBatch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameBatch {
+    /// Empty.
+    pub fn new() -> Self {
+        const EMPTY: CanFrame = CanFrame {
+            id: 0,
+            extended: false,
+            data: [0; 8],
+            len: 0,
+        };
+        Self {
+            frames: [EMPTY; FRAME_BATCH_CAPACITY],
+            len: 0,
+        }
+    }
+
+    /// Appends a frame. Protocols never produce more than the capacity; a
+    /// bug that tries is caught by tests (debug assertion) and the frame is
+    /// dropped rather than panicking in a release build.
+    pub fn push(&mut self, f: CanFrame) {
+        debug_assert!(self.len < FRAME_BATCH_CAPACITY, "FrameBatch overflow");
+        if self.len < FRAME_BATCH_CAPACITY {
+            self.frames[self.len] = f;
+            self.len += 1;
+        }
+    }
+
+    /// The frames, in order.
+    pub fn as_slice(&self) -> &[CanFrame] {
+        &self.frames[..self.len]
+    }
+
+    /// Number of frames.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// No frames.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Removes every frame.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// What the setpoint frames of one period ask of the drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetpointMode {
+    /// Follow the given motor speeds.
+    Run,
+    /// Stay enabled, at zero speed (stops caused by the command: none, timed
+    /// out, awaiting a fresh one; and faults where the drive may still listen).
+    Hold,
+    /// E-stop asserted (latched in the bridge).
+    Estop,
+}
+
+/// Which wheels a status message speaks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wheels {
+    One(Wheel),
+    /// One drive controls both (generic protocol).
+    Both,
+}
+
+impl Wheels {
+    /// Whether `w` is covered.
+    pub fn covers(self, w: Wheel) -> bool {
+        match self {
+            Wheels::One(x) => x == w,
+            Wheels::Both => true,
+        }
+    }
+}
+
+/// A decoded message from the drive, protocol-neutral.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DriveMessage {
+    /// Heartbeat / status.
+    Status {
+        wheels: Wheels,
+        /// Drive error bits; 0 = none (ODrive Axis_Error, generic Error_Code).
+        error_code: u32,
+        /// The drive follows velocity setpoints (ODrive CLOSED_LOOP_CONTROL,
+        /// generic ENABLED).
+        running: bool,
+        /// The drive itself is in e-stop (generic state ESTOP).
+        estopped: bool,
+        /// The raw state value, for reports.
+        raw_state: u8,
+    },
+    /// Measured motor position and speed of one wheel.
+    Feedback {
+        wheel: Wheel,
+        /// Motor shaft angle (rad), possibly wrapping: see [`Protocol::position_modulus_rad`].
+        motor_pos_rad: f64,
+        /// Motor shaft speed (rad/s).
+        motor_vel_radps: f64,
+    },
+}
+
+/// A frame from a drive id that could not be accepted.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    #[error("id 0x{id:X}: {len} data bytes, expected {expected}")]
+    Length { id: u32, len: u8, expected: u8 },
+    #[error("id 0x{id:X}: checksum 0x{got:02X}, expected 0x{expected:02X}")]
+    Checksum { id: u32, got: u8, expected: u8 },
+    #[error("id 0x{id:X}: non-finite value")]
+    NonFinite { id: u32 },
+    #[error("id 0x{id:X}: counter {counter} repeated (frozen sender)")]
+    Frozen { id: u32, counter: u8 },
+    #[error("id 0x{id:X}: invalid field: {what}")]
+    Invalid { id: u32, what: &'static str },
+}
+
+/// The bridge's side of a drive protocol.
+pub trait Protocol: Send {
+    /// `generic` or `odrive`.
+    fn kind(&self) -> ProtocolKind;
+
+    /// Exactly the ids the drive(s) send that this protocol decodes; the bus
+    /// receives nothing else (error frames aside).
+    fn rx_filters(&self) -> Vec<RxFilter>;
+
+    /// Frames that take the drive from any non-error state to following
+    /// velocity setpoints, in the order they must be sent.
+    fn startup(&mut self, out: &mut FrameBatch);
+
+    /// One period's setpoint frames. `motor` is ignored unless `mode` is
+    /// [`SetpointMode::Run`]; a non-finite speed is sent as zero.
+    fn setpoints(&mut self, motor: MotorSpeeds, mode: SetpointMode, out: &mut FrameBatch);
+
+    /// Frames that stop the drive for good: zero, then disable.
+    fn shutdown(&mut self, out: &mut FrameBatch);
+
+    /// Decodes a received frame: `Ok(None)` if the id is not one of ours.
+    fn decode(&mut self, frame: &CanFrame) -> Result<Option<DriveMessage>, DecodeError>;
+
+    /// `Some(m)` if feedback positions wrap modulo `m` radians.
+    fn position_modulus_rad(&self) -> Option<f64>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batch_keeps_order_and_clears() {
+        let mut b = FrameBatch::new();
+        assert!(b.is_empty());
+        for i in 0..3 {
+            b.push(CanFrame::standard(i, &[]).unwrap());
+        }
+        assert_eq!(b.len(), 3);
+        assert_eq!(b.as_slice()[2].id, 2);
+        b.clear();
+        assert!(b.is_empty());
+    }
+
+    #[test]
+    fn protocol_names_parse() {
+        assert_eq!("odrive".parse::<ProtocolKind>(), Ok(ProtocolKind::Odrive));
+        assert_eq!("generic".parse::<ProtocolKind>().unwrap().name(), "generic");
+        assert!("canopen".parse::<ProtocolKind>().is_err());
+    }
+}

@@ -1,0 +1,146 @@
+//! The command language of `can_bridge_cli`: one action per line, typed on
+//! stdin or listed with times in a script file.
+//!
+//! ```text
+//! 0.2 0.5          twist: v (m/s) and ω (rad/s); `twist 0.2 0.5` is the same
+//! estop            latch the e-stop
+//! reset            clear e-stop and latched drive faults
+//! status           print a status line now
+//! quit             shut the drive down (zero, then disable) and exit
+//! # comment        blank lines and comments are ignored
+//! ```
+//!
+//! A script line starts with its time in seconds from the start:
+//! `1.5 0.2 0.0`, `3 estop`, and a command stream (a teleop at 1/DT Hz):
+//! `T V W every DT until T_END`. NaN and infinities parse, so garbage
+//! commands can be scripted (the bridge rejects them).
+
+use crate::kinematics::Twist;
+
+/// Largest number of steps one `every` line may expand to.
+pub const MAX_EXPANDED_STEPS: usize = 1_000_000;
+
+/// What a line asks for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    Twist(Twist),
+    Estop,
+    Reset,
+    Status,
+    Quit,
+}
+
+/// An action at a time (s from the start).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScriptStep {
+    pub at_s: f64,
+    pub action: Action,
+}
+
+fn num(s: &str, what: &str) -> Result<f64, String> {
+    s.parse::<f64>().map_err(|_| format!("{what} `{s}` is not a number"))
+}
+
+fn parse_words(words: &[&str]) -> Result<Action, String> {
+    match words {
+        ["estop"] => Ok(Action::Estop),
+        ["reset"] => Ok(Action::Reset),
+        ["status"] => Ok(Action::Status),
+        ["quit"] | ["exit"] => Ok(Action::Quit),
+        ["twist", v, w] | [v, w] => Ok(Action::Twist(Twist::new(num(v, "v")?, num(w, "omega")?))),
+        _ => Err(format!(
+            "cannot parse `{}`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit",
+            words.join(" ")
+        )),
+    }
+}
+
+fn content(line: &str) -> Vec<&str> {
+    let line = line.split('#').next().unwrap_or_default();
+    line.split_whitespace().collect()
+}
+
+/// One interactive line; `Ok(None)` for blank lines and comments.
+pub fn parse_action(line: &str) -> Result<Option<Action>, String> {
+    let words = content(line);
+    if words.is_empty() {
+        return Ok(None);
+    }
+    parse_words(&words).map(Some)
+}
+
+/// A whole script, `every` lines expanded, sorted by time (stable for equal times).
+pub fn parse_script(text: &str) -> Result<Vec<ScriptStep>, String> {
+    let mut steps = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let err = |m: String| format!("line {}: {m}", i + 1);
+        let words = content(line);
+        let Some((t, rest)) = words.split_first() else {
+            continue;
+        };
+        let at = num(t, "time").map_err(err)?;
+        if !(at.is_finite() && at >= 0.0) {
+            return Err(err(format!("time {at} must be a non-negative number")));
+        }
+        if let [v, w, "every", dt, "until", end] = rest {
+            let action = parse_words(&[v, w]).map_err(err)?;
+            let (dt, end) = (num(dt, "period").map_err(err)?, num(end, "end time").map_err(err)?);
+            if !(dt.is_finite() && dt > 0.0 && end.is_finite()) {
+                return Err(err("`every` needs a positive period and a finite end".into()));
+            }
+            let n = ((end - at) / dt).ceil().max(0.0);
+            if n > MAX_EXPANDED_STEPS as f64 {
+                return Err(err(format!("`every` expands to more than {MAX_EXPANDED_STEPS} steps")));
+            }
+            for k in 0..n as usize {
+                let t_k = at + k as f64 * dt;
+                if t_k < end {
+                    steps.push(ScriptStep { at_s: t_k, action });
+                }
+            }
+        } else {
+            let action = parse_words(rest).map_err(err)?;
+            steps.push(ScriptStep { at_s: at, action });
+        }
+    }
+    steps.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    Ok(steps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interactive_lines() {
+        assert_eq!(parse_action("0.2 0.5").unwrap(), Some(Action::Twist(Twist::new(0.2, 0.5))));
+        assert_eq!(parse_action("twist -0.1 0").unwrap(), Some(Action::Twist(Twist::new(-0.1, 0.0))));
+        assert_eq!(parse_action("  estop  # now").unwrap(), Some(Action::Estop));
+        assert_eq!(parse_action("# nothing").unwrap(), None);
+        assert_eq!(parse_action("").unwrap(), None);
+        match parse_action("NaN inf").unwrap() {
+            Some(Action::Twist(t)) => assert!(t.linear_mps.is_nan() && t.angular_radps.is_infinite()),
+            a => panic!("{a:?}"),
+        }
+        assert!(parse_action("go fast").is_err());
+        assert!(parse_action("0.2").is_err());
+    }
+
+    #[test]
+    fn scripts_expand_and_sort() {
+        let s = parse_script("# demo\n1.0 estop\n0 0.2 0.0 every 0.25 until 1.0\n2 reset\n").unwrap();
+        let times: Vec<f64> = s.iter().map(|x| x.at_s).collect();
+        assert_eq!(times, [0.0, 0.25, 0.5, 0.75, 1.0, 2.0]);
+        assert_eq!(s[4].action, Action::Estop);
+        assert_eq!(s[5].action, Action::Reset);
+    }
+
+    #[test]
+    fn script_errors_name_the_line() {
+        let e = parse_script("0 estop\nx 0.1 0.1\n").unwrap_err();
+        assert!(e.starts_with("line 2:"), "{e}");
+        assert!(parse_script("-1 estop").is_err());
+        assert!(parse_script("0 0.1 0.1 every 0 until 1").is_err());
+        assert!(parse_script("0 0.1 0.1 every 1e-9 until 1e9").is_err());
+    }
+}
