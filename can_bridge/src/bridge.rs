@@ -33,9 +33,7 @@
 
 use crate::bus::{BusError, BusEvent, CanBus, CanErrorFrame, ErrorSeverity};
 use crate::config::{BridgeConfig, RangeError};
-use crate::diagnostics::{
-    BridgeEvent, BridgeState, BridgeStatus, Counters, DriveLinkStatus, StopReason, TimedEvent,
-};
+use crate::diagnostics::{BridgeEvent, BridgeState, BridgeStatus, Counters, DriveLinkStatus, StopReason, TimedEvent};
 use crate::kinematics::{DiffDrive, MotorSpeeds, Twist, Wheel, WheelSpeeds};
 use crate::limits::{clamp_twist, saturate_wheels, RampLimiter};
 use crate::odometry::Odometry;
@@ -114,8 +112,8 @@ enum BusFaultKind {
 struct BusFault {
     kind: BusFaultKind,
     description: String,
-    last_fatal: Timestamp,
-    back: bool,
+    /// First evidence, after the last fatal error, that the bus carries frames again.
+    back_since: Option<Timestamp>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -312,8 +310,8 @@ impl<B: CanBus> Bridge<B> {
                 self.counters.rx_frames += 1;
                 match self.protocol.decode(&f) {
                     Ok(Some(msg)) => {
-                        self.bus_traffic_seen(BusFaultKind::ErrorFrame);
-                        self.bus_traffic_seen(BusFaultKind::Io);
+                        self.bus_traffic_seen(BusFaultKind::ErrorFrame, now);
+                        self.bus_traffic_seen(BusFaultKind::Io, now);
                         self.on_drive_message(msg, now);
                     }
                     Ok(None) => self.counters.rx_ignored += 1,
@@ -531,8 +529,7 @@ impl<B: CanBus> Bridge<B> {
                 self.bus_fault = Some(BusFault {
                     kind: BusFaultKind::ErrorFrame,
                     description,
-                    last_fatal: now,
-                    back: false,
+                    back_since: None,
                 });
                 self.phase = Phase::Down;
             }
@@ -544,9 +541,7 @@ impl<B: CanBus> Bridge<B> {
                         fatal: false,
                     },
                 );
-                if let Some(bf) = &mut self.bus_fault {
-                    bf.back = true;
-                }
+                self.bus_traffic_seen(BusFaultKind::ErrorFrame, now);
             }
             ErrorSeverity::Warning => {
                 let due = self
@@ -581,24 +576,25 @@ impl<B: CanBus> Bridge<B> {
         self.bus_fault = Some(BusFault {
             kind: BusFaultKind::Io,
             description: e.0,
-            last_fatal: now,
-            back: false,
+            back_since: None,
         });
         self.phase = Phase::Down;
     }
 
-    fn bus_traffic_seen(&mut self, kind: BusFaultKind) {
+    fn bus_traffic_seen(&mut self, kind: BusFaultKind, now: Timestamp) {
         if let Some(bf) = &mut self.bus_fault {
-            if bf.kind == kind {
-                bf.back = true;
+            if bf.kind == kind && bf.back_since.is_none() {
+                bf.back_since = Some(now);
             }
         }
     }
 
+    /// Clears a bus fault once the bus has been back for bus_recovery_s
+    /// without another fatal error (a fatal error resets `back_since`).
     fn update_bus_fault(&mut self, now: Timestamp) {
         let recovery = Duration::from_secs_f64(self.cfg.timing.bus_recovery_s);
         if let Some(bf) = &self.bus_fault {
-            if bf.back && now - bf.last_fatal >= recovery {
+            if bf.back_since.is_some_and(|b| now - b >= recovery) {
                 self.bus_fault = None;
                 self.phase = Phase::Down;
                 self.push_event(now, BridgeEvent::BusRecovered);
@@ -810,7 +806,7 @@ impl<B: CanBus> Bridge<B> {
         if r.sent > 0 {
             self.last_tx_ok = now;
             self.tx_full_episode = false;
-            self.bus_traffic_seen(BusFaultKind::Io);
+            self.bus_traffic_seen(BusFaultKind::Io, now);
         }
         if r.queue_full {
             self.counters.tx_queue_full += 1;

@@ -165,7 +165,11 @@ impl BridgeConfig {
         let l = &self.limits;
         c.range("limits.v_max_mps", l.v_max_mps, "(0, 20] m/s");
         c.range("limits.omega_max_radps", l.omega_max_radps, "(0, 50] rad/s");
-        c.range("limits.max_wheel_speed_radps", l.max_wheel_speed_radps, "(0, 2000] rad/s");
+        c.range(
+            "limits.max_wheel_speed_radps",
+            l.max_wheel_speed_radps,
+            "(0, 2000] rad/s",
+        );
         c.range("limits.wheel_accel_radps2", l.wheel_accel_radps2, "(0, 100000] rad/s²");
         c.range("limits.wheel_decel_radps2", l.wheel_decel_radps2, "(0, 100000] rad/s²");
         if self.protocol == ProtocolKind::Generic {
@@ -185,7 +189,10 @@ impl BridgeConfig {
             "[0, 0x7ED] (base + 0x12 must be a standard id)",
         );
         let o = &self.odrive;
-        for (key, v) in [("odrive.left_node_id", o.left_node_id), ("odrive.right_node_id", o.right_node_id)] {
+        for (key, v) in [
+            ("odrive.left_node_id", o.left_node_id),
+            ("odrive.right_node_id", o.right_node_id),
+        ] {
             c.rule(v <= MAX_NODE_ID, key, format!("{v}"), "[0, 63]");
         }
         c.rule(
@@ -326,7 +333,8 @@ pub fn load_config_file(path: &Path) -> Result<BridgeConfig, ConfigError> {
 
 /// The shipped defaults.
 pub fn default_config() -> BridgeConfig {
-    load_config_str(DEFAULT_CONFIG_YAML, DEFAULT_CONFIG_NAME).expect("the shipped config/can_bridge.yaml is valid (tested)")
+    load_config_str(DEFAULT_CONFIG_YAML, DEFAULT_CONFIG_NAME)
+        .expect("the shipped config/can_bridge.yaml is valid (tested)")
 }
 
 #[cfg(test)]
@@ -380,7 +388,11 @@ mod tests {
         let text = DEFAULT_CONFIG_YAML.replace("  gear_ratio: 1.0", "  gear_ratio: 1.0\n  gear_ration: 2");
         let e = load_config_str(&text, "my.yaml").unwrap_err();
         assert_eq!(e.keys(), ["kinematics.gear_ration"], "{e}");
-        assert!(e.to_string().starts_with("my.yaml: key `kinematics.gear_ration`: unknown field"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("my.yaml: key `kinematics.gear_ration`: unknown field"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -389,7 +401,10 @@ mod tests {
         assert_eq!(e.keys(), ["timing.tx_rate_hz"], "{e}");
         let e = load_config_str(&with("protocol", "canopen"), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["protocol"], "{e}");
-        assert!(e.to_string().contains("generic") && e.to_string().contains("odrive"), "{e}");
+        assert!(
+            e.to_string().contains("generic") && e.to_string().contains("odrive"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -421,16 +436,23 @@ mod tests {
         let e = load_config_str(&with("interface", "\"can 0\""), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["interface"]);
         // The generic i32 field must hold max wheel speed × gear (100 × 1000 > 21474.8).
-        let text = with("kinematics.gear_ratio", "1000").replace("max_wheel_speed_radps: 7.0", "max_wheel_speed_radps: 100.0");
+        let text =
+            with("kinematics.gear_ratio", "1000").replace("max_wheel_speed_radps: 7.0", "max_wheel_speed_radps: 100.0");
         let e = load_config_str(&text, "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
         let text = text.replace("protocol: generic", "protocol: odrive");
-        assert!(load_config_str(&text, "f.yaml").is_ok(), "floats on ODrive have the range");
+        assert!(
+            load_config_str(&text, "f.yaml").is_ok(),
+            "floats on ODrive have the range"
+        );
     }
 
     #[test]
     fn missing_file_is_named() {
         let e = load_config_file(Path::new("/nonexistent/can_bridge.yaml")).unwrap_err();
-        assert!(e.to_string().starts_with("/nonexistent/can_bridge.yaml: cannot read"), "{e}");
+        assert!(
+            e.to_string().starts_with("/nonexistent/can_bridge.yaml: cannot read"),
+            "{e}"
+        );
     }
 }

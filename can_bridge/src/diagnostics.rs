@@ -97,11 +97,20 @@ impl StopReason {
 #[serde(tag = "event", rename_all = "snake_case")]
 pub enum BridgeEvent {
     /// The state or the set of reasons changed.
-    StateChanged { state: BridgeState, reasons: Vec<StopReason> },
+    StateChanged {
+        state: BridgeState,
+        reasons: Vec<StopReason>,
+    },
     /// A command with a NaN or infinite component; the bridge now sends zero.
-    CommandRejected { linear_mps: f64, angular_radps: f64 },
+    CommandRejected {
+        linear_mps: f64,
+        angular_radps: f64,
+    },
     /// Commands started being clamped to v_max/ω_max (reported once per episode).
-    CommandClamped { requested: Twist, clamped: Twist },
+    CommandClamped {
+        requested: Twist,
+        clamped: Twist,
+    },
     EstopLatched,
     /// E-stop and drive faults cleared by an explicit reset.
     Reset,
@@ -118,18 +127,28 @@ pub enum BridgeEvent {
         drive_estopped: bool,
     },
     /// The drive left the running state without an error; restarting it.
-    DriveStoppedRunning { wheel: Wheel },
+    DriveStoppedRunning {
+        wheel: Wheel,
+    },
     /// An error frame or a bus I/O error.
-    BusError { description: String, fatal: bool },
+    BusError {
+        description: String,
+        fatal: bool,
+    },
     /// The bus is back (after bus_recovery_s of quiet).
     BusRecovered,
     /// The kernel transmit queue was full (start of an episode).
     TxQueueFull,
     /// Frames dropped: stale setpoints replaced by fresh ones, or frames
     /// that failed `attempts` times.
-    TxDropped { stale: u32, after_retries: u32 },
+    TxDropped {
+        stale: u32,
+        after_retries: u32,
+    },
     /// A frame from a drive id that failed to decode (length, CRC, NaN, frozen counter).
-    RxInvalid { error: String },
+    RxInvalid {
+        error: String,
+    },
     /// Odometry re-baselined after an implausible position jump.
     OdometryReset,
 }

@@ -150,7 +150,10 @@ mod tests {
         let (t, _) = clamp_twist(Twist::new(0.1, 4.0), 0.5, 1.0);
         assert!((t.linear_mps - 0.025).abs() < 1e-15 && t.angular_radps == 1.0);
         // Within limits: untouched.
-        assert_eq!(clamp_twist(Twist::new(-0.3, 0.9), 0.5, 1.0), (Twist::new(-0.3, 0.9), false));
+        assert_eq!(
+            clamp_twist(Twist::new(-0.3, 0.9), 0.5, 1.0),
+            (Twist::new(-0.3, 0.9), false)
+        );
         // Huge and non-finite.
         let (t, _) = clamp_twist(Twist::new(1e308, -1e308), 0.5, 1.0);
         assert!(t.linear_mps <= 0.5 && t.angular_radps >= -1.0 && t.linear_mps > 0.0);
@@ -191,16 +194,26 @@ mod tests {
         let mut r = RampLimiter::new();
         // Target (10, 5), accel 50 rad/s² at 50 Hz: 1 rad/s per step on the faster wheel.
         let a = r.step(ws(10.0, 5.0), 0.02, 50.0, 100.0);
-        assert!((a.left_radps - 1.0).abs() < 1e-12 && (a.right_radps - 0.5).abs() < 1e-12, "{a:?}");
+        assert!(
+            (a.left_radps - 1.0).abs() < 1e-12 && (a.right_radps - 0.5).abs() < 1e-12,
+            "{a:?}"
+        );
         for _ in 0..8 {
             r.step(ws(10.0, 5.0), 0.02, 50.0, 100.0);
         }
         assert!((r.current().left_radps - 9.0).abs() < 1e-9);
         assert_eq!(r.step(ws(10.0, 5.0), 0.02, 50.0, 100.0), ws(10.0, 5.0));
-        assert_eq!(r.step(ws(10.0, 5.0), 0.02, 50.0, 100.0), ws(10.0, 5.0), "holds at target");
+        assert_eq!(
+            r.step(ws(10.0, 5.0), 0.02, 50.0, 100.0),
+            ws(10.0, 5.0),
+            "holds at target"
+        );
         // Braking uses the (larger) deceleration: 2 rad/s per step.
         let b = r.step(WheelSpeeds::ZERO, 0.02, 50.0, 100.0);
-        assert!((b.left_radps - 8.0).abs() < 1e-12 && (b.right_radps - 4.0).abs() < 1e-12, "{b:?}");
+        assert!(
+            (b.left_radps - 8.0).abs() < 1e-12 && (b.right_radps - 4.0).abs() < 1e-12,
+            "{b:?}"
+        );
         r.reset_to_zero();
         assert_eq!(r.current(), WheelSpeeds::ZERO);
     }

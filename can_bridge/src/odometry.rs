@@ -207,7 +207,10 @@ mod tests {
             assert!(feed(&mut o, i as f64, i as f64, 0.1 * i as f64));
         }
         let p = o.state().pose;
-        assert!((p.x_m - 0.33).abs() < 1e-12 && p.y_m.abs() < 1e-12 && p.theta_rad.abs() < 1e-12, "{p:?}");
+        assert!(
+            (p.x_m - 0.33).abs() < 1e-12 && p.y_m.abs() < 1e-12 && p.theta_rad.abs() < 1e-12,
+            "{p:?}"
+        );
     }
 
     #[test]

@@ -113,8 +113,14 @@ mod tests {
 
     #[test]
     fn interactive_lines() {
-        assert_eq!(parse_action("0.2 0.5").unwrap(), Some(Action::Twist(Twist::new(0.2, 0.5))));
-        assert_eq!(parse_action("twist -0.1 0").unwrap(), Some(Action::Twist(Twist::new(-0.1, 0.0))));
+        assert_eq!(
+            parse_action("0.2 0.5").unwrap(),
+            Some(Action::Twist(Twist::new(0.2, 0.5)))
+        );
+        assert_eq!(
+            parse_action("twist -0.1 0").unwrap(),
+            Some(Action::Twist(Twist::new(-0.1, 0.0)))
+        );
         assert_eq!(parse_action("  estop  # now").unwrap(), Some(Action::Estop));
         assert_eq!(parse_action("# nothing").unwrap(), None);
         assert_eq!(parse_action("").unwrap(), None);

@@ -11,8 +11,7 @@
 
 use crate::bus::{BusError, BusEvent, CanBus, CanErrorFrame, CanFrame, RxFilter, SendError};
 use socketcan::{
-    CanFilter, CanFrame as ScFrame, CanSocket, EmbeddedFrame, ExtendedId, Frame, Id, Socket, SocketOptions,
-    StandardId,
+    CanFilter, CanFrame as ScFrame, CanSocket, EmbeddedFrame, ExtendedId, Frame, Id, Socket, SocketOptions, StandardId,
 };
 use std::io;
 use std::time::{Duration, Instant};
@@ -40,10 +39,13 @@ impl SocketCanBus {
     /// error class enabled and, until [`CanBus::set_rx_filters`], all data frames.
     pub fn open(interface: &str) -> Result<Self, BusError> {
         let socket = CanSocket::open(interface).map_err(|e| {
-            let hint = if e.raw_os_error() == Some(97) {
-                " (this kernel has no CAN support: run inside tests/vm/run-in-vm.sh)"
-            } else {
-                ""
+            let hint = match e.raw_os_error() {
+                Some(19) => {
+                    " (no such interface: create it, e.g. `ip link add vcan0 type vcan && ip link set vcan0 up`; \
+                     on a kernel without CAN use tests/vm/run-in-vm.sh)"
+                }
+                Some(97) => " (this kernel has no CAN support: run inside tests/vm/run-in-vm.sh)",
+                _ => "",
             };
             BusError(format!("cannot open CAN interface `{interface}`: {e}{hint}"))
         })?;

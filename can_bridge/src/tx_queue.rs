@@ -2,11 +2,12 @@
 //!
 //! When the kernel's queue is full (ENOBUFS: a real controller that cannot
 //! get frames out), the frame at the head is retried a few times, a
-//! millisecond apart, then dropped. A new period's setpoints replace any
-//! setpoints still waiting: a stale speed is never sent late. Control
-//! frames (start-up sequences) keep their order; dropping one drops the rest
-//! of its sequence, so a drive is never asked for closed loop after a lost
-//! zero setpoint. The queue never holds more than [`TX_QUEUE_CAPACITY`].
+//! millisecond apart, then dropped together with the rest of its group: the
+//! rest of a setpoint pair (never one wheel's new speed with the other's
+//! old one), or the rest of a start-up sequence (a drive is never asked for
+//! closed loop after a lost zero setpoint). A new period's setpoints replace
+//! any setpoints still waiting: a stale speed is never sent late. The queue
+//! never holds more than [`TX_QUEUE_CAPACITY`].
 
 use crate::bus::{BusError, CanBus, CanFrame, SendError};
 use crate::time::Timestamp;
@@ -53,7 +54,7 @@ pub struct FlushReport {
     pub sent: u32,
     /// At least one send found the kernel queue full.
     pub queue_full: bool,
-    /// Frames dropped after [`TX_MAX_ATTEMPTS`] (plus the rest of a control sequence).
+    /// Frames dropped after [`TX_MAX_ATTEMPTS`] (with the rest of their group).
     pub dropped_after_retries: u32,
     /// A send failed for another reason (the frame was dropped).
     pub failed: Option<BusError>,
@@ -108,7 +109,11 @@ impl TxQueue {
             if self.items.len() >= TX_QUEUE_CAPACITY {
                 // Make room by dropping the oldest setpoint; if there is none,
                 // drop this group's remaining frames (never grow).
-                if let Some(pos) = self.items.iter().position(|p| p.kind == TxKind::Setpoint && p.group != group) {
+                if let Some(pos) = self
+                    .items
+                    .iter()
+                    .position(|p| p.kind == TxKind::Setpoint && p.group != group)
+                {
                     self.items.remove(pos);
                     r.dropped_overflow += 1;
                 } else {
@@ -170,18 +175,14 @@ impl TxQueue {
         r
     }
 
-    /// Removes the head (and, for a control frame, the rest of its sequence).
+    /// Removes the head and the rest of its group.
     fn drop_head(&mut self) -> u32 {
         let Some(head) = self.items.pop_front() else {
             return 0;
         };
-        if head.kind == TxKind::Control {
-            let before = self.items.len();
-            self.items.retain(|p| p.group != head.group);
-            1 + (before - self.items.len()) as u32
-        } else {
-            1
-        }
+        let before = self.items.len();
+        self.items.retain(|p| p.group != head.group);
+        1 + (before - self.items.len()) as u32
     }
 }
 
@@ -239,7 +240,11 @@ mod tests {
         assert_eq!(r.dropped_stale, 2);
         bus.set_send_error(None);
         q.flush(&mut bus, t(20));
-        assert_eq!(bus.sent().iter().map(|x| x.id).collect::<Vec<_>>(), [11, 12], "only fresh ones");
+        assert_eq!(
+            bus.sent().iter().map(|x| x.id).collect::<Vec<_>>(),
+            [11, 12],
+            "only fresh ones"
+        );
     }
 
     #[test]
@@ -252,7 +257,23 @@ mod tests {
         for ms in 0..5 {
             q.flush(&mut bus, t(ms));
         }
-        assert_eq!(bus.sent().iter().map(|x| x.id).collect::<Vec<_>>(), [9], "2 and 3 never sent after 1 was lost");
+        assert_eq!(
+            bus.sent().iter().map(|x| x.id).collect::<Vec<_>>(),
+            [9],
+            "2 and 3 never sent after 1 was lost"
+        );
+    }
+
+    #[test]
+    fn a_pair_is_dropped_whole() {
+        let mut q = TxQueue::new();
+        let mut bus = FakeBus::new();
+        q.push(&[f(1), f(2)], TxKind::Setpoint, t(0));
+        bus.fail_next_sends(usize::from(TX_MAX_ATTEMPTS), SendError::QueueFull);
+        for ms in 0..5 {
+            q.flush(&mut bus, t(ms));
+        }
+        assert!(bus.sent().is_empty(), "the right wheel's frame is not sent alone");
     }
 
     #[test]
@@ -276,7 +297,7 @@ mod tests {
         q.push(&[f(1), f(2)], TxKind::Setpoint, t(0));
         let r = q.flush(&mut bus, t(0));
         assert_eq!(r.failed, Some(BusError("ENETDOWN".into())));
-        assert_eq!(r.dropped_after_retries, 1);
-        assert_eq!(q.len(), 1);
+        assert_eq!(r.dropped_after_retries, 2, "the pair goes together");
+        assert!(q.is_empty());
     }
 }

@@ -408,7 +408,9 @@ impl VirtualDrive {
 
     fn target(&self, w: Wheel) -> f64 {
         if self.running(w) {
-            self.axes[w.index()].input.clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps)
+            self.axes[w.index()]
+                .input
+                .clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps)
         } else {
             0.0
         }
@@ -578,7 +580,8 @@ impl VirtualDrive {
                 };
                 let max_dv = self.cfg.max_accel_radps2 * hs;
                 let v0 = a.vel;
-                a.vel = (a.vel + want.clamp(-max_dv, max_dv)).clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps);
+                a.vel =
+                    (a.vel + want.clamp(-max_dv, max_dv)).clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps);
                 a.pos += 0.5 * (v0 + a.vel) * hs;
             }
             t = t + h;

@@ -522,13 +522,19 @@ mod tests {
         // The same payload under the other wheel's id fails its CRC.
         let mut moved = f;
         moved.id = IDS.setpoint(Wheel::Left);
-        assert!(matches!(decode_setpoint(IDS, &moved), Err(DecodeError::Checksum { .. })));
+        assert!(matches!(
+            decode_setpoint(IDS, &moved),
+            Err(DecodeError::Checksum { .. })
+        ));
         // Short frame.
         let mut short = f;
         short.len = 7;
         assert!(matches!(decode_setpoint(IDS, &short), Err(DecodeError::Length { .. })));
         // Not a setpoint id.
-        assert_eq!(decode_setpoint(IDS, &CanFrame::standard(0x110, &[0; 8]).unwrap()), Ok(None));
+        assert_eq!(
+            decode_setpoint(IDS, &CanFrame::standard(0x110, &[0; 8]).unwrap()),
+            Ok(None)
+        );
     }
 
     #[test]
@@ -638,9 +644,6 @@ mod tests {
         assert!(matches!(p.decode(&bad), Err(DecodeError::Checksum { .. })));
         assert_eq!(p.decode(&CanFrame::standard(0x101, &[0; 8]).unwrap()), Ok(None));
         let filters = p.rx_filters();
-        assert_eq!(
-            filters.iter().map(|f| f.id).collect::<Vec<_>>(),
-            [0x110, 0x111, 0x112]
-        );
+        assert_eq!(filters.iter().map(|f| f.id).collect::<Vec<_>>(), [0x110, 0x111, 0x112]);
     }
 }

@@ -133,7 +133,10 @@ pub fn estop(node: u32) -> CanFrame {
 
 /// Heartbeat (drive side): error, state in byte 4, bytes 5–7 zero.
 pub fn heartbeat(node: u32, axis_error: u32, axis_state: u8) -> CanFrame {
-    frame(arb_id(node, cmd::HEARTBEAT), &two_u32(axis_error, u32::from(axis_state)))
+    frame(
+        arb_id(node, cmd::HEARTBEAT),
+        &two_u32(axis_error, u32::from(axis_state)),
+    )
 }
 
 /// Get_Encoder_Estimates (drive side): position (turns), velocity (turns/s).
@@ -398,7 +401,11 @@ mod tests {
             right_radps: -TAU * 0.5,
         };
         p.setpoints(m, SetpointMode::Run, &mut out);
-        let c: Vec<_> = out.as_slice().iter().map(|f| decode_command(f).unwrap().unwrap()).collect();
+        let c: Vec<_> = out
+            .as_slice()
+            .iter()
+            .map(|f| decode_command(f).unwrap().unwrap())
+            .collect();
         assert_eq!(
             c[0],
             Command::SetInputVel {
@@ -426,7 +433,11 @@ mod tests {
         );
         out.clear();
         p.shutdown(&mut out);
-        let c: Vec<_> = out.as_slice().iter().map(|f| decode_command(f).unwrap().unwrap()).collect();
+        let c: Vec<_> = out
+            .as_slice()
+            .iter()
+            .map(|f| decode_command(f).unwrap().unwrap())
+            .collect();
         assert!(matches!(c[0], Command::SetInputVel { vel_turns_per_s, .. } if vel_turns_per_s == 0.0));
         assert_eq!(c[3], Command::SetAxisState(AXIS_STATE_IDLE));
     }
