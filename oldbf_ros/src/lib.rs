@@ -12,6 +12,7 @@
 pub mod algo;
 pub mod carmen;
 pub mod config;
+pub mod node_config;
 pub mod node_core;
 pub mod plot;
 pub mod replay;

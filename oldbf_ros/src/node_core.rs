@@ -169,12 +169,16 @@ pub struct NodeCore {
     e_stop_input: bool,
     enabled: bool,
     reference: Option<(ReferenceTrajectory, ReferenceProgress)>,
+    /// The constant nominal command (default: v_nom straight ahead).
+    constant: Twist,
     last_tick_s: Option<f64>,
 }
 
 impl NodeCore {
     pub fn new(params: Params, settings: NodeSettings, reference: Option<ReferenceTrajectory>) -> Self {
+        let constant = Twist::new(params.control.v_nom_mps, 0.0);
         Self {
+            constant,
             pipeline: SafetyPipeline::new(params),
             settings,
             scan: OwnedScan::default(),
@@ -188,6 +192,12 @@ impl NodeCore {
             reference: reference.map(|r| (r, ReferenceProgress::default())),
             last_tick_s: None,
         }
+    }
+
+    /// Replaces the constant nominal command (a scenario's `kind: constant`).
+    pub fn with_constant(mut self, constant: Twist) -> Self {
+        self.constant = constant;
+        self
     }
 
     pub fn params(&self) -> &Params {

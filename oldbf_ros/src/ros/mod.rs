@@ -2,4 +2,12 @@
 //! services and parameters and the pure core. Nothing here decides anything
 //! about safety; it converts, times and publishes.
 
+pub mod convert;
+pub mod diagnostics;
+pub mod lifecycle;
+pub mod logging;
+pub mod markers;
 pub mod msg;
+pub mod params;
+pub mod safety_node;
+pub mod sim_node;

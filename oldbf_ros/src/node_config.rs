@@ -1,0 +1,162 @@
+//! The safety node's configuration from its private ROS parameters.
+//!
+//! roslaunch loads `config/oldbf.yaml` (the algorithm) and
+//! `config/oldbf_node.yaml` (the node, under `node:`) into the node's private
+//! namespace; command-line overrides (`_barrier/d_safe_m:=0.25`) land there
+//! too. The namespace is merged over the shipped defaults and then checked
+//! exactly like a file: unknown keys, wrong types and out-of-range values are
+//! errors that name the key. If `node.scenario` names a scenario file, its
+//! nominal command (the reference of `node.robot`) and its `oldbf:`
+//! overrides apply, so the simulator and the node read one definition.
+
+use crate::algo::geometry::Twist;
+use crate::algo::reference::ReferenceTrajectory;
+use crate::algo::Params;
+use crate::config::{self, ConfigError};
+use crate::node_core::NodeSettings;
+use crate::sim::scenario::Scenario;
+use serde_yaml::Value;
+use std::path::Path;
+
+/// The shipped node settings file.
+pub const DEFAULT_NODE_YAML: &str = include_str!("../../config/oldbf_node.yaml");
+
+/// Everything oldbf_node needs to start.
+#[derive(Debug, Clone)]
+pub struct NodeConfig {
+    pub params: Params,
+    pub settings: NodeSettings,
+    /// The reference trajectory (from the scenario), if any.
+    pub reference: Option<ReferenceTrajectory>,
+    /// The constant nominal command (from a `kind: constant` scenario), if any.
+    pub constant: Option<Twist>,
+}
+
+/// Builds the configuration from the private namespace `ns` (a mapping, or
+/// null when nothing is set). `source` names it in errors, e.g.
+/// `ROS parameters of /oldbf_node`.
+pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, ConfigError> {
+    let mut ns = match ns {
+        Value::Null => Value::Mapping(Default::default()),
+        v @ Value::Mapping(_) => v,
+        other => {
+            return Err(ConfigError::Parse {
+                file: source.to_string(),
+                key: String::new(),
+                message: format!("expected a mapping of parameters, got {other:?}"),
+            })
+        }
+    };
+    let node_over = ns.as_mapping_mut().and_then(|m| m.remove("node"));
+
+    let mut settings_value = config::parse_yaml(DEFAULT_NODE_YAML, "config/oldbf_node.yaml (built-in)")?
+        .get("node")
+        .cloned()
+        .unwrap_or(Value::Null);
+    if let Some(over) = &node_over {
+        config::merge(&mut settings_value, over);
+    }
+    let settings: NodeSettings = config::from_value(settings_value, source, "node.")?;
+    settings.validate().map_err(|message| ConfigError::Parse {
+        file: source.to_string(),
+        key: String::new(),
+        message,
+    })?;
+
+    let (mut params_value, _) = config::base_params_value(None)?;
+    config::merge(&mut params_value, &ns);
+    if settings.scenario.is_empty() {
+        let params = config::params_from_value(params_value, source, "")?;
+        return Ok(NodeConfig {
+            params,
+            settings,
+            reference: None,
+            constant: None,
+        });
+    }
+    // Check the parameters on their own first, so their errors name the server.
+    config::params_from_value(params_value.clone(), source, "")?;
+    let scenario = Scenario::load_over(Path::new(&settings.scenario), params_value)?;
+    let agent = scenario
+        .agents
+        .iter()
+        .find(|a| a.name == settings.robot)
+        .ok_or_else(|| ConfigError::Parse {
+            file: source.to_string(),
+            key: "node.robot".into(),
+            message: format!(
+                "`{}` is not a robot of {} (robots: {:?})",
+                settings.robot,
+                scenario.file,
+                scenario.agents.iter().map(|a| a.name.as_str()).collect::<Vec<_>>()
+            ),
+        })?;
+    Ok(NodeConfig {
+        params: scenario.params.clone(),
+        reference: agent.reference,
+        constant: agent.constant,
+        settings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn yaml(s: &str) -> Value {
+        serde_yaml::from_str(s).unwrap()
+    }
+
+    #[test]
+    fn nothing_set_gives_the_shipped_defaults() {
+        let c = node_config_from_params(Value::Null, "ROS parameters of /n").unwrap();
+        assert_eq!(c.params, Params::default());
+        assert_eq!(c.settings, NodeSettings::default());
+        assert!(c.reference.is_none());
+    }
+
+    #[test]
+    fn overrides_apply_and_bad_ones_are_named() {
+        let c = node_config_from_params(yaml("barrier: {d_safe_m: 0.3}\nnode: {base_frame: chassis}"), "P").unwrap();
+        assert_eq!(c.params.barrier.d_safe_m, 0.3);
+        assert_eq!(c.settings.base_frame, "chassis");
+        let e = node_config_from_params(yaml("barrier: {d_safe_m: 30.0}"), "ROS parameters of /n").unwrap_err();
+        assert_eq!(e.keys(), ["barrier.d_safe_m"], "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("ROS parameters of /n: key `barrier.d_safe_m` = 30"),
+            "{e}"
+        );
+        let e = node_config_from_params(yaml("barrier: {d_saf_m: 0.3}"), "P").unwrap_err();
+        assert_eq!(e.keys(), ["barrier.d_saf_m"], "{e}");
+        let e = node_config_from_params(yaml("node: {cmd_in_timeout_s: -1.0}"), "P").unwrap_err();
+        assert!(e.to_string().contains("node.cmd_in_timeout_s"), "{e}");
+        let e = node_config_from_params(yaml("node: {nominal_source: sometimes}"), "P").unwrap_err();
+        assert_eq!(e.keys(), ["node.nominal_source"], "{e}");
+    }
+
+    #[test]
+    fn a_scenario_gives_the_reference_and_its_overrides() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let f = root.join("config/scenarios/two_robots.yaml");
+        let ns = yaml(&format!("node: {{scenario: '{}', robot: robot2}}", f.display()));
+        let c = node_config_from_params(ns, "P").unwrap();
+        let r = c.reference.unwrap();
+        assert!((r.start.x - 2.5).abs() < 1e-12 && (r.start.y + 2.5).abs() < 1e-12);
+        let ns = yaml(&format!("node: {{scenario: '{}', robot: robot9}}", f.display()));
+        let e = node_config_from_params(ns, "P").unwrap_err();
+        assert_eq!(e.keys(), ["node.robot"], "{e}");
+        let ns = yaml("node: {scenario: /no/such.yaml}");
+        assert!(node_config_from_params(ns, "P")
+            .unwrap_err()
+            .to_string()
+            .contains("/no/such.yaml"));
+    }
+
+    #[test]
+    fn shipped_node_file_matches_the_built_in_settings() {
+        let v = config::parse_yaml(DEFAULT_NODE_YAML, "x").unwrap();
+        let s: NodeSettings = config::from_value(v.get("node").unwrap().clone(), "x", "node.").unwrap();
+        assert_eq!(s, NodeSettings::default());
+    }
+}

@@ -1,0 +1,140 @@
+//! ~markers for rviz: the robot footprint, the d_safe and d_act circles, the
+//! hemisphere and front sectors, the closest left/right points, the command
+//! and a label with B_l, B_r and the DOAA state. All in the base frame.
+
+use super::msg::{
+    geometry_msgs::Point, std_msgs::ColorRGBA, visualization_msgs::Marker, visualization_msgs::MarkerArray,
+};
+use crate::algo::Params;
+use crate::node_core::Tick;
+
+const NS: &str = "oldbf";
+
+fn color(r: f32, g: f32, b: f32, a: f32) -> ColorRGBA {
+    ColorRGBA { r, g, b, a }
+}
+
+fn point(x: f64, y: f64) -> Point {
+    Point { x, y, z: 0.02 }
+}
+
+fn marker(frame: &str, stamp: rosrust::Time, id: i32, kind: i32) -> Marker {
+    let mut m = Marker::default();
+    m.header.frame_id = frame.to_string();
+    m.header.stamp = stamp;
+    m.ns = NS.into();
+    m.id = id;
+    m.type_ = kind;
+    m.action = Marker::ADD as i32;
+    m.pose.orientation.w = 1.0;
+    m.frame_locked = true;
+    m
+}
+
+fn circle(frame: &str, stamp: rosrust::Time, id: i32, radius: f64, c: ColorRGBA) -> Marker {
+    let mut m = marker(frame, stamp, id, Marker::LINE_STRIP as i32);
+    m.scale.x = 0.01;
+    m.color = c;
+    m.points = (0..=72)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 72.0;
+            point(radius * a.cos(), radius * a.sin())
+        })
+        .collect();
+    m
+}
+
+/// Two rays from the origin at ±half angle (rad), `length` m long.
+fn sector(frame: &str, stamp: rosrust::Time, id: i32, half: f64, length: f64, c: ColorRGBA) -> Marker {
+    let mut m = marker(frame, stamp, id, Marker::LINE_LIST as i32);
+    m.scale.x = 0.008;
+    m.color = c;
+    for s in [-1.0, 1.0] {
+        m.points.push(point(0.0, 0.0));
+        m.points
+            .push(point(length * (s * half).cos(), length * (s * half).sin()));
+    }
+    m
+}
+
+/// The markers for one tick.
+pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, p: &Params) -> MarkerArray {
+    let rec = &tick.record;
+    let r = p.robot_radius_m();
+    let d_act = p.barrier.d_act_m();
+    let mut v = Vec::with_capacity(9);
+
+    let mut body = marker(frame, stamp, 0, Marker::CYLINDER as i32);
+    body.scale.x = 2.0 * r;
+    body.scale.y = 2.0 * r;
+    body.scale.z = 0.05;
+    body.color = if tick.e_stop || rec.stop_cause.is_some() {
+        color(0.9, 0.1, 0.1, 0.6)
+    } else {
+        color(0.5, 0.5, 0.5, 0.6)
+    };
+    v.push(body);
+    v.push(circle(
+        frame,
+        stamp,
+        1,
+        r + p.barrier.d_safe_m,
+        color(0.9, 0.1, 0.1, 0.9),
+    ));
+    v.push(circle(frame, stamp, 2, r + d_act, color(0.95, 0.75, 0.1, 0.8)));
+    v.push(sector(
+        frame,
+        stamp,
+        3,
+        p.barrier.hemisphere_fov_deg.to_radians() / 2.0,
+        r + d_act,
+        color(0.3, 0.6, 0.9, 0.6),
+    ));
+    v.push(sector(
+        frame,
+        stamp,
+        4,
+        p.barrier.front_fov_deg.to_radians() / 2.0,
+        r + d_act,
+        color(0.9, 0.4, 0.1, 0.8),
+    ));
+
+    for (id, closest, c) in [
+        (5, rec.closest_left, color(0.1, 0.8, 0.2, 1.0)),
+        (6, rec.closest_right, color(0.1, 0.3, 0.9, 1.0)),
+    ] {
+        let mut m = marker(frame, stamp, id, Marker::SPHERE as i32);
+        m.scale.x = 0.08;
+        m.scale.y = 0.08;
+        m.scale.z = 0.08;
+        m.color = c;
+        match closest {
+            Some(pt) => {
+                m.pose.position = point(pt.x, pt.y);
+            }
+            None => m.action = Marker::DELETE as i32,
+        }
+        v.push(m);
+    }
+
+    let mut arrow = marker(frame, stamp, 7, Marker::ARROW as i32);
+    arrow.scale.x = 0.03;
+    arrow.scale.y = 0.06;
+    arrow.scale.z = 0.06;
+    arrow.color = color(0.1, 0.9, 0.9, 1.0);
+    let len = 2.0 * tick.cmd.v_mps; // 1 s of travel at half scale
+    let heading = 0.5 * tick.cmd.omega_radps; // where the robot heads in 0.5 s
+    arrow.points = vec![point(0.0, 0.0), point(len * heading.cos(), len * heading.sin())];
+    v.push(arrow);
+
+    let mut label = marker(frame, stamp, 8, Marker::TEXT_VIEW_FACING as i32);
+    label.scale.z = 0.12;
+    label.pose.position.z = 0.5;
+    label.color = color(1.0, 1.0, 1.0, 1.0);
+    label.text = match rec.stop_cause {
+        Some(cause) if !rec.measured() || tick.e_stop => format!("STOP: {cause}"),
+        _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
+    };
+    v.push(label);
+    MarkerArray { markers: v }
+}
