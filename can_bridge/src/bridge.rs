@@ -268,6 +268,7 @@ impl<B: CanBus> Bridge<B> {
         self.estop = true;
         self.command = None;
         self.phase = Phase::Down;
+        self.limiter.reset_to_zero();
         self.tx.clear();
         self.update_reasons(now);
         self.transmit_setpoints(now);
@@ -285,6 +286,7 @@ impl<B: CanBus> Bridge<B> {
         self.last_command_invalid = false;
         self.resume_after = Some(now);
         self.phase = Phase::Down;
+        self.limiter.reset_to_zero();
         self.push_event(now, BridgeEvent::Reset);
         self.update_reasons(now);
     }
@@ -651,13 +653,21 @@ impl<B: CanBus> Bridge<B> {
                 self.protocol.startup(&mut self.batch);
                 let r = self.tx.push(self.batch.as_slice(), TxKind::Control, now);
                 self.count_push(r, now);
+                // The drive restarts from standstill, so does the ramp.
+                self.limiter.reset_to_zero();
                 self.phase = Phase::Starting { since: now };
                 self.push_event(now, BridgeEvent::StartupSent);
             }
             Phase::Starting { since } => {
+                // Only a status sent after the start-up sequence counts: one
+                // from before it may describe the drive before a reset.
+                let confirmed = self
+                    .links
+                    .iter()
+                    .all(|l| l.running && !l.has_error() && l.last_status.is_some_and(|t| t > since));
                 if !all_fresh {
                     self.phase = Phase::Down;
-                } else if self.links.iter().all(|l| l.running && !l.has_error()) {
+                } else if confirmed {
                     self.phase = Phase::Ready;
                     self.may_clear_drive_errors = false;
                     self.push_event(now, BridgeEvent::DriveReady);

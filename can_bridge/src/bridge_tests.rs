@@ -976,3 +976,22 @@ fn the_clock_going_backwards_does_not_panic_or_move() {
     r.bridge.tick(Timestamp::ZERO);
     let _ = r.bridge.status(Timestamp::ZERO);
 }
+
+#[test]
+fn a_status_from_before_the_startup_does_not_confirm_it() {
+    // Found by the wire property test: right after a reset, the drive's last
+    // status (from before the reset) still said "running"; it must not
+    // count, or the bridge resumes before the drive restarted, with a ramp
+    // that did not start from zero.
+    let mut r = Rig::new();
+    r.ready();
+    r.cmd(0.2, 0.0).unwrap();
+    r.run_s(0.1);
+    r.bridge.reset(r.t);
+    for _ in 0..5 {
+        r.t = r.t + Duration::from_millis(1);
+        r.bridge.tick(r.t);
+    }
+    assert_eq!(r.bridge.state(), BridgeState::Starting);
+    assert!(r.has_reason("drive_starting"));
+}

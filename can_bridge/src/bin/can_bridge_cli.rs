@@ -250,9 +250,7 @@ fn run(args: Args) -> Result<i32> {
             max_wait = max_wait.min(next_status - now);
         }
         bridge.spin_once(&clock, max_wait);
-        for e in bridge.drain_events() {
-            emit("event", serde_json::to_value(&e)?);
-        }
+        emit_events(&mut bridge, start);
         if let Some(p) = status_period {
             let now = clock.now();
             if now >= next_status {
@@ -266,9 +264,7 @@ fn run(args: Args) -> Result<i32> {
 
     let now = clock.now();
     let failed = bridge.shutdown(now);
-    for e in bridge.drain_events() {
-        emit("event", serde_json::to_value(&e)?);
-    }
+    emit_events(&mut bridge, start);
     let mut fin = status_json(&bridge, now, start);
     fin["shutdown_frames_failed"] = json!(failed);
     emit("final", fin);
@@ -276,6 +272,15 @@ fn run(args: Args) -> Result<i32> {
         bail!("{failed} shutdown frame(s) could not be sent");
     }
     Ok(0)
+}
+
+/// Prints the bridge's events, times relative to the CLI's start.
+fn emit_events(bridge: &mut Bridge<SocketCanBus>, start: Timestamp) {
+    for e in bridge.drain_events() {
+        let mut v = serde_json::to_value(&e).unwrap_or(Value::Null);
+        v["t_s"] = json!(e.t_s - start.as_secs_f64());
+        emit("event", v);
+    }
 }
 
 /// A status snapshot with times relative to the CLI's start.
