@@ -19,8 +19,10 @@
 //!   reports running. Heartbeat or feedback older than their timeouts stop
 //!   the robot. A drive error latches a fault until reset. A drive that
 //!   stops running without an error is restarted. After a communication
-//!   loss, a drive that now reports an error is latched (errors are cleared
-//!   automatically only by the start-up after boot or an explicit reset).
+//!   loss, a drive that now reports an error is latched, unless the error
+//!   only says that its own command watchdog expired (the consequence of the
+//!   loss): the restart clears that one. Other errors are cleared only by
+//!   the start-up after boot or an explicit reset.
 //! * Error frames: fatal ones (bus-off, no ACK, TX timeout, error passive)
 //!   and I/O errors stop the robot until the bus is back (restart/active
 //!   error frame, drive frames, or a send that works) and quiet for
@@ -146,6 +148,9 @@ pub struct Bridge<B: CanBus> {
     latched_fault: Option<LatchedFault>,
     /// The next start-up may clear drive errors (true at boot and after reset).
     may_clear_drive_errors: bool,
+    /// A communication loss (bus error, blocked tx, lost heartbeat) since the
+    /// drive was last ready: a watchdog error from the drive is then expected.
+    comm_lost: bool,
     phase: Phase,
     links: [DriveLink; 2],
     bus_fault: Option<BusFault>,
@@ -189,6 +194,7 @@ impl<B: CanBus> Bridge<B> {
             estop: false,
             latched_fault: None,
             may_clear_drive_errors: true,
+            comm_lost: false,
             phase: Phase::Down,
             links: [DriveLink::default(); 2],
             bus_fault: None,
@@ -534,6 +540,7 @@ impl<B: CanBus> Bridge<B> {
                     back_since: None,
                 });
                 self.phase = Phase::Down;
+                self.comm_lost = true;
             }
             ErrorSeverity::Recovered => {
                 self.push_event(
@@ -581,6 +588,7 @@ impl<B: CanBus> Bridge<B> {
             back_since: None,
         });
         self.phase = Phase::Down;
+        self.comm_lost = true;
     }
 
     fn bus_traffic_seen(&mut self, kind: BusFaultKind, now: Timestamp) {
@@ -645,9 +653,14 @@ impl<B: CanBus> Bridge<B> {
                 if blocked || !all_fresh {
                     return;
                 }
-                if let (Some(w), false) = (self.erroring_wheel(), self.may_clear_drive_errors) {
-                    self.latch_fault(w, now);
-                    return;
+                if let Some(w) = self.erroring_wheel() {
+                    let only_watchdog = self.links.iter().all(|l| {
+                        !l.estopped && (l.error_code == 0 || self.protocol.is_watchdog_error(l.error_code))
+                    });
+                    if !self.may_clear_drive_errors && !(self.comm_lost && only_watchdog) {
+                        self.latch_fault(w, now);
+                        return;
+                    }
                 }
                 self.batch.clear();
                 self.protocol.startup(&mut self.batch);
@@ -667,9 +680,11 @@ impl<B: CanBus> Bridge<B> {
                     .all(|l| l.running && !l.has_error() && l.last_status.is_some_and(|t| t > since));
                 if !all_fresh {
                     self.phase = Phase::Down;
+                    self.comm_lost = true;
                 } else if confirmed {
                     self.phase = Phase::Ready;
                     self.may_clear_drive_errors = false;
+                    self.comm_lost = false;
                     self.push_event(now, BridgeEvent::DriveReady);
                 } else if now - since > Duration::from_secs_f64(self.cfg.timing.startup_timeout_s) {
                     if let Some(w) = self.erroring_wheel() {
@@ -683,6 +698,7 @@ impl<B: CanBus> Bridge<B> {
             Phase::Ready => {
                 if !all_fresh {
                     self.phase = Phase::Down;
+                    self.comm_lost = true;
                 } else if let Some(w) = self.erroring_wheel() {
                     self.latch_fault(w, now);
                 } else if let Some(w) = Wheel::BOTH.into_iter().find(|w| !self.links[w.index()].running) {
@@ -843,6 +859,7 @@ impl<B: CanBus> Bridge<B> {
         let blocked = self.tx_full_episode && now - self.last_tx_ok > self.period * TX_BLOCKED_PERIODS;
         if blocked && !self.tx_blocked {
             self.phase = Phase::Down;
+            self.comm_lost = true;
         }
         self.tx_blocked = blocked;
     }

@@ -622,8 +622,8 @@ fn a_drive_error_after_communication_loss_is_latched_not_cleared() {
     r.ready();
     r.heartbeat = false;
     r.run_s(0.6);
-    // The drive's watchdog tripped meanwhile: it comes back reporting an error.
-    r.drive_error = odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED;
+    // Something else went wrong meanwhile: it comes back reporting an error.
+    r.drive_error = 0x20;
     r.heartbeat = true;
     let t = r.t;
     r.run_s(0.5);
@@ -632,6 +632,41 @@ fn a_drive_error_after_communication_loss_is_latched_not_cleared() {
         .sent
         .iter()
         .any(|(s, f)| *s > t && f.id == odrive::arb_id(3, odrive::cmd::CLEAR_ERRORS)));
+}
+
+#[test]
+fn a_watchdog_error_caused_by_a_communication_loss_is_cleared_by_the_restart() {
+    for rig in [Rig::odrive as fn() -> Rig, Rig::new] {
+        let mut r = rig();
+        r.ready();
+        r.heartbeat = false;
+        r.run_s(0.6);
+        // The drive's own watchdog tripped during the loss: expected, cleared by the restart.
+        r.drive_error = match r.protocol {
+            ProtocolKind::Odrive => odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED,
+            ProtocolKind::Generic => generic::ERR_WATCHDOG,
+        };
+        r.started = false;
+        r.heartbeat = true;
+        r.run_s(0.02);
+        assert!(!r.has_reason("drive_fault"), "{:?}", r.bridge.reasons());
+        r.drive_error = 0; // the start-up's clear did its job
+        r.run_s(0.1);
+        assert_eq!(r.bridge.state(), BridgeState::Idle, "{:?}", r.bridge.reasons());
+    }
+}
+
+#[test]
+fn a_watchdog_error_without_a_communication_loss_is_latched() {
+    // The bridge believed its frames were getting through: a drive watchdog
+    // error then means they were not, which is a fault.
+    let mut r = Rig::odrive();
+    r.ready();
+    r.cmd(0.2, 0.0).unwrap();
+    r.run_s(0.1);
+    r.drive_error = odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED;
+    r.run_s(0.5);
+    assert!(r.has_reason("drive_fault"), "{:?}", r.bridge.reasons());
 }
 
 #[test]

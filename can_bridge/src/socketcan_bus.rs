@@ -14,7 +14,7 @@ use socketcan::{
     CanFilter, CanFrame as ScFrame, CanSocket, EmbeddedFrame, ExtendedId, Frame, Id, Socket, SocketOptions, StandardId,
 };
 use std::io;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 /// Linux errno ENOBUFS: the interface's transmit queue dropped the frame.
 const ENOBUFS: i32 = 105;
@@ -79,6 +79,37 @@ impl SocketCanBus {
         let f = socketcan::CanErrorFrame::new_error(e.class, &e.data)
             .map_err(|err| SendError::InvalidFrame(format!("error frame: {err}")))?;
         self.socket.write_frame(&f).map_err(map_send_error)
+    }
+
+    /// Switches this socket to kernel receive timestamps for
+    /// [`recv_timestamped`](Self::recv_timestamped) (sniffers in tests:
+    /// the time a frame reached the socket, free of the reader's scheduling).
+    /// Reads on this socket then block up to their timeout.
+    pub fn enable_kernel_timestamps(&mut self) -> Result<(), BusError> {
+        self.socket
+            .set_recv_timestamp(true)
+            .and_then(|_| self.socket.set_nonblocking(false))
+            .map_err(|e| bus_err("cannot enable timestamps on", &self.interface, e))
+    }
+
+    /// The next frame with the kernel's receive time (wall clock), waiting
+    /// at most `timeout` (at least 1 ms). Needs [`enable_kernel_timestamps`](Self::enable_kernel_timestamps).
+    pub fn recv_timestamped(&mut self, timeout: Duration) -> Result<Option<(BusEvent, SystemTime)>, BusError> {
+        self.socket
+            .set_read_timeout(timeout.max(Duration::from_millis(1)))
+            .map_err(|e| bus_err("cannot set a timeout on", &self.interface, e))?;
+        match self.socket.read_frame_with_timestamp() {
+            Ok((f, t)) => Ok(Self::convert(f).map(|ev| (ev, t))),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(None)
+            }
+            Err(e) => Err(bus_err("receive on", &self.interface, e)),
+        }
     }
 
     fn convert(f: ScFrame) -> Option<BusEvent> {

@@ -425,6 +425,10 @@ impl Protocol for GenericProtocol {
     fn position_modulus_rad(&self) -> Option<f64> {
         Some(POS_MODULUS_RAD)
     }
+
+    fn is_watchdog_error(&self, error_code: u32) -> bool {
+        error_code == ERR_WATCHDOG
+    }
 }
 
 #[cfg(test)]

@@ -204,6 +204,11 @@ pub trait Protocol: Send {
 
     /// `Some(m)` if feedback positions wrap modulo `m` radians.
     fn position_modulus_rad(&self) -> Option<f64>;
+
+    /// Whether `error_code` says only that the drive's own command watchdog
+    /// expired: the expected result of a communication loss the bridge saw
+    /// itself, which the restart after it may clear.
+    fn is_watchdog_error(&self, error_code: u32) -> bool;
 }
 
 #[cfg(test)]

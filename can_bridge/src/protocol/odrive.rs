@@ -326,6 +326,10 @@ impl Protocol for OdriveProtocol {
     fn position_modulus_rad(&self) -> Option<f64> {
         None
     }
+
+    fn is_watchdog_error(&self, error_code: u32) -> bool {
+        error_code == AXIS_ERROR_WATCHDOG_TIMER_EXPIRED
+    }
 }
 
 #[cfg(test)]

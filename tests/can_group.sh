@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# tests/can_group.sh: every CAN test of can_bridge that needs a kernel with
+# CAN, in ONE boot of the project's QEMU guest (this machine's kernel has no
+# CAN; see tests/vm/README.md).
+#
+#   tests/can_group.sh
+#
+# 1. builds on the host: the vcan test binaries (can_bridge/tests/vcan_*.rs)
+#    and the binaries can_bridge_cli and virtual_drive, release profile;
+# 2. boots one guest running tests/vm/can_guest.sh: the Rust vcan groups
+#    (watchdog, e-stop, drive killed/silent/axis error, odometry, error
+#    frames / bus-off, ENOBUFS, interface down) and the candump + python
+#    cantools decoding checks (tests/can/can_checks.py), PASS/FAIL per check;
+# 3. prints the timing of each step and the tx jitter measured in the guest.
+#
+# Needs: Rust ≥ 1.85, and tests/vm/setup-host.sh run once (can-utils, python
+# cantools, the guest kernel). Exits non-zero on any failure.
+set -Eeuo pipefail
+trap 'echo "can_group: ERROR at line $LINENO: $BASH_COMMAND" >&2' ERR
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
+cd "$ROOT"
+export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
+ms() { date +%s%3N; }
+die() { echo "can_group: $*" >&2; exit 1; }
+
+command -v cargo >/dev/null || die "cargo not found (install Rust ≥ 1.85 with rustup)"
+command -v candump >/dev/null || die "candump not found: run tests/vm/setup-host.sh"
+python3 -c 'import cantools' 2>/dev/null || die "python3 cannot import cantools: run tests/vm/setup-host.sh"
+
+OUT="$ROOT/target/can_group"
+mkdir -p "$OUT"
+TESTS=(vcan_watchdog_estop vcan_drive_faults vcan_odometry vcan_bus_errors)
+
+t_start=$(ms)
+# ------------------------------------------------------------------ 1. build
+args=()
+for t in "${TESTS[@]}"; do args+=(--test "$t"); done
+cargo test --release --locked -p can_bridge --no-run "${args[@]}" --message-format=json \
+  > "$OUT/build.json" 2> "$OUT/build.log" || { tail -30 "$OUT/build.log"; die "building the vcan tests failed"; }
+cargo build --release --locked -p can_bridge --bins 2>> "$OUT/build.log" \
+  || { tail -30 "$OUT/build.log"; die "building the binaries failed"; }
+python3 - "$OUT/build.json" "${TESTS[@]}" > "$OUT/bins.txt" <<'PY'
+import json, sys
+want = set(sys.argv[2:])
+found = {}
+for line in open(sys.argv[1]):
+    try:
+        m = json.loads(line)
+    except ValueError:
+        continue
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["name"] in want \
+            and "test" in m["target"]["kind"]:
+        found[m["target"]["name"]] = m["executable"]
+missing = want - set(found)
+if missing:
+    sys.exit(f"no executable for {sorted(missing)} in cargo's output")
+for name in sys.argv[2:]:
+    print(found[name])
+PY
+BIN_DIR="$ROOT/target/release"
+for b in can_bridge_cli virtual_drive; do [ -x "$BIN_DIR/$b" ] || die "$BIN_DIR/$b missing"; done
+t_built=$(ms)
+
+# ------------------------------------------------------------------ 2. one guest
+rm -f "$OUT/summary.json"
+set +e
+OLDBF_VM_TIMEOUT=${OLDBF_VM_TIMEOUT:-900} \
+  "$ROOT/tests/vm/run-in-vm.sh" "$ROOT/tests/vm/can_guest.sh" "$OUT/bins.txt" "$BIN_DIR" "$OUT/summary.json" \
+  | tee "$OUT/guest.log"
+rc=${PIPESTATUS[0]}
+set -e
+t_done=$(ms)
+
+# ------------------------------------------------------------------ 3. timing
+echo
+echo "can_group timing:"
+secs() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%6.1f s", (b - a) / 1000 }'; }
+echo "  build (host)           $(secs "$t_start" "$t_built")"
+echo "  guest (boot+tests+off) $(secs "$t_built" "$t_done")"
+echo "  total                  $(secs "$t_start" "$t_done")"
+if [ -s "$OUT/summary.json" ]; then
+  python3 - "$OUT/summary.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+j = s.get("generic_jitter")
+if j:
+    print(f"  tx period jitter (generic, {j['frames']} frames at {j['nominal_ms']:.0f} ms, candump timestamps, TCG guest):")
+    print(f"    mean period {j['mean_period_ms']:.3f} ms; |period - T| p50 {j['dev_p50_ms']:.3f}, p99 {j['dev_p99_ms']:.3f}, "
+          f"max {j['dev_max_ms']:.3f} ms; grid phase max {j['grid_phase_max_ms']:.3f} ms; {j['missed_periods']} late > 1.5 T")
+PY
+fi
+grep -c '^PASS' "$OUT/guest.log" | sed 's/^/  checks passed: /'
+grep -c '^FAIL' "$OUT/guest.log" | sed 's/^/  checks failed: /' || true
+[ "$rc" -eq 0 ] || die "guest reported failure (exit $rc); log: $OUT/guest.log"
+echo "can_group: all CAN checks passed"
