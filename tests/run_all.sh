@@ -9,10 +9,14 @@
 #   tests/run_all.sh GROUP...   some of: lint rust run vcan
 #
 # Groups
-#   lint  cargo fmt --check; cargo clippy --all-targets -D warnings
+#   lint  cargo fmt --check; cargo clippy --all-targets -D warnings (with and without the
+#         ros/socketcan features)
 #   rust  unit, property, closed-loop scenario, real-data (CARMEN log),
 #         zero-allocation and CLI tests: cargo test --release --workspace
 #   run   the README run command (the paper_line scenario), outputs checked
+#   ros   the ROS 1 nodes against Debian's real ROS tools (tests/ros_group.sh:
+#         installs the ROS packages, roscore on a private port, launch files,
+#         rosbag, rviz under Xvfb)
 #   vcan  the QEMU guest that gives tests a real Linux vcan interface
 #         (installs can-utils, python cantools and the guest kernel once;
 #         this machine's own kernel has no CAN), smoke-tested
@@ -25,7 +29,7 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
 export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
 
-ALL_GROUPS=(lint rust run vcan)
+ALL_GROUPS=(lint rust run ros vcan)
 GROUPS_TO_RUN=("$@")
 [ ${#GROUPS_TO_RUN[@]} -gt 0 ] || GROUPS_TO_RUN=("${ALL_GROUPS[@]}")
 
@@ -46,6 +50,7 @@ group_lint() {
   need_cargo
   cargo fmt --all -- --check
   cargo clippy --workspace --all-targets --locked --release -- -D warnings
+  cargo clippy --workspace --all-targets --locked --release --all-features -- -D warnings
 }
 
 group_rust() {
@@ -65,6 +70,11 @@ group_run() {
   for f in steps.csv summary.json trajectory.png trajectory.svg barriers.png barriers.svg velocities.png velocities.svg; do
     [ -s "$out/$f" ] || die "the main job did not write $f"
   done
+}
+
+group_ros() {
+  need_cargo
+  "$ROOT/tests/ros_group.sh"
 }
 
 group_vcan() {

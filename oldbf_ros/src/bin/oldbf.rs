@@ -74,6 +74,27 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Publish a CARMEN log (FLASER lines; plain or .gz) as
+    /// sensor_msgs/LaserScan on a ROS topic, to replay real LiDAR data into
+    /// oldbf_node or `rosbag record` (needs a ROS master; ROS_MASTER_URI).
+    ///
+    /// Scans are stamped with the time they are published. Readings at the
+    /// log's sensor maximum (81.83 m) are kept: range_max is set to it, so
+    /// consumers treat them as "no return". Only in builds with `--features ros`.
+    #[cfg(feature = "ros")]
+    CarmenPlay {
+        /// The log file, e.g. tests/data/intel-corrected.log.gz.
+        log: PathBuf,
+        /// Topic to publish on (resolved like any ROS name; remapping works).
+        #[arg(long, default_value = "scan")]
+        topic: String,
+        /// Scans per second (Hz); the log's own timing is not reproduced.
+        #[arg(long, value_name = "HZ", default_value_t = 10.0)]
+        rate: f64,
+        /// frame_id of the scans.
+        #[arg(long, default_value = "laser")]
+        frame: String,
+    },
     /// Check a parameter file: strict keys, types and ranges.
     ///
     /// Every key of config/oldbf.yaml must be present with the right type;
@@ -152,6 +173,22 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
             } else {
                 ExitCode::from(1)
             })
+        }
+        #[cfg(feature = "ros")]
+        Command::CarmenPlay {
+            log,
+            topic,
+            rate,
+            frame,
+        } => {
+            if !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0) {
+                anyhow::bail!("--rate {rate} is out of range; allowed: (0, 10000] Hz");
+            }
+            let carmen = oldbf_ros::carmen::open_log(&log).with_context(|| format!("reading {}", log.display()))?;
+            let summary =
+                oldbf_ros::ros::carmen_play::play(&carmen, &topic, &frame, rate).map_err(anyhow::Error::msg)?;
+            println!("published {} scans on {topic}", summary.published);
+            Ok(ExitCode::SUCCESS)
         }
         Command::CheckConfig { file } => {
             let p = config::load_params_file(&file)?;

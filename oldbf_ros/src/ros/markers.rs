@@ -33,7 +33,7 @@ fn marker(frame: &str, stamp: rosrust::Time, id: i32, kind: i32) -> Marker {
 
 fn circle(frame: &str, stamp: rosrust::Time, id: i32, radius: f64, c: ColorRGBA) -> Marker {
     let mut m = marker(frame, stamp, id, Marker::LINE_STRIP as i32);
-    m.scale.x = 0.01;
+    m.scale.x = 0.02;
     m.color = c;
     m.points = (0..=72)
         .map(|k| {

@@ -2,6 +2,7 @@
 //! services and parameters and the pure core. Nothing here decides anything
 //! about safety; it converts, times and publishes.
 
+pub mod carmen_play;
 pub mod convert;
 pub mod diagnostics;
 pub mod lifecycle;
