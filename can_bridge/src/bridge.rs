@@ -268,9 +268,7 @@ impl<B: CanBus> Bridge<B> {
     /// Latches the e-stop and sends e-stop frames at once (and every period
     /// until [`reset`](Self::reset)).
     pub fn estop(&mut self, now: Timestamp) {
-        if !self.estop {
-            self.push_event(now, BridgeEvent::EstopLatched);
-        }
+        let new = !self.estop;
         self.estop = true;
         self.command = None;
         self.phase = Phase::Down;
@@ -279,6 +277,10 @@ impl<B: CanBus> Bridge<B> {
         self.update_reasons(now);
         self.transmit_setpoints(now);
         self.flush(now);
+        // Reported after the frames are out: logging may be slow (a serial console).
+        if new {
+            self.push_event(now, BridgeEvent::EstopLatched);
+        }
     }
 
     /// Clears the e-stop latch and latched drive faults. The drive is
@@ -654,9 +656,10 @@ impl<B: CanBus> Bridge<B> {
                     return;
                 }
                 if let Some(w) = self.erroring_wheel() {
-                    let only_watchdog = self.links.iter().all(|l| {
-                        !l.estopped && (l.error_code == 0 || self.protocol.is_watchdog_error(l.error_code))
-                    });
+                    let only_watchdog = self
+                        .links
+                        .iter()
+                        .all(|l| !l.estopped && (l.error_code == 0 || self.protocol.is_watchdog_error(l.error_code)));
                     if !self.may_clear_drive_errors && !(self.comm_lost && only_watchdog) {
                         self.latch_fault(w, now);
                         return;

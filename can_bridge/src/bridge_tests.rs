@@ -240,10 +240,7 @@ fn expected_motor(v: f64, w: f64) -> (f64, f64) {
 
 fn assert_close(got: f64, want: f64) {
     // The generic field quantizes to 1e-5 rad/s.
-    assert!(
-        (got - want).abs() <= 0.5e-5 + 1e-12,
-        "got {got}, want {want}"
-    );
+    assert!((got - want).abs() <= 0.5e-5 + 1e-12, "got {got}, want {want}");
 }
 
 // ----------------------------------------------------------------- start-up and kinematics
@@ -318,12 +315,25 @@ fn watchdog_zero_within_timeout_plus_one_period_and_never_resumes() {
     assert!(r.last_pair().left != 0.0);
     r.run_s(2.0);
     let pairs = r.pairs_since(t_cmd);
-    let first_zero = pairs.iter().find(|p| p.left == 0.0 && p.right == 0.0).expect("zero sent");
+    let first_zero = pairs
+        .iter()
+        .find(|p| p.left == 0.0 && p.right == 0.0)
+        .expect("zero sent");
     let deadline = t_cmd + Duration::from_secs_f64(0.5) + PERIOD;
-    assert!(first_zero.t <= deadline, "zero at {:?}, deadline {deadline:?}", first_zero.t);
-    assert!(first_zero.t > t_cmd + Duration::from_secs_f64(0.5), "not before the timeout");
+    assert!(
+        first_zero.t <= deadline,
+        "zero at {:?}, deadline {deadline:?}",
+        first_zero.t
+    );
+    assert!(
+        first_zero.t > t_cmd + Duration::from_secs_f64(0.5),
+        "not before the timeout"
+    );
     // ...and it stays zero: the old command is never resumed.
-    assert!(pairs.iter().filter(|p| p.t >= first_zero.t).all(|p| p.left == 0.0 && p.right == 0.0));
+    assert!(pairs
+        .iter()
+        .filter(|p| p.t >= first_zero.t)
+        .all(|p| p.left == 0.0 && p.right == 0.0));
     assert_eq!(r.bridge.reasons(), [StopReason::CommandTimeout]);
     assert_eq!(r.bridge.state(), BridgeState::Idle);
     // A fresh command resumes at the next period.
@@ -364,7 +374,10 @@ fn a_command_received_before_a_fault_is_not_resumed_after_it() {
     assert_eq!(r.bridge.reasons(), [StopReason::AwaitingFreshCommand]);
     let t = r.t;
     r.run_s(1.0);
-    assert!(r.pairs_since(t).iter().all(|p| p.left == 0.0), "old command not resumed");
+    assert!(
+        r.pairs_since(t).iter().all(|p| p.left == 0.0),
+        "old command not resumed"
+    );
     r.cmd(0.2, 0.0).unwrap();
     r.run(PERIOD * 2);
     assert!(r.last_pair().left != 0.0);
@@ -414,7 +427,10 @@ fn commands_beyond_the_limits_are_scaled_keeping_the_curvature() {
     let (l, rr) = expected_motor(0.5, 0.5);
     assert_close(p.left, l);
     assert_close(p.right, rr);
-    assert!(r.events().iter().any(|e| matches!(e, BridgeEvent::CommandClamped { .. })));
+    assert!(r
+        .events()
+        .iter()
+        .any(|e| matches!(e, BridgeEvent::CommandClamped { .. })));
     // Wheel saturation: 0.5 m/s, 5 rad/s → wheels (0.5 ∓ 0.4)/0.033 = 3.03, 27.3 > 20:
     // both scaled by 20/27.27, never just the right one clipped.
     r.cmd(0.5, 5.0).unwrap();
@@ -424,7 +440,10 @@ fn commands_beyond_the_limits_are_scaled_keeping_the_curvature() {
     let k = 200.0 / rr.abs();
     assert_close(p.left, l * k);
     assert_close(p.right, rr * k);
-    assert!((p.right.abs() - 200.0).abs() < 1e-4, "right motor at 20 rad/s × gear 10");
+    assert!(
+        (p.right.abs() - 200.0).abs() < 1e-4,
+        "right motor at 20 rad/s × gear 10"
+    );
 }
 
 // ----------------------------------------------------------------- ramps
@@ -496,10 +515,7 @@ fn estop_is_latched_until_reset_and_a_fresh_command() {
     r.cmd(0.2, 0.0).unwrap();
     r.run(PERIOD * 2);
     assert!(r.last_pair().left > 0.0);
-    assert!(r
-        .events()
-        .iter()
-        .any(|e| matches!(e, BridgeEvent::EstopLatched)));
+    assert!(r.events().iter().any(|e| matches!(e, BridgeEvent::EstopLatched)));
 }
 
 #[test]
@@ -517,7 +533,10 @@ fn odrive_estop_sends_estop_frames_and_reset_restarts_the_axis() {
     let ids: Vec<u32> = r.sent.iter().filter(|(s, _)| *s > t).map(|(_, f)| f.id).collect();
     assert!(ids.contains(&odrive::arb_id(3, odrive::cmd::ESTOP)));
     assert!(ids.contains(&odrive::arb_id(5, odrive::cmd::ESTOP)));
-    assert!(!ids.contains(&odrive::arb_id(3, odrive::cmd::SET_INPUT_VEL)), "no velocity while latched");
+    assert!(
+        !ids.contains(&odrive::arb_id(3, odrive::cmd::SET_INPUT_VEL)),
+        "no velocity while latched"
+    );
     // The drive's ESTOP_REQUESTED error does not add a latched fault.
     assert_eq!(r.bridge.reasons()[0], StopReason::Estop);
     let t = r.t;
@@ -597,10 +616,7 @@ fn axis_error_latches_until_reset() {
     assert_eq!(r.bridge.state(), BridgeState::Stopped);
     assert!(matches!(
         r.bridge.reasons()[0],
-        StopReason::DriveFault {
-            error_code: 0x40,
-            ..
-        }
+        StopReason::DriveFault { error_code: 0x40, .. }
     ));
     // The error goes away on the drive: still latched, no Clear_Errors sent by itself.
     let t = r.t;
@@ -706,7 +722,10 @@ fn odrive_startup_order_zero_before_closed_loop() {
             .collect();
         let closed = cmds.iter().position(|c| *c == odrive::cmd::SET_AXIS_STATE).unwrap();
         let clear = cmds.iter().position(|c| *c == odrive::cmd::CLEAR_ERRORS).unwrap();
-        let mode = cmds.iter().position(|c| *c == odrive::cmd::SET_CONTROLLER_MODE).unwrap();
+        let mode = cmds
+            .iter()
+            .position(|c| *c == odrive::cmd::SET_CONTROLLER_MODE)
+            .unwrap();
         let zero = cmds[..closed]
             .iter()
             .rposition(|c| *c == odrive::cmd::SET_INPUT_VEL)
@@ -918,7 +937,10 @@ fn full_tx_queue_bounded_retry_stale_dropped_then_fresh_frames_only() {
     assert_eq!(hold.len(), 1, "no backlog: {pairs:?}");
     assert_eq!(hold[0].left, 0.0, "stopped: zero, not the old command");
     assert!(hold[0].t - t <= Duration::from_millis(2), "the current pair, retried");
-    assert!(hold[0].counter.wrapping_sub(last_counter) > 10, "the dropped pairs' counters were skipped");
+    assert!(
+        hold[0].counter.wrapping_sub(last_counter) > 10,
+        "the dropped pairs' counters were skipped"
+    );
     // The drive is restarted and a fresh command is needed.
     r.run_s(0.1);
     assert_eq!(r.bridge.reasons(), [StopReason::AwaitingFreshCommand]);

@@ -63,7 +63,16 @@ fn fault_specs_parse() {
         "axis_error@0".parse::<FaultSpec>().unwrap().kind,
         FaultKind::AxisError { code: 1, wheel: None }
     );
-    for bad in ["explode@1", "axis_error", "silence@x", "silence@1:2", "axis_error@1:0", "feedback_delay@1", "axis_error@1:1:up", "exit@-1"] {
+    for bad in [
+        "explode@1",
+        "axis_error",
+        "silence@x",
+        "silence@1:2",
+        "axis_error@1:0",
+        "feedback_delay@1",
+        "axis_error@1:1:up",
+        "exit@-1",
+    ] {
         assert!(bad.parse::<FaultSpec>().is_err(), "{bad}");
     }
 }
@@ -99,7 +108,10 @@ fn accel_and_speed_limits() {
     pair(&mut d, 50.0, 1, true, false, 0.0);
     let mut out = Vec::new();
     d.step(t(0.05), &mut out);
-    assert!((d.axis(Wheel::Left).vel_radps - 5.0).abs() < 1e-9, "100 rad/s² × 0.05 s");
+    assert!(
+        (d.axis(Wheel::Left).vel_radps - 5.0).abs() < 1e-9,
+        "100 rad/s² × 0.05 s"
+    );
     pair(&mut d, 50.0, 2, true, false, 0.05);
     d.step(t(0.2), &mut out);
     assert_eq!(d.axis(Wheel::Left).vel_radps, 8.0, "own speed limit");
@@ -202,9 +214,15 @@ fn odrive_axis_follows_the_cansimple_sequence() {
     d.step(t(0.01), &mut out);
     assert!((d.axis(Wheel::Left).vel_radps - 2.0 * TAU).abs() < 1e-9);
     // Heartbeats: node 3 closed loop, node 5 idle; encoder estimates in turns.
-    let hb3 = out.iter().find(|f| f.id == odrive::arb_id(3, odrive::cmd::HEARTBEAT)).unwrap();
+    let hb3 = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(3, odrive::cmd::HEARTBEAT))
+        .unwrap();
     assert_eq!(hb3.data[4], 8);
-    let hb5 = out.iter().find(|f| f.id == odrive::arb_id(5, odrive::cmd::HEARTBEAT)).unwrap();
+    let hb5 = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(5, odrive::cmd::HEARTBEAT))
+        .unwrap();
     assert_eq!(hb5.data[4], 1);
     assert_eq!(d.stats().closed_loop_with_nonzero_input, 0);
     // Asking for closed loop while a non-zero input is set is flagged.
@@ -278,7 +296,10 @@ fn scheduled_faults() {
         .map(|(_, f)| f)
         .collect();
     assert!(hb_right_after.iter().all(|f| f.data[0] == 0x40));
-    assert!(log.iter().filter(|(t, f)| *t >= 5.0 && f.id == odrive::arb_id(0, 1)).all(|(_, f)| f.data[0] == 0));
+    assert!(log
+        .iter()
+        .filter(|(t, f)| *t >= 5.0 && f.id == odrive::arb_id(0, 1))
+        .all(|(_, f)| f.data[0] == 0));
     // Exit: nothing after 6 s.
     assert!(log.iter().all(|(t, _)| *t < 6.0));
     assert!(d.exited());

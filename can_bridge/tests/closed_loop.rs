@@ -59,14 +59,11 @@ fn setpoints_on_the_wire_equal_the_kinematics() {
         sim.run_s(0.5);
         sim.stream(Twist::new(0.2, 0.5), 1.5);
         let speeds = assert_wire_is_clean(&sim.tap.wire_log(), protocol);
-        let (l, r) = speeds
-            .iter()
-            .rev()
-            .fold((None, None), |(l, r), (w, v)| match w {
-                0 if l.is_none() => (Some(*v), r),
-                1 if r.is_none() => (l, Some(*v)),
-                _ => (l, r),
-            });
+        let (l, r) = speeds.iter().rev().fold((None, None), |(l, r), (w, v)| match w {
+            0 if l.is_none() => (Some(*v), r),
+            1 if r.is_none() => (l, Some(*v)),
+            _ => (l, r),
+        });
         // (0.2 ∓ 0.5·0.08)/0.033 × 10, right motor reversed.
         let want_l = 10.0 * 0.16 / 0.033;
         let want_r = -10.0 * 0.24 / 0.033;
@@ -98,7 +95,11 @@ fn drive_killed_stops_the_bridge_within_the_heartbeat_timeout() {
         }
         let stopped = stopped.expect("stopped");
         // Feedback (0.2 s) goes first; heartbeat (0.5 s) follows.
-        assert!(stopped - killed <= 0.2 + 0.02 + 1e-9, "{protocol:?}: {}", stopped - killed);
+        assert!(
+            stopped - killed <= 0.2 + 0.02 + 1e-9,
+            "{protocol:?}: {}",
+            stopped - killed
+        );
         assert!(sim.has_reason("no_heartbeat"), "{:?}", sim.bridge.reasons());
         assert_eq!(sim.bridge.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
     }
@@ -131,7 +132,12 @@ fn axis_error_in_a_heartbeat_stops_and_latches() {
         let t = sim.t;
         sim.bridge.reset(t);
         sim.stream(Twist::new(0.2, 0.0), 0.5);
-        assert_eq!(sim.bridge.state(), BridgeState::Running, "{protocol:?} {:?}", sim.bridge.reasons());
+        assert_eq!(
+            sim.bridge.state(),
+            BridgeState::Running,
+            "{protocol:?} {:?}",
+            sim.bridge.reasons()
+        );
     }
 }
 
@@ -149,7 +155,12 @@ fn heartbeat_silence_stops_then_a_fresh_command_resumes() {
         assert!(sim.has_reason("no_heartbeat"));
         // The drive itself kept running (it kept receiving zero setpoints).
         sim.stream(Twist::new(0.1, 0.0), 1.0);
-        assert_eq!(sim.bridge.state(), BridgeState::Running, "{protocol:?}: {:?}", sim.bridge.reasons());
+        assert_eq!(
+            sim.bridge.state(),
+            BridgeState::Running,
+            "{protocol:?}: {:?}",
+            sim.bridge.reasons()
+        );
     }
 }
 
@@ -181,7 +192,8 @@ fn delayed_feedback_beyond_the_timeout_stops() {
     sim.stream(Twist::new(0.1, 0.0), 0.5);
     let t = sim.t;
     // Feedback 0.3 s late: a 0.3 s gap (> 0.2 s timeout) when it starts.
-    sim.drive.inject(FaultKind::FeedbackDelay { delay_s: 0.3 }, Some(2.0), t);
+    sim.drive
+        .inject(FaultKind::FeedbackDelay { delay_s: 0.3 }, Some(2.0), t);
     sim.stream(Twist::new(0.1, 0.0), 0.28);
     assert!(sim.has_reason("feedback_lost"));
     sim.stream(Twist::new(0.1, 0.0), 0.2);

@@ -47,17 +47,17 @@ fn bus_off(protocol: ProtocolKind) {
     let t0 = clock.now();
     injector.send_error_frame(&CanErrorFrame::bus_off()).unwrap();
     let hit = wait_until(&mut b, &clock, 0.5, |b| has_reason(b, "bus_error")).expect("bus-off seen");
-    println!("{protocol:?}: bus-off error frame → stopped in {:.2} ms", secs(t0, hit) * 1e3);
+    println!(
+        "{protocol:?}: bus-off error frame → stopped in {:.2} ms",
+        secs(t0, hit) * 1e3
+    );
     assert_eq!(b.state(), BridgeState::Stopped);
     // The controller restarts; the drive's frames flow; after bus_recovery_s
     // of quiet, and with fresh commands, motion resumes.
     injector.send_error_frame(&CanErrorFrame::restarted()).unwrap();
     teleop(&mut b, &clock, Twist::new(0.2, 0.0), recovery * 0.6);
     assert!(has_reason(&b, "bus_error"), "not before bus_recovery_s");
-    let back = wait_until(&mut b, &clock, 3.0, |b| {
-        !has_reason(b, "bus_error")
-    })
-    .expect("recovered");
+    let back = wait_until(&mut b, &clock, 3.0, |b| !has_reason(b, "bus_error")).expect("recovered");
     println!("{protocol:?}: bus back after {:.0} ms", secs(t0, back) * 1e3);
     teleop(&mut b, &clock, Twist::new(0.2, 0.0), 1.0);
     assert_eq!(b.state(), BridgeState::Running, "{:?}", b.reasons());
@@ -166,7 +166,11 @@ fn interface_down_and_up() {
     sh(&["ip", "link", "set", IFACE, "down"]);
     let t0 = clock.now();
     let hit = wait_until(&mut b, &clock, 1.0, |b| has_reason(b, "bus_error")).expect("down detected");
-    println!("interface down → stopped in {:.1} ms: {:?}", secs(t0, hit) * 1e3, b.reasons());
+    println!(
+        "interface down → stopped in {:.1} ms: {:?}",
+        secs(t0, hit) * 1e3,
+        b.reasons()
+    );
     teleop(&mut b, &clock, Twist::new(0.2, 0.0), 0.3);
     assert_eq!(b.state(), BridgeState::Stopped);
     sh(&["ip", "link", "set", IFACE, "up"]);

@@ -46,7 +46,10 @@ fn killed(protocol: ProtocolKind) {
     });
     let (t_s, why) = stopped.expect("the bridge stopped");
     let dt = secs(t_k, t_s);
-    println!("{protocol:?}: stopped {:.1} ms after the drive was killed: {why:?}", dt * 1e3);
+    println!(
+        "{protocol:?}: stopped {:.1} ms after the drive was killed: {why:?}",
+        dt * 1e3
+    );
     assert!(dt <= fb_timeout + 0.02 + 0.05, "{dt}");
     assert!(has_reason(&b, "no_heartbeat"), "{:?}", b.reasons());
     let moving: Vec<_> = setpoints(&sniff.frames(), protocol)
@@ -129,7 +132,10 @@ fn axis_error(protocol: ProtocolKind) {
     })
     .expect("drive fault reported");
     println!("{protocol:?}: axis error → stop in {:.1} ms", secs(t0, hit) * 1e3);
-    assert!(secs(t0, hit) < 0.15 + 0.05, "within a heartbeat period (100 ms) + slack");
+    assert!(
+        secs(t0, hit) < 0.15 + 0.05,
+        "within a heartbeat period (100 ms) + slack"
+    );
     assert!(matches!(
         b.reasons()[0],
         can_bridge::diagnostics::StopReason::DriveFault { error_code: 0x20, .. }

@@ -54,7 +54,10 @@ fn watchdog(protocol: ProtocolKind) {
         .collect();
     assert!(resumed.is_empty(), "old command resumed: {resumed:?}");
     // A fresh command resumes within two periods.
-    let moving = sp.iter().find(|s| s.t > t_fresh && s.vel_radps != 0.0).expect("fresh command resumes");
+    let moving = sp
+        .iter()
+        .find(|s| s.t > t_fresh && s.vel_radps != 0.0)
+        .expect("fresh command resumes");
     let dt = secs(t_fresh, moving.t);
     println!("{protocol:?}: fresh command on the wire after {:.1} ms", dt * 1e3);
     assert!(dt <= 0.04 + SLACK_S, "{dt}");
@@ -107,7 +110,10 @@ fn estop(protocol: ProtocolKind) {
         "{protocol:?}: e-stop on the wire {:.2} ms after estop()",
         secs(t_e, first_estop.t) * 1e3
     );
-    assert!(secs(t_e, first_estop.t) < 0.005 + SLACK_S, "sent at once, not at the next period");
+    assert!(
+        secs(t_e, first_estop.t) < 0.005 + SLACK_S,
+        "sent at once, not at the next period"
+    );
     let latched: Vec<_> = sp.iter().filter(|s| s.t >= first_estop.t && s.t < t_r).collect();
     assert!(latched.len() >= 40, "e-stop frames every period: {}", latched.len());
     assert!(latched.iter().all(|s| s.vel_radps == 0.0), "no velocity while latched");

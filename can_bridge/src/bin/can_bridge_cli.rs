@@ -242,7 +242,11 @@ fn run(args: Args) -> Result<i32> {
         }
         // Wake for the bridge's deadline, the next script step, the next
         // status line, and at least every 2 ms for stdin.
-        let mut max_wait = Duration::from_millis(2);
+        let mut max_wait = if script.is_some() {
+            Duration::from_millis(50)
+        } else {
+            Duration::from_millis(2)
+        };
         if let Some(s) = script.as_ref().and_then(|s| s.get(next_step)) {
             max_wait = max_wait.min(at(s.at_s) - now);
         }

@@ -178,7 +178,9 @@ fn run(args: Args) -> Result<i32> {
     let reporter = {
         let (drive, stop) = (drive.clone(), stop.clone());
         let period = (args.status_rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / args.status_rate_hz));
-        let end = args.duration_s.map(|d| clock.now() + Duration::from_secs_f64(d.max(0.0)));
+        let end = args
+            .duration_s
+            .map(|d| clock.now() + Duration::from_secs_f64(d.max(0.0)));
         std::thread::spawn(move || {
             let mut next = clock.now();
             while !stop.load(Ordering::Relaxed) {

@@ -18,7 +18,7 @@ use can_bridge::protocol::generic::{self, GenericIds};
 use can_bridge::protocol::odrive;
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::virtual_drive::{run_virtual_drive, FaultKind, VirtualDrive, VirtualDriveConfig};
-use can_bridge::{BusEvent, CanBus, Clock, MonotonicClock, ProtocolKind, Timestamp, Twist};
+use can_bridge::{BusEvent, Clock, MonotonicClock, ProtocolKind, Timestamp, Twist};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -99,8 +99,18 @@ impl Sniffer {
         let mut bus = SocketCanBus::open(IFACE).expect("sniffer socket");
         bus.accept_all().unwrap();
         bus.enable_kernel_timestamps().unwrap();
-        // Wall clock ↔ monotonic clock, sampled together (tests last seconds).
-        let (wall0, mono0) = (SystemTime::now(), clock.now());
+        // Wall clock ↔ monotonic clock: the tightest of a few bracketed samples
+        // (a preemption between the two reads would shift every time).
+        let (wall0, mono0) = (0..20)
+            .map(|_| {
+                let a = clock.now();
+                let w = SystemTime::now();
+                let b = clock.now();
+                (b - a, w, a + (b - a) / 2)
+            })
+            .min_by_key(|x| x.0)
+            .map(|(_, w, m)| (w, m))
+            .unwrap();
         let (f, s) = (frames.clone(), stop.clone());
         let handle = std::thread::spawn(move || {
             while !s.load(Ordering::Relaxed) {
