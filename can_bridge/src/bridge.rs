@@ -660,7 +660,8 @@ impl<B: CanBus> Bridge<B> {
                         .links
                         .iter()
                         .all(|l| !l.estopped && (l.error_code == 0 || self.protocol.is_watchdog_error(l.error_code)));
-                    if !self.may_clear_drive_errors && !(self.comm_lost && only_watchdog) {
+                    let may_clear = self.may_clear_drive_errors || (self.comm_lost && only_watchdog);
+                    if !may_clear {
                         self.latch_fault(w, now);
                         return;
                     }

@@ -89,10 +89,6 @@ impl Rig {
         Self::with(cfg(ProtocolKind::Odrive))
     }
 
-    fn s(&self) -> f64 {
-        self.t.as_secs_f64() - 100.0
-    }
-
     /// The fake drive's frames for this instant.
     fn drive_frames(&mut self) {
         self.counter = self.counter.wrapping_add(1);

@@ -481,17 +481,15 @@ impl VirtualDrive {
             return;
         }
         match self.generic_state {
-            generic::STATE_DISABLED => {
-                if self.axes.iter().all(|a| a.error == 0) {
-                    self.generic_state = generic::STATE_ENABLED;
-                    for a in &mut self.axes {
-                        a.last_setpoint = Some(now);
-                    }
-                } else {
-                    return;
+            // Enable (from disabled, without error).
+            generic::STATE_DISABLED if self.axes.iter().all(|a| a.error == 0) => {
+                self.generic_state = generic::STATE_ENABLED;
+                for a in &mut self.axes {
+                    a.last_setpoint = Some(now);
                 }
             }
             generic::STATE_ENABLED => {}
+            // E-stop or fault latched (or disabled with an error): ignored until cleared.
             _ => return,
         }
         let a = &mut self.axes[w.index()];

@@ -41,13 +41,15 @@ while read -r bin; do
   [ -n "$bin" ] || continue
   name=$(basename "$bin" | sed 's/-[0-9a-f]*$//')
   t0=$(ms)
-  out=$("$bin" --test-threads=1 --nocapture 2>&1)
+  # Serially (they share vcan0); each test's output is captured and shown at the end.
+  out=$("$bin" --test-threads=1 --show-output 2>&1)
   rc=$?
   dt=$(( $(ms) - t0 ))
   TIMES+=("$name $dt")
-  # One line per test case, plus the measurements the tests print.
-  grep -E '^test .* \.\.\. (ok|FAILED)$' <<< "$out" | sed -E 's/^test (.*) \.\.\. ok$/PASS: '"$name"'::\1/; s/^test (.*) \.\.\. FAILED$/FAIL: '"$name"'::\1/'
-  grep -vE '^(test |running |$|test result|successes|failures:|---- )' <<< "$out" | grep -E 'ms|pose|counter|frames|during' | sed 's/^/    /'
+  # One line per test case, then the measurements the tests print (not their logs).
+  grep -E '^test .* \.\.\. (ok|FAILED)$' <<< "$out" \
+    | sed -E 's/^test (.*) \.\.\. ok$/PASS: '"$name"'::\1/; s/^test (.*) \.\.\. FAILED$/FAIL: '"$name"'::\1/'
+  grep -E '^(Generic|Odrive|counter|interface)' <<< "$out" | sed 's/^/    /'
   if [ "$rc" -eq 0 ]; then
     pass "$name (${dt} ms)"
   else

@@ -154,7 +154,6 @@ fn run(args: Args) -> Result<i32> {
     // stdin reader: stamps each line with its arrival time.
     let (tx, rx) = mpsc::channel::<Option<(Timestamp, Result<Action, String>)>>();
     if script.is_none() {
-        let clock = clock;
         std::thread::spawn(move || {
             for line in std::io::stdin().lock().lines() {
                 let Ok(line) = line else { break };

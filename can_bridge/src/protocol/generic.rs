@@ -437,6 +437,37 @@ mod tests {
 
     const IDS: GenericIds = GenericIds { base_id: 0x100 };
 
+    /// The shipped DBC describes these constants (python cantools decodes the
+    /// wire with it in the vcan group; this keeps the two in step on any machine).
+    #[test]
+    fn the_dbc_file_matches_the_layout() {
+        let dbc = include_str!("../../dbc/oldbf_generic.dbc");
+        for (off, name, dir) in [
+            (OFFSET_SETPOINT_LEFT, "Setpoint_Left", "Bridge"),
+            (OFFSET_SETPOINT_RIGHT, "Setpoint_Right", "Bridge"),
+            (OFFSET_STATUS, "Drive_Status", "Drive"),
+            (OFFSET_FEEDBACK_LEFT, "Feedback_Left", "Drive"),
+            (OFFSET_FEEDBACK_RIGHT, "Feedback_Right", "Drive"),
+        ] {
+            let line = format!("BO_ {} {name}: 8 {dir}", DEFAULT_BASE_ID + off);
+            assert!(dbc.contains(&line), "missing `{line}`");
+        }
+        let vel = format!("0|32@1- ({VEL_RADPS_PER_BIT:E},0)").replace("E-5", "E-005");
+        assert_eq!(dbc.matches(&format!("SG_ Vel_Cmd : {vel}")).count(), 2, "{vel}");
+        assert_eq!(dbc.matches(&format!("SG_ Vel_Meas : {vel}")).count(), 2);
+        assert_eq!(dbc.matches("SG_ Pos_Meas : 32|24@1+ (0.0001,0)").count(), 2);
+        assert_eq!(POS_RAD_PER_BIT, 0.0001);
+        assert_eq!(dbc.matches("SG_ Counter : 32|8@1+").count(), 2);
+        assert_eq!(dbc.matches("SG_ Enable : 40|1@1+").count(), 2);
+        assert_eq!(FLAG_ENABLE, 1 << (40 - 40));
+        assert_eq!(dbc.matches("SG_ Estop : 41|1@1+").count(), 2);
+        assert_eq!(FLAG_ESTOP, 1 << (41 - 40));
+        assert_eq!(dbc.matches("SG_ Crc : 56|8@1+").count(), 3);
+        assert!(dbc.contains("SG_ Error_Code : 16|32@1+"));
+        assert!(dbc.contains(r#"VAL_ 272 State 0 "DISABLED" 1 "ENABLED" 2 "ESTOP" 3 "FAULT" ;"#));
+        assert_eq!((STATE_DISABLED, STATE_ENABLED, STATE_ESTOP, STATE_FAULT), (0, 1, 2, 3));
+    }
+
     #[test]
     fn crc_check_value() {
         // CRC-8/SAE-J1850 check value over "123456789" is 0x4B; our id
@@ -493,12 +524,12 @@ mod tests {
             Wheel::Left,
             &Feedback {
                 vel_radps: 12.34567,
-                pos_rad: 3.1416,
+                pos_rad: 2.5,
                 counter: 9,
             },
         );
         assert_eq!(f.id, 0x111);
-        assert_eq!(f.data, [0x87, 0xD6, 0x12, 0x00, 0xB8, 0x7A, 0x00, 0x09]);
+        assert_eq!(f.data, [0x87, 0xD6, 0x12, 0x00, 0xA8, 0x61, 0x00, 0x09]);
     }
 
     #[test]
