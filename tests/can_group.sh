@@ -14,7 +14,8 @@
 # 3. prints the timing of each step and the tx jitter measured in the guest.
 #
 # Needs: Rust ≥ 1.85, and tests/vm/setup-host.sh run once (can-utils, python
-# cantools, the guest kernel). Exits non-zero on any failure.
+# cantools, the guest kernel). Honours CARGO_TARGET_DIR (it must not be under
+# /tmp, /run or /dev/shm: the guest has its own). Exits non-zero on any failure.
 set -Eeuo pipefail
 trap 'echo "can_group: ERROR at line $LINENO: $BASH_COMMAND" >&2' ERR
 
@@ -28,6 +29,8 @@ command -v cargo >/dev/null || die "cargo not found (install Rust ≥ 1.85 with 
 command -v candump >/dev/null || die "candump not found: run tests/vm/setup-host.sh"
 python3 -c 'import cantools' 2>/dev/null || die "python3 cannot import cantools: run tests/vm/setup-host.sh"
 
+TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
+case "$TARGET" in /tmp/*|/run/*|/dev/shm/*) die "CARGO_TARGET_DIR=$TARGET: the guest cannot see host /tmp, /run, /dev/shm" ;; esac
 OUT="$ROOT/target/can_group"
 mkdir -p "$OUT"
 TESTS=(vcan_watchdog_estop vcan_drive_faults vcan_odometry vcan_bus_errors)
@@ -58,7 +61,7 @@ if missing:
 for name in sys.argv[2:]:
     print(found[name])
 PY
-BIN_DIR="$ROOT/target/release"
+BIN_DIR="$TARGET/release"
 for b in can_bridge_cli virtual_drive; do [ -x "$BIN_DIR/$b" ] || die "$BIN_DIR/$b missing"; done
 t_built=$(ms)
 

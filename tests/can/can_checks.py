@@ -455,6 +455,41 @@ def check_odrive(bins, tmp):
           f"{len(hb)} heartbeats, {len(enc)} encoder estimates")
 
 
+def check_stdin(bins, tmp):
+    """The interactive path: commands typed on stdin, JSON lines out."""
+    cfg = os.path.join(tmp, "stdin.yaml")
+    write_config(cfg, "generic")
+    drive = subprocess.Popen([os.path.join(bins, "virtual_drive"), "--config", cfg],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cli = subprocess.Popen([os.path.join(bins, "can_bridge_cli"), "--config", cfg, "--status-rate-hz", "0"],
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(1.0)
+        for _ in range(20):
+            cli.stdin.write("0.2 0.1\n")
+            cli.stdin.flush()
+            time.sleep(0.05)
+        for line in ("status", "estop", "nonsense", "reset", "quit"):
+            cli.stdin.write(line + "\n")
+            cli.stdin.flush()
+            time.sleep(0.2)
+        out, err = cli.communicate(timeout=30)
+    finally:
+        drive.send_signal(signal.SIGTERM)
+        drive.wait(timeout=10)
+    lines = [json.loads(l) for l in out.splitlines() if l.startswith("{")]
+    kinds = [l["type"] for l in lines]
+    status = [l for l in lines if l["type"] == "status"]
+    events = [l.get("event") for l in lines if l["type"] == "event"]
+    ok = (cli.returncode == 0 and kinds.count("command") == 22 and "input_error" in kinds
+          and status and status[0]["state"] == "running" and "estop_latched" in events and "reset" in events
+          and kinds[-1] == "final" and lines[-1]["shutdown_frames_failed"] == 0)
+    check(ok, "stdin: twists, status, estop, reset and quit typed on stdin; JSON lines out; clean shutdown",
+          f"exit {cli.returncode}; {kinds.count('command')} commands echoed; status state "
+          f"{status[0]['state'] if status else None}; events {sorted(set(e for e in events if e))}"
+          + (f"; stderr {err[-300:]}" if cli.returncode else ""))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin-dir", required=True, help="directory with can_bridge_cli and virtual_drive")
@@ -467,7 +502,7 @@ def main():
         check(False, "vcan0 exists (run inside tests/vm/run-in-vm.sh)")
     if not FAILS:
         with tempfile.TemporaryDirectory() as tmp:
-            for name, fn in (("generic", check_generic), ("odrive", check_odrive)):
+            for name, fn in (("generic", check_generic), ("odrive", check_odrive), ("stdin", check_stdin)):
                 try:
                     fn(a.bin_dir, tmp)
                 except Exception as e:  # noqa: BLE001
