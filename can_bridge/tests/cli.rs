@@ -25,13 +25,31 @@ fn help_explains_commands_units_and_faults() {
     let out = cli().arg("--help").output().unwrap();
     assert!(out.status.success());
     let h = String::from_utf8_lossy(&out.stdout);
-    for s in ["V OMEGA", "m/s", "rad/s", "estop", "reset", "--script", "--config", "every DT until"] {
+    for s in [
+        "V OMEGA",
+        "m/s",
+        "rad/s",
+        "estop",
+        "reset",
+        "--script",
+        "--config",
+        "every DT until",
+    ] {
         assert!(h.contains(s), "can_bridge_cli --help lacks `{s}`:\n{h}");
     }
     let out = drive().arg("--help").output().unwrap();
     assert!(out.status.success());
     let h = String::from_utf8_lossy(&out.stdout);
-    for s in ["--time-constant-s", "rad/s²", "--watchdog-s", "axis_error@", "heartbeat_silence@", "feedback_delay@", "exit@", "--fault"] {
+    for s in [
+        "--time-constant-s",
+        "rad/s²",
+        "--watchdog-s",
+        "axis_error@",
+        "heartbeat_silence@",
+        "feedback_delay@",
+        "exit@",
+        "--fault",
+    ] {
         assert!(h.contains(s), "virtual_drive --help lacks `{s}`:\n{h}");
     }
 }
