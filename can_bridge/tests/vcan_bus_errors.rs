@@ -125,11 +125,12 @@ fn enobufs(protocol: ProtocolKind) {
         .into_iter()
         .filter(|s| s.t > t_free)
         .collect();
-    // No backlog burst: in the first period after the queue frees up, at most
-    // this period's pair and a start-up pair.
-    let first_period = after.iter().filter(|s| secs(t_free, s.t) < 0.02).count();
-    println!("{protocol:?}: {first_period} setpoint frames in the first period after ENOBUFS ended");
-    assert!(first_period <= 4, "{after:?}");
+    // No backlog burst: over the 100 ms after the queue frees up, at most one
+    // pair per period (≤ 6 periods touched) plus the start-up's zero setpoints
+    // (one per wheel). A replayed backlog of ~25 blocked periods would be 50 more.
+    let n = after.iter().filter(|s| secs(t_free, s.t) < 0.1).count();
+    println!("{protocol:?}: {n} setpoint frames in the 100 ms after ENOBUFS ended (≤ 14 allowed)");
+    assert!(n <= 2 * 6 + 2, "{after:?}");
     assert!(after.iter().all(|s| s.vel_radps == 0.0), "stopped: zeros only");
     if protocol == ProtocolKind::Generic {
         // Stale pairs were dropped, not replayed: the counter jumped.
