@@ -1,7 +1,7 @@
 //! The bridge's bounded transmit queue.
 //!
 //! When the kernel's queue is full (ENOBUFS: a real controller that cannot
-//! get frames out), the frame at the head is retried a few times, a
+//! get frames out), the frame at the head is retried a few times, at least a
 //! millisecond apart, then dropped together with the rest of its group: the
 //! rest of a setpoint pair (never one wheel's new speed with the other's
 //! old one), or the rest of a start-up sequence (a drive is never asked for
