@@ -144,7 +144,7 @@ t_stale() {
   local node s delay
   node=$(spawn stale_node "$BIN/oldbf_node" __ns:=/t_stale _node/nominal_source:=constant)
   wait_log "$LOG/stale_node.log" "filtering at" 10 || return 1
-  s=$($ROSPY tests/ros/stale_scan.py /t_stale 4)
+  s=$($ROSPY tests/ros/stale_scan.py /t_stale 8)
   stop_pid "$node"
   echo "$s" > "$LOG/stale.json"
   delay=$(json "d['stop_delay_s']" <<< "$s")
