@@ -8,7 +8,8 @@
 #
 #   md5        every vendored message md5 equals `rosmsg md5` / `rossrv md5`
 #   scan       rostopic pub of a scan: obstacle left -> angular.z < 0; wall
-#              ahead inside d_safe -> linear.x <= 0 (rostopic echo)
+#              ahead inside d_safe -> linear.x <= 0 (rostopic echo); ~state
+#              (oldbf_ros/BarrierState) decoded by rostopic echo
 #   sim        roslaunch sim.launch (headless): paper_line reaches its goal,
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
@@ -116,7 +117,15 @@ t_scan() {
   pub=$(spawn scan_pub_left rostopic pub -r 10 -s /t_scan/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py left)")
   sleep 2
   out=$(timeout 10 rostopic echo -n 3 /t_scan/cmd_vel)
+  # The custom message round-trips through rostopic echo (genpy module from install.sh).
+  local state
+  state=$(timeout 10 rostopic echo -n 1 /t_scan/oldbf_node/state)
   stop_pid "$pub"
+  if ! { grep -q 'doaa_state_name: "avoid"' <<< "$state" && grep -q 'condition_held: True' <<< "$state"; }; then
+    say "  ~state via rostopic echo: $state"
+    return 1
+  fi
+  figure "scan: ~state via rostopic echo: $(grep -E '^(d_left|b_left|b_right|doaa_state_name):' <<< "$state" | tr '\n' ' ')"
   z=$(awk '/angular:/{a=1} a&&/z:/{v=$2; a=0} END{print v}' <<< "$out")
   figure "scan: obstacle left -> angular.z = $z rad/s"
   check "$(awk -v z="$z" 'BEGIN{print (z < 0) ? "true" : "false"}')" "angular.z = $z not negative" || return 1
