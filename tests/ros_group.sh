@@ -37,22 +37,8 @@ ROSPY=/usr/bin/python3
 say() { printf '%s\n' "ros_group: $*"; }
 
 # ------------------------------------------------------------------ install
-APT=(ros-core ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-visualization-msgs
-     ros-diagnostic-msgs ros-rosgraph-msgs ros-tf2-msgs ros-std-srvs rospack-tools
-     python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-diagnostic-msgs
-     python3-visualization-msgs python3-tf2-msgs python3-std-srvs python3-rosgraph-msgs python3-genpy
-     rviz xvfb x11-apps netpbm)
 t0=$(date +%s)
-missing=()
-for p in "${APT[@]}"; do
-  [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)" = "install ok installed" ] || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  say "installing ${missing[*]}"
-  policy=$(apt-cache policy ros-core 2>/dev/null || true)
-  grep -q 'Candidate: [^(]' <<< "$policy" || apt-get -q -o DPkg::Lock::Timeout=300 update
-  DEBIAN_FRONTEND=noninteractive apt-get -q -o DPkg::Lock::Timeout=300 install -y --no-install-recommends "${missing[@]}"
-fi
+tests/ros/install_deps.sh
 say "ROS packages ready ($(( $(date +%s) - t0 )) s)"
 t0=$(date +%s)
 PREFIX=$ROOT/target/ros

@@ -6,7 +6,7 @@
 # makes the script exit non-zero: nothing is skipped silently.
 #
 #   tests/run_all.sh            all groups
-#   tests/run_all.sh GROUP...   some of: lint rust run vcan
+#   tests/run_all.sh GROUP...   some of: lint rust run ros can e2e
 #
 # Groups
 #   lint  cargo fmt --check; cargo clippy --all-targets -D warnings (with and without the
@@ -17,9 +17,12 @@
 #   ros   the ROS 1 nodes against Debian's real ROS tools (tests/ros_group.sh:
 #         installs the ROS packages, roscore on a private port, launch files,
 #         rosbag, rviz under Xvfb)
-#   vcan  the QEMU guest that gives tests a real Linux vcan interface
-#         (installs can-utils, python cantools and the guest kernel once;
-#         this machine's own kernel has no CAN), smoke-tested
+#   can   the CAN bridge in a real Linux kernel: one QEMU guest boot with
+#         vcan0 (this machine's kernel has no CAN) runs the vcan test
+#         groups and the candump + python cantools decoding checks
+#         (tests/can_group.sh; installs can-utils, cantools, the guest kernel)
+#   e2e   one guest boot: roscore + simulator + filter + CAN bridge + virtual
+#         drive on vcan0, the loop closed through CAN (tests/e2e_group.sh)
 #
 # Needs: a Rust toolchain >= 1.85 (rustup) and, for `vcan`, root for apt.
 set -Eeuo pipefail
@@ -29,7 +32,7 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
 export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
 
-ALL_GROUPS=(lint rust run ros vcan)
+ALL_GROUPS=(lint rust run ros can e2e)
 GROUPS_TO_RUN=("$@")
 [ ${#GROUPS_TO_RUN[@]} -gt 0 ] || GROUPS_TO_RUN=("${ALL_GROUPS[@]}")
 
@@ -77,9 +80,15 @@ group_ros() {
   "$ROOT/tests/ros_group.sh"
 }
 
-group_vcan() {
+group_can() {
+  need_cargo
   "$ROOT/tests/vm/setup-host.sh"
-  "$ROOT/tests/vm/run-in-vm.sh" "$ROOT/tests/vm/smoke.sh"
+  "$ROOT/tests/can_group.sh"
+}
+
+group_e2e() {
+  need_cargo
+  "$ROOT/tests/e2e_group.sh"
 }
 
 declare -A TOOK

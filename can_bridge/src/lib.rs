@@ -25,6 +25,8 @@ pub mod kinematics;
 pub mod limits;
 pub mod odometry;
 pub mod protocol;
+#[cfg(feature = "ros")]
+pub mod ros_node;
 pub mod script;
 #[cfg(feature = "socketcan")]
 pub mod socketcan_bus;

@@ -92,7 +92,8 @@ fn parse_id(s: &str) -> Result<u32, String> {
 
 fn main() {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
-    let args = Args::parse();
+    // roslaunch appends `__name:=…` and `__log:=…` to every command line it starts.
+    let args = Args::parse_from(std::env::args().filter(|a| !(a.starts_with("__") && a.contains(":="))));
     match run(args) {
         Ok(code) => std::process::exit(code),
         Err(e) => {

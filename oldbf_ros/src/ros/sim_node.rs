@@ -3,7 +3,12 @@
 //!
 //! Private parameters: `~scenario` (path to a scenario file, required),
 //! `~seed` (LiDAR noise; default the scenario's), `~odom_rate_hz` (50),
-//! `~cmd_timeout_s` (0.5: a base with no fresh command stops, as real bases do).
+//! `~cmd_timeout_s` (0.5: a base with no fresh command stops, as real bases do),
+//! `~motion_source`: `cmd_vel` (default: the robot follows `cmd_vel` with its
+//! preset's limits) or `odom` (the robot moves at the twist that `odom` reports,
+//! as published by can_bridge_node from the motor drive's wheel feedback: the
+//! loop then closes through CAN; the sim publishes no `odom` of its own and
+//! only base_link → laser on /tf).
 //!
 //! Per robot (names relative to the node's namespace; a multi-robot scenario
 //! puts each robot under its name, e.g. `robot1/scan`): publishes `scan`
@@ -58,7 +63,8 @@ struct Summary {
 struct RobotIo {
     frame_prefix: String,
     scan: rosrust::Publisher<sensor_msgs::LaserScan>,
-    odom: rosrust::Publisher<nav_msgs::Odometry>,
+    /// None when the odometry comes from elsewhere (motion_source odom).
+    odom: Option<rosrust::Publisher<nav_msgs::Odometry>>,
     _cmd_sub: rosrust::Subscriber,
 }
 
@@ -173,6 +179,12 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
     let seed: u64 = param::<i64>("~seed")?.map_or(scenario.spec.seed, |s| s as u64);
     let odom_rate_hz: f64 = param("~odom_rate_hz")?.unwrap_or(50.0);
     let cmd_timeout_s: f64 = param("~cmd_timeout_s")?.unwrap_or(0.5);
+    let motion_source: String = param("~motion_source")?.unwrap_or_else(|| "cmd_vel".into());
+    let from_odom = match motion_source.as_str() {
+        "cmd_vel" => false,
+        "odom" => true,
+        other => return Err(format!("parameter ~motion_source = {other:?}; allowed: cmd_vel, odom")),
+    };
     if !(odom_rate_hz.is_finite() && odom_rate_hz > 0.0 && odom_rate_hz <= 1000.0) {
         return Err(format!(
             "parameter ~odom_rate_hz = {odom_rate_hz} is out of range; allowed: (0, 1000] Hz"
@@ -199,14 +211,26 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
             }
         };
         let c = cmds.clone();
-        let cmd_sub = rosrust::subscribe(&topic("cmd_vel"), 1, move |m: geometry_msgs::Twist| {
-            c.lock().expect("cmd lock")[i] = (twist_from_msg(&m), now_s());
-        })
-        .map_err(|e| format!("subscribing to {}: {e}", topic("cmd_vel")))?;
+        let cmd_sub = if from_odom {
+            rosrust::subscribe(&topic("odom"), 1, move |m: nav_msgs::Odometry| {
+                let t = Twist::new(m.twist.twist.linear.x, m.twist.twist.angular.z);
+                c.lock().expect("cmd lock")[i] = (t, now_s());
+            })
+        } else {
+            rosrust::subscribe(&topic("cmd_vel"), 1, move |m: geometry_msgs::Twist| {
+                c.lock().expect("cmd lock")[i] = (twist_from_msg(&m), now_s());
+            })
+        }
+        .map_err(|e| format!("subscribing to the motion source of robot {i}: {e}"))?;
+        let odom = if from_odom {
+            None
+        } else {
+            Some(rosrust::publish(&topic("odom"), 5).map_err(|e| format!("advertising odom: {e}"))?)
+        };
         io.push(RobotIo {
             frame_prefix: agent.name.clone(),
             scan: rosrust::publish(&topic("scan"), 5).map_err(|e| format!("advertising scan: {e}"))?,
-            odom: rosrust::publish(&topic("odom"), 5).map_err(|e| format!("advertising odom: {e}"))?,
+            odom,
             _cmd_sub: cmd_sub,
         });
     }
@@ -245,7 +269,12 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
             let cmds = cmds.lock().expect("cmd lock");
             for (i, &(cmd, at)) in cmds.iter().enumerate() {
                 let fresh = now - at <= cmd_timeout_s;
-                fleet.set_cmd(i, if fresh && cmd.is_finite() { cmd } else { Twist::ZERO });
+                let twist = if fresh && cmd.is_finite() { cmd } else { Twist::ZERO };
+                if from_odom {
+                    fleet.set_measured_velocity(i, twist);
+                } else {
+                    fleet.set_cmd(i, twist);
+                }
             }
         }
         fleet.step(physics_dt);
@@ -311,8 +340,10 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
                 m.pose.pose.orientation = quaternion_from_yaw(a.robot.pose.theta);
                 m.twist.twist.linear.x = a.robot.twist.v_mps;
                 m.twist.twist.angular.z = a.robot.twist.omega_radps;
-                let _ = robot.odom.send(m);
-                tfs.push(transform(&odom_frame, &base, stamp, a.robot.pose));
+                if let Some(publisher) = &robot.odom {
+                    let _ = publisher.send(m);
+                    tfs.push(transform(&odom_frame, &base, stamp, a.robot.pose));
+                }
                 let l = &scenario.params.laser;
                 let mount = Pose2::new(l.mount_x_m, l.mount_y_m, l.mount_yaw_deg.to_radians());
                 tfs.push(transform(&base, &prefixed(&robot.frame_prefix, "laser"), stamp, mount));

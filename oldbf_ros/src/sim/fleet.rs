@@ -93,6 +93,15 @@ impl Fleet {
         self.agents[i].cmd = cmd;
     }
 
+    /// Makes robot `i` move at a measured velocity from now on (e.g. what its
+    /// motor drive reports), bypassing the simulated robot's own limits: the
+    /// drive has already applied its own.
+    pub fn set_measured_velocity(&mut self, i: usize, twist: Twist) {
+        let a = &mut self.agents[i];
+        a.robot.twist = twist;
+        a.cmd = twist;
+    }
+
     /// Places every robot but `i` into the world as a disc.
     fn show_others_to(&mut self, i: usize) {
         let others = self

@@ -1,0 +1,313 @@
+//! can_bridge_node: the bridge as a ROS 1 node (feature `ros`), a thin
+//! adapter over [`Bridge`] like `can_bridge_cli`.
+//!
+//! Topics (relative names): subscribes `cmd_vel` (geometry_msgs/Twist) and
+//! `e_stop` (std_msgs/Bool: true latches the bridge's e-stop); publishes
+//! `odom` (nav_msgs/Odometry from the wheels' measured speeds and positions,
+//! `node/odom_rate_hz`), optionally `/tf` odom → base_link
+//! (`node/publish_tf`), and `/diagnostics` (1 Hz: bus state, drive state,
+//! stop reasons, command age, frames sent, tx drops, error counters).
+//! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
+//! faults once the `e_stop` input is false; motion then needs a fresh command.
+//!
+//! Parameters: the keys of `config/can_bridge.yaml` in the node's private
+//! namespace plus `node/...` (config/can_bridge_node.yaml), checked like the
+//! file (a bad or unknown key: exit status 2 naming it). SIGINT/SIGTERM: a
+//! zero setpoint, then the drive disabled, then exit 0. The bridge's own
+//! watchdog zeroes the wheels if `cmd_vel` stops, whatever this node does.
+
+use crate::bridge::Bridge;
+use crate::config::{default_config, load_config_str, BridgeConfig};
+use crate::diagnostics::{BridgeState, BridgeStatus};
+use crate::kinematics::Twist;
+use crate::socketcan_bus::SocketCanBus;
+use crate::time::{Clock, MonotonicClock};
+use oldbf_ros::ros::convert::{quaternion_from_yaw, time_from_s};
+use oldbf_ros::ros::lifecycle::{self, now_s};
+use oldbf_ros::ros::msg::{
+    diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue},
+    geometry_msgs, nav_msgs, std_msgs, std_srvs, tf2_msgs,
+};
+use serde::{Deserialize, Serialize};
+use serde_yaml::Value;
+use std::sync::mpsc;
+use std::time::Duration;
+
+/// Node settings beyond the bridge's (`node:` in the private namespace).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeSettings {
+    /// Frame of the odometry's pose.
+    pub odom_frame: String,
+    /// Frame of the robot base (the odometry's child frame).
+    pub base_frame: String,
+    /// Publish odom → base_link on /tf.
+    pub publish_tf: bool,
+    /// Odometry publication rate (Hz).
+    pub odom_rate_hz: f64,
+}
+
+impl Default for NodeSettings {
+    fn default() -> Self {
+        Self {
+            odom_frame: "odom".into(),
+            base_frame: "base_link".into(),
+            publish_tf: false,
+            odom_rate_hz: 50.0,
+        }
+    }
+}
+
+/// The bridge and node configuration from the private namespace `ns`
+/// (null when nothing is set), merged over the built-in defaults.
+pub fn config_from_params(ns: Value, source: &str) -> Result<(BridgeConfig, NodeSettings), String> {
+    let mut ns = match ns {
+        Value::Null => Value::Mapping(Default::default()),
+        v @ Value::Mapping(_) => v,
+        other => return Err(format!("{source}: expected a mapping of parameters, got {other:?}")),
+    };
+    let node_over = ns.as_mapping_mut().and_then(|m| m.remove("node"));
+    let mut node = serde_yaml::to_value(NodeSettings::default()).map_err(|e| e.to_string())?;
+    if let Some(over) = &node_over {
+        oldbf_ros::config::merge(&mut node, over);
+    }
+    let settings: NodeSettings = oldbf_ros::config::from_value(node, source, "node.").map_err(|e| e.to_string())?;
+    if !(settings.odom_rate_hz.is_finite() && settings.odom_rate_hz > 0.0 && settings.odom_rate_hz <= 1000.0) {
+        return Err(format!(
+            "{source}: key `node.odom_rate_hz` = {} is out of range; allowed: (0, 1000] Hz",
+            settings.odom_rate_hz
+        ));
+    }
+    let mut bridge = serde_yaml::to_value(default_config()).map_err(|e| e.to_string())?;
+    oldbf_ros::config::merge(&mut bridge, &ns);
+    let text = serde_yaml::to_string(&bridge).map_err(|e| e.to_string())?;
+    let cfg = load_config_str(&text, source).map_err(|e| e.to_string())?;
+    Ok((cfg, settings))
+}
+
+enum Input {
+    Cmd(Twist),
+    EStop(bool),
+    Reset(mpsc::Sender<(bool, String)>),
+}
+
+fn kv(key: &str, value: impl ToString) -> KeyValue {
+    KeyValue {
+        key: key.into(),
+        value: value.to_string(),
+    }
+}
+
+fn diagnostics(name: &str, stamp: rosrust::Time, s: &BridgeStatus, interface: &str) -> DiagnosticArray {
+    let level = match s.state {
+        BridgeState::Running | BridgeState::Idle => DiagnosticStatus::OK,
+        BridgeState::Starting => DiagnosticStatus::WARN,
+        BridgeState::Stopped | BridgeState::Estop => DiagnosticStatus::ERROR,
+    };
+    let state = serde_json::to_string(&s.state).unwrap_or_default();
+    let reasons = serde_json::to_string(&s.reasons).unwrap_or_default();
+    let c = &s.counters;
+    let message = if s.reasons.is_empty() {
+        state.trim_matches('"').to_string()
+    } else {
+        format!("{}: {reasons}", state.trim_matches('"'))
+    };
+    let mut array = DiagnosticArray::default();
+    array.header.stamp = stamp;
+    array.status.push(DiagnosticStatus {
+        level,
+        name: format!("{name}: CAN bridge"),
+        message,
+        hardware_id: interface.into(),
+        values: vec![
+            kv("state", state.trim_matches('"')),
+            kv("stop_reasons", reasons),
+            kv("left_drive", serde_json::to_string(&s.left).unwrap_or_default()),
+            kv("right_drive", serde_json::to_string(&s.right).unwrap_or_default()),
+            kv(
+                "setpoint_wheels_radps",
+                serde_json::to_string(&s.setpoint_wheels).unwrap_or_default(),
+            ),
+            kv("commands", c.commands),
+            kv("commands_rejected", c.commands_rejected),
+            kv("commands_clamped", c.commands_clamped),
+            kv("tx_frames", c.tx_frames),
+            kv("tx_queue_full", c.tx_queue_full),
+            kv("tx_dropped", c.tx_dropped_stale + c.tx_dropped_after_retries),
+            kv("tx_errors", c.tx_errors),
+            kv("rx_frames", c.rx_frames),
+            kv("error_frames", c.error_frames),
+        ],
+    });
+    array
+}
+
+/// Runs the node; returns the process exit status.
+pub fn run() -> i32 {
+    oldbf_ros::ros::logging::init();
+    let stop = lifecycle::install_signal_handler();
+    let name = lifecycle::node_name("can_bridge_node");
+    if !lifecycle::connect(&name, &stop) {
+        return 0;
+    }
+    let source = format!("ROS parameters of {}", rosrust::name());
+    let loaded = oldbf_ros::ros::params::private_namespace().and_then(|ns| config_from_params(ns, &source));
+    let (cfg, settings) = match loaded {
+        Ok(c) => c,
+        Err(e) => {
+            log::error!("{e}");
+            log::error!("{}: invalid parameters, exiting", rosrust::name());
+            std::thread::sleep(Duration::from_millis(200));
+            rosrust::shutdown();
+            return 2;
+        }
+    };
+    match run_connected(cfg, settings, &stop) {
+        Ok(()) => 0,
+        Err(e) => {
+            log::error!("{}: {e}", rosrust::name());
+            std::thread::sleep(Duration::from_millis(200));
+            rosrust::shutdown();
+            1
+        }
+    }
+}
+
+fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::StopFlag) -> Result<(), String> {
+    let interface = cfg.interface.clone();
+    let bus = SocketCanBus::open(&interface).map_err(|e| format!("opening CAN interface {interface}: {e}"))?;
+    let clock = MonotonicClock::new();
+    let mut bridge = Bridge::new(cfg, bus, clock.now()).map_err(|e| format!("starting the bridge: {e}"))?;
+
+    let (tx, rx) = mpsc::channel::<Input>();
+    let t = tx.clone();
+    let _cmd_sub = rosrust::subscribe("cmd_vel", 1, move |m: geometry_msgs::Twist| {
+        let _ = t.send(Input::Cmd(Twist {
+            linear_mps: m.linear.x,
+            angular_radps: m.angular.z,
+        }));
+    })
+    .map_err(|e| format!("subscribing to cmd_vel: {e}"))?;
+    let t = tx.clone();
+    let _estop_sub = rosrust::subscribe("e_stop", 10, move |m: std_msgs::Bool| {
+        let _ = t.send(Input::EStop(m.data));
+    })
+    .map_err(|e| format!("subscribing to e_stop: {e}"))?;
+    let t = tx.clone();
+    let _reset_srv = rosrust::service::<std_srvs::Trigger, _>("~reset", move |_| {
+        let (reply_tx, reply_rx) = mpsc::channel();
+        let _ = t.send(Input::Reset(reply_tx));
+        let (success, message) = reply_rx
+            .recv_timeout(Duration::from_secs(2))
+            .unwrap_or((false, "the bridge did not answer".into()));
+        Ok(std_srvs::TriggerRes { success, message })
+    })
+    .map_err(|e| format!("advertising ~reset: {e}"))?;
+    let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(|e| format!("advertising odom: {e}"))?;
+    let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(|e| format!("advertising /tf: {e}"))?;
+    let diag_pub = rosrust::publish::<DiagnosticArray>("/diagnostics", 10)
+        .map_err(|e| format!("advertising /diagnostics: {e}"))?;
+
+    let node = rosrust::name();
+    log::info!(
+        "{node}: bridging cmd_vel to {interface} ({:?}), setpoints at {} Hz, command timeout {} s",
+        bridge.config().protocol,
+        bridge.config().timing.tx_rate_hz,
+        bridge.config().timing.cmd_timeout_s
+    );
+    let odom_period = 1.0 / settings.odom_rate_hz;
+    let (mut next_odom, mut next_diag) = (0.0f64, 0.0f64);
+    let mut e_stop_input = false;
+    while rosrust::is_ok() && !stop.is_set() {
+        while let Ok(input) = rx.try_recv() {
+            let now = clock.now();
+            match input {
+                Input::Cmd(twist) => {
+                    if let Err(e) = bridge.command(twist, now) {
+                        log::warn!("command rejected: {e}");
+                    }
+                }
+                Input::EStop(active) => {
+                    if active && !e_stop_input {
+                        log::warn!("e-stop latched");
+                    }
+                    e_stop_input = active;
+                    if active {
+                        bridge.estop(now);
+                    }
+                }
+                Input::Reset(reply) => {
+                    let answer = if e_stop_input {
+                        (false, "the e_stop input is still active".to_string())
+                    } else {
+                        bridge.reset(now);
+                        (true, "reset: motion resumes on a fresh command".to_string())
+                    };
+                    let _ = reply.send(answer);
+                }
+            }
+        }
+        bridge.spin_once(&clock, Duration::from_millis(5));
+        for ev in bridge.drain_events() {
+            log::info!("{}", serde_json::to_string(&ev).unwrap_or_default());
+        }
+        let now = now_s();
+        if now >= next_odom {
+            next_odom = now + odom_period;
+            let o = bridge.odometry();
+            let stamp = time_from_s(now);
+            let mut m = nav_msgs::Odometry::default();
+            m.header.stamp = stamp;
+            m.header.frame_id = settings.odom_frame.clone();
+            m.child_frame_id = settings.base_frame.clone();
+            m.pose.pose.position.x = o.pose.x_m;
+            m.pose.pose.position.y = o.pose.y_m;
+            m.pose.pose.orientation = quaternion_from_yaw(o.pose.theta_rad);
+            m.twist.twist.linear.x = o.twist.linear_mps;
+            m.twist.twist.angular.z = o.twist.angular_radps;
+            let _ = odom_pub.send(m);
+            if settings.publish_tf {
+                let mut t = geometry_msgs::TransformStamped::default();
+                t.header.stamp = stamp;
+                t.header.frame_id = settings.odom_frame.clone();
+                t.child_frame_id = settings.base_frame.clone();
+                t.transform.translation.x = o.pose.x_m;
+                t.transform.translation.y = o.pose.y_m;
+                t.transform.rotation = quaternion_from_yaw(o.pose.theta_rad);
+                let _ = tf_pub.send(tf2_msgs::TFMessage { transforms: vec![t] });
+            }
+        }
+        if now >= next_diag {
+            next_diag = now + 1.0;
+            let status = bridge.status(clock.now());
+            let _ = diag_pub.send(diagnostics(&node, time_from_s(now), &status, &interface));
+        }
+    }
+    let sent = bridge.shutdown(clock.now());
+    log::info!("{node}: shut down: zero setpoint and drive disable sent ({sent} frames)");
+    rosrust::shutdown();
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_merge_over_the_defaults_and_bad_ones_are_named() {
+        let ns: Value =
+            serde_yaml::from_str("interface: can1\nlimits: {v_max_mps: 0.5}\nnode: {publish_tf: true}").unwrap();
+        let (cfg, node) = config_from_params(ns, "P").unwrap();
+        assert_eq!(cfg.interface, "can1");
+        assert_eq!(cfg.limits.v_max_mps, 0.5);
+        assert!(node.publish_tf);
+        let (cfg, _) = config_from_params(Value::Null, "P").unwrap();
+        assert_eq!(cfg, default_config());
+        let bad: Value = serde_yaml::from_str("limits: {v_max_mps: -1.0}").unwrap();
+        assert!(config_from_params(bad, "P").unwrap_err().contains("limits.v_max_mps"));
+        let unknown: Value = serde_yaml::from_str("timing: {tx_rate: 5}").unwrap();
+        assert!(config_from_params(unknown, "P").unwrap_err().contains("timing.tx_rate"));
+        let node: Value = serde_yaml::from_str("node: {odom_rate_hz: 0}").unwrap();
+        assert!(config_from_params(node, "P").unwrap_err().contains("node.odom_rate_hz"));
+    }
+}

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs, if missing, the Debian packages the ROS tests use: ROS 1 core
+# tools, the message definitions and Python classes rostopic needs, genpy
+# (for oldbf_ros/BarrierState), and rviz with Xvfb for the screenshot test.
+# python3-nav-msgs is left out on purpose (it pulls ~140 MB of boost -dev
+# packages); genmsg computes its md5 instead. Idempotent.
+set -Eeuo pipefail
+APT=(ros-core ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-visualization-msgs
+     ros-diagnostic-msgs ros-rosgraph-msgs ros-tf2-msgs ros-std-srvs rospack-tools
+     python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-diagnostic-msgs
+     python3-visualization-msgs python3-tf2-msgs python3-std-srvs python3-rosgraph-msgs python3-genpy
+     rviz xvfb x11-apps netpbm)
+missing=()
+for p in "${APT[@]}"; do
+  [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)" = "install ok installed" ] || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: ROS packages already installed"
+  exit 0
+fi
+echo "install_deps: installing ${missing[*]}"
+policy=$(apt-cache policy ros-core 2>/dev/null || true)
+grep -q 'Candidate: [^(]' <<< "$policy" || apt-get -q -o DPkg::Lock::Timeout=300 update
+DEBIAN_FRONTEND=noninteractive apt-get -q -o DPkg::Lock::Timeout=300 install -y --no-install-recommends "${missing[@]}"
