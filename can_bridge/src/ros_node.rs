@@ -6,7 +6,7 @@
 //! `odom` (nav_msgs/Odometry from the wheels' measured speeds and positions,
 //! `node/odom_rate_hz`), optionally `/tf` odom → base_link
 //! (`node/publish_tf`), and `/diagnostics` (1 Hz: bus state, drive state,
-//! stop reasons, command age, frames sent, tx drops, error counters).
+//! stop reasons, last command age, frames sent, tx drops, error counters).
 //! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
 //! faults once the `e_stop` input is false; motion then needs a fresh command.
 //!
@@ -98,7 +98,7 @@ fn kv(key: &str, value: impl ToString) -> KeyValue {
     }
 }
 
-fn diagnostics(name: &str, stamp: rosrust::Time, s: &BridgeStatus, interface: &str) -> DiagnosticArray {
+fn diagnostics(name: &str, stamp: rosrust::Time, s: &BridgeStatus, interface: &str, cmd_age_s: f64) -> DiagnosticArray {
     let level = match s.state {
         BridgeState::Running | BridgeState::Idle => DiagnosticStatus::OK,
         BridgeState::Starting => DiagnosticStatus::WARN,
@@ -121,6 +121,7 @@ fn diagnostics(name: &str, stamp: rosrust::Time, s: &BridgeStatus, interface: &s
         hardware_id: interface.into(),
         values: vec![
             kv("state", state.trim_matches('"')),
+            kv("last_command_age_s", if cmd_age_s.is_finite() { format!("{cmd_age_s:.3}") } else { "no command yet".into() }),
             kv("stop_reasons", reasons),
             kv("left_drive", serde_json::to_string(&s.left).unwrap_or_default()),
             kv("right_drive", serde_json::to_string(&s.right).unwrap_or_default()),
@@ -218,11 +219,13 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     let odom_period = 1.0 / settings.odom_rate_hz;
     let (mut next_odom, mut next_diag) = (0.0f64, 0.0f64);
     let mut e_stop_input = false;
+    let mut last_cmd_s = f64::NEG_INFINITY;
     while rosrust::is_ok() && !stop.is_set() {
         while let Ok(input) = rx.try_recv() {
             let now = clock.now();
             match input {
                 Input::Cmd(twist) => {
+                    last_cmd_s = now_s();
                     if let Err(e) = bridge.command(twist, now) {
                         log::warn!("command rejected: {e}");
                     }
@@ -280,7 +283,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         if now >= next_diag {
             next_diag = now + 1.0;
             let status = bridge.status(clock.now());
-            let _ = diag_pub.send(diagnostics(&node, time_from_s(now), &status, &interface));
+            let _ = diag_pub.send(diagnostics(&node, time_from_s(now), &status, &interface, now - last_cmd_s));
         }
     }
     let sent = bridge.shutdown(clock.now());
