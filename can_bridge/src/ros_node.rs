@@ -121,7 +121,14 @@ fn diagnostics(name: &str, stamp: rosrust::Time, s: &BridgeStatus, interface: &s
         hardware_id: interface.into(),
         values: vec![
             kv("state", state.trim_matches('"')),
-            kv("last_command_age_s", if cmd_age_s.is_finite() { format!("{cmd_age_s:.3}") } else { "no command yet".into() }),
+            kv(
+                "last_command_age_s",
+                if cmd_age_s.is_finite() {
+                    format!("{cmd_age_s:.3}")
+                } else {
+                    "no command yet".into()
+                },
+            ),
             kv("stop_reasons", reasons),
             kv("left_drive", serde_json::to_string(&s.left).unwrap_or_default()),
             kv("right_drive", serde_json::to_string(&s.right).unwrap_or_default()),
@@ -283,7 +290,13 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         if now >= next_diag {
             next_diag = now + 1.0;
             let status = bridge.status(clock.now());
-            let _ = diag_pub.send(diagnostics(&node, time_from_s(now), &status, &interface, now - last_cmd_s));
+            let _ = diag_pub.send(diagnostics(
+                &node,
+                time_from_s(now),
+                &status,
+                &interface,
+                now - last_cmd_s,
+            ));
         }
     }
     let sent = bridge.shutdown(clock.now());
