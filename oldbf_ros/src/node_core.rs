@@ -350,7 +350,8 @@ impl NodeCore {
         };
         self.last_tick_s = Some(now_s);
         let (nominal, nominal_used) = self.nominal(now_s, dt);
-        let v_now = self.fresh_odom(now_s).map_or(f64::NAN, |o| o.twist.v_mps);
+        let odom = self.fresh_odom(now_s);
+        let v_now = odom.map_or(f64::NAN, |o| o.twist.v_mps);
 
         let record = if !self.have_scan {
             self.pipeline.stop(now_s, nominal, StopCause::NoScan)
@@ -365,7 +366,8 @@ impl NodeCore {
                 ranges_m: &s.ranges_m,
                 intensities: &s.intensities,
             };
-            self.pipeline.step(&scan, now_s, nominal, v_now)
+            self.pipeline
+                .step_with_pose(&scan, now_s, nominal, v_now, odom.map(|o| o.pose))
         };
         let scan_stamp_s = if self.have_scan { self.scan.stamp_s } else { f64::NAN };
 

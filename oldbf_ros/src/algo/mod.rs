@@ -7,9 +7,12 @@
 
 pub mod barrier;
 pub mod clearance;
+pub mod clusters;
+pub mod collision_cone;
 pub mod doaa;
 pub mod dtcbf;
 pub mod geometry;
+pub mod obstacle_tracker;
 pub mod params;
 pub mod pipeline;
 pub mod record;

@@ -20,6 +20,7 @@ pub struct Params {
     pub doaa: DoaaParams,
     pub dtcbf: DtcbfParams,
     pub tracking: TrackingParams,
+    pub obstacles: ObstacleParams,
 }
 
 /// Control loop and input box.
@@ -277,6 +278,55 @@ impl Default for TrackingParams {
     }
 }
 
+/// Moving obstacles: clustering, tracking and the collision cone (ALGORITHM.md §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleParams {
+    /// Track clusters and use their motion in the DTCBF prediction and the barriers.
+    pub enabled: bool,
+    /// Neighbouring points closer than this belong to one cluster (m).
+    pub cluster_gap_m: f64,
+    /// Clusters with fewer points are not tracked.
+    pub min_cluster_points: usize,
+    /// Clusters wider than this (walls, furniture) are not tracked (m).
+    pub max_cluster_diameter_m: f64,
+    /// A cluster is associated with a track within this distance of its prediction (m).
+    pub gate_m: f64,
+    /// Associations in a row that confirm a track.
+    pub confirm_hits: u32,
+    /// A confirmed track coasts this many missed scans before it is deleted.
+    pub max_misses: u32,
+    /// Process noise: white acceleration standard deviation (m/s²).
+    pub accel_noise_mps2: f64,
+    /// Centroid measurement noise standard deviation (m).
+    pub measurement_noise_m: f64,
+    /// A confirmed track faster than this is moving (m/s).
+    pub moving_speed_mps: f64,
+    /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
+    pub lookahead_s: f64,
+    /// At most this many tracks (bounds memory and time).
+    pub max_tracks: usize,
+}
+
+impl Default for ObstacleParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            cluster_gap_m: 0.15,
+            min_cluster_points: 3,
+            max_cluster_diameter_m: 0.7,
+            gate_m: 0.5,
+            confirm_hits: 3,
+            max_misses: 5,
+            accel_noise_mps2: 1.0,
+            measurement_noise_m: 0.05,
+            moving_speed_mps: 0.05,
+            lookahead_s: 2.0,
+            max_tracks: 32,
+        }
+    }
+}
+
 /// A parameter outside its allowed range.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamError {
@@ -431,6 +481,23 @@ impl Params {
         c.range("tracking.capture_radius_m", t.capture_radius_m, "(0, 100] m");
         c.range("tracking.k_bearing_per_s", t.k_bearing_per_s, "[0, 100] 1/s");
         c.range("tracking.arrive_radius_m", t.arrive_radius_m, "[0, 10] m");
+
+        let o = &self.obstacles;
+        c.range("obstacles.cluster_gap_m", o.cluster_gap_m, "(0, 5] m");
+        c.range("obstacles.min_cluster_points", o.min_cluster_points as f64, "[1, 1000]");
+        c.range(
+            "obstacles.max_cluster_diameter_m",
+            o.max_cluster_diameter_m,
+            "(0, 10] m",
+        );
+        c.range("obstacles.gate_m", o.gate_m, "(0, 10] m");
+        c.range("obstacles.confirm_hits", o.confirm_hits as f64, "[1, 100]");
+        c.range("obstacles.max_misses", o.max_misses as f64, "[0, 1000]");
+        c.range("obstacles.accel_noise_mps2", o.accel_noise_mps2, "(0, 100] m/s²");
+        c.range("obstacles.measurement_noise_m", o.measurement_noise_m, "(0, 10] m");
+        c.range("obstacles.moving_speed_mps", o.moving_speed_mps, "[0, 10] m/s");
+        c.range("obstacles.lookahead_s", o.lookahead_s, "[0, 60] s");
+        c.range("obstacles.max_tracks", o.max_tracks as f64, "[1, 1000]");
 
         if c.errors.is_empty() {
             Ok(())

@@ -7,12 +7,17 @@
 
 use super::barrier::compute_barriers;
 use super::clearance::{compute_clearances, Clearances, Sector};
+use super::clusters::Clusters;
+use super::collision_cone::collision_cone;
 use super::doaa::{Doaa, DoaaState};
 use super::dtcbf::{DtcbfFilter, InputBox};
+use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
+use super::obstacle_tracker::ObstacleTracker;
 use super::params::Params;
 use super::record::{StepRecord, StopCause};
 use super::scan::{sanitize_scan, LaserMount, LaserScan, ScanPoints};
+use super::unicycle::arc_step;
 
 /// Geometry derived from the parameters once.
 #[derive(Debug, Clone, Copy)]
@@ -46,6 +51,25 @@ pub struct SafetyPipeline {
     filter: DtcbfFilter,
     last_cmd: Twist,
     last_clearances: Clearances,
+    clusters: Clusters,
+    tracker: ObstacleTracker,
+    /// Where the points will be after one step (moving clusters advanced).
+    points_next: Vec<Vec2>,
+    /// Robot pose in the tracking frame, and whether it came from odometry.
+    ego: Option<(Pose2, bool, f64)>,
+    threats: Vec<Threat>,
+}
+
+/// A tracked obstacle on a collision course this step (robot frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Threat {
+    pub track_id: u32,
+    pub position: Vec2,
+    pub velocity: Vec2,
+    pub radius_m: f64,
+    pub time_to_collision_s: f64,
+    /// Half-angle of its collision cone (rad).
+    pub cone_half_angle_rad: f64,
 }
 
 impl SafetyPipeline {
@@ -61,7 +85,22 @@ impl SafetyPipeline {
             filter: DtcbfFilter::with_capacity(cap),
             last_cmd: Twist::ZERO,
             last_clearances: Clearances::OPEN,
+            clusters: Clusters::default(),
+            tracker: ObstacleTracker::default(),
+            points_next: Vec::with_capacity(cap),
+            ego: None,
+            threats: Vec::with_capacity(32),
         }
+    }
+
+    /// The obstacle tracker (tracks in its tracking frame; see `in_robot_frame`).
+    pub fn tracker(&self) -> &ObstacleTracker {
+        &self.tracker
+    }
+
+    /// Tracked obstacles on a collision course at the last step.
+    pub fn threats(&self) -> &[Threat] {
+        &self.threats
     }
 
     pub fn params(&self) -> &Params {
@@ -101,26 +140,125 @@ impl SafetyPipeline {
     /// `current_v_mps` the measured linear speed for B_v (NaN: the last
     /// command is used instead).
     pub fn step(&mut self, scan: &LaserScan<'_>, now_s: f64, nominal: Twist, current_v_mps: f64) -> StepRecord {
+        self.step_with_pose(scan, now_s, nominal, current_v_mps, None)
+    }
+
+    /// The robot's pose in the tracking frame at the scan's stamp: odometry when
+    /// given, else dead-reckoned from the last command since the previous scan.
+    fn ego_pose(&mut self, stamp_s: f64, odom: Option<Pose2>) -> Pose2 {
+        let pose = match (odom, self.ego) {
+            (Some(p), Some((_, true, _))) | (Some(p), None) => p,
+            (Some(p), Some((_, false, _))) => {
+                self.tracker.reset(); // the frame changes: old tracks are meaningless
+                p
+            }
+            (None, Some((prev, false, t))) if stamp_s > t => arc_step(prev, self.last_cmd, (stamp_s - t).min(1.0)),
+            (None, Some((prev, false, _))) => prev,
+            (None, Some((_, true, _))) => {
+                self.tracker.reset();
+                Pose2::default()
+            }
+            (None, None) => Pose2::default(),
+        };
+        self.ego = Some((pose, odom.is_some(), stamp_s));
+        pose
+    }
+
+    /// Clusters, tracks, and for every moving track on a collision course:
+    /// its points advanced by v_o Δt in `points_next`, and its side's
+    /// clearance lowered to its predicted clearance within the look-ahead.
+    fn predict_obstacles(
+        &mut self,
+        c: &mut Clearances,
+        v_now: f64,
+        stamp_s: f64,
+        odom: Option<Pose2>,
+        full_circle: bool,
+    ) {
+        self.points_next.clear();
+        self.points_next.extend_from_slice(&self.points.points);
+        self.threats.clear();
+        if !self.params.obstacles.enabled {
+            return;
+        }
+        let pose = self.ego_pose(stamp_s, odom);
+        let p = &self.params;
+        let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
+        let pts = &self.points.points;
+        self.clusters.build(
+            pts,
+            &self.points.beam_index,
+            self.points.beams,
+            full_circle,
+            o.cluster_gap_m,
+        );
+        self.tracker.update(self.clusters.as_slice(), stamp_s, pose, o);
+        let n = pts.len();
+        for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {
+            let Some(ti) = self.tracker.cluster_track()[ci] else {
+                continue;
+            };
+            let track = self.tracker.tracks()[ti];
+            if !track.is_moving(o) {
+                continue;
+            }
+            let (pos, vel) = self.tracker.in_robot_frame(&track);
+            let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
+            let Some(ttc) = cone.time_to_collision_s else { continue };
+            let horizon = ttc.min(o.lookahead_s);
+            let mut predicted = f64::INFINITY;
+            for i in cluster.indices(n) {
+                self.points_next[i] += vel * dt;
+                predicted = predicted.min((pts[i] + vel * horizon).norm() - r);
+            }
+            if cluster.centroid.y >= 0.0 {
+                c.d_left_m = c.d_left_m.min(predicted);
+            } else {
+                c.d_right_m = c.d_right_m.min(predicted);
+            }
+            self.threats.push(Threat {
+                track_id: track.id,
+                position: pos,
+                velocity: vel,
+                radius_m: track.radius_m,
+                time_to_collision_s: ttc,
+                cone_half_angle_rad: cone.half_angle_rad,
+            });
+        }
+    }
+
+    /// As `step`, with the robot's odometry pose when there is one (tracks
+    /// are then kept in the odometry frame).
+    pub fn step_with_pose(
+        &mut self,
+        scan: &LaserScan<'_>,
+        now_s: f64,
+        nominal: Twist,
+        current_v_mps: f64,
+        odom_pose: Option<Pose2>,
+    ) -> StepRecord {
         if !nominal.is_finite() {
             return self.stop(now_s, nominal, StopCause::BadNominal);
         }
         if let Err(reason) = sanitize_scan(scan, now_s, &self.params.laser, &self.derived.mount, &mut self.points) {
             return self.stop(now_s, nominal, StopCause::Rejected(reason));
         }
-        let d = &self.derived;
-        let p = &self.params;
-        let c = compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front);
-        self.last_clearances = c;
+        let d = self.derived;
+        let mut c = compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front);
         let v_now = if current_v_mps.is_finite() {
             current_v_mps
         } else {
             self.last_cmd.v_mps
         };
+        let span = (scan.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
+        let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
+        self.predict_obstacles(&mut c, v_now, scan.stamp_s, odom_pose, full_circle);
+        self.last_clearances = c;
+        let p = &self.params;
         let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &p.barrier);
         let nominal_boxed = d.input_box.clamp(nominal);
         let (doaa_cmd, doaa_state) = self.doaa.command(nominal_boxed, &c, &b, p);
-        let pts = &self.points.points;
-        let out = self.filter.filter(pts, pts, doaa_cmd, p);
+        let out = self.filter.filter(&self.points.points, &self.points_next, doaa_cmd, p);
 
         // Infeasible inside the unsafe set: the filter turns in place (escape); infeasible
         // outside it (an approaching obstacle): the filter's command is a stop.
@@ -159,6 +297,18 @@ impl SafetyPipeline {
             closest_right: c.closest_right,
             beams: self.points.beams,
             valid_beams: self.points.valid_count(),
+            tracked_obstacles: self
+                .tracker
+                .tracks()
+                .iter()
+                .filter(|t| t.is_moving(&p.obstacles))
+                .count(),
+            threats: self.threats.len(),
+            min_time_to_collision_s: self
+                .threats
+                .iter()
+                .map(|t| t.time_to_collision_s)
+                .fold(f64::INFINITY, f64::min),
             stop_cause,
         }
     }

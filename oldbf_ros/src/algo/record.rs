@@ -80,6 +80,12 @@ pub struct StepRecord {
     pub closest_right: Option<Vec2>,
     pub beams: usize,
     pub valid_beams: usize,
+    /// Confirmed moving tracks.
+    pub tracked_obstacles: usize,
+    /// Of those, on a collision course (their motion entered the prediction).
+    pub threats: usize,
+    /// Least time to collision among them (s); +inf for none.
+    pub min_time_to_collision_s: f64,
     pub stop_cause: Option<StopCause>,
 }
 
@@ -107,6 +113,9 @@ impl StepRecord {
             closest_right: None,
             beams: 0,
             valid_beams: 0,
+            tracked_obstacles: 0,
+            threats: 0,
+            min_time_to_collision_s: f64::INFINITY,
             stop_cause: Some(cause),
         }
     }

@@ -306,7 +306,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
 
             let v_now = fleet.agents()[i].robot.twist.v_mps;
             let t0 = Instant::now();
-            let rec: StepRecord = a.pipeline.step(&scan, t, nominal, v_now);
+            let rec: StepRecord = a.pipeline.step_with_pose(&scan, t, nominal, v_now, Some(pose));
             let step_us = t0.elapsed().as_secs_f64() * 1e6;
             let cmd = match controller {
                 Controller::Oldbf => rec.cmd,

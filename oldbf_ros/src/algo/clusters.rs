@@ -1,0 +1,165 @@
+//! Scan points → clusters (ALGORITHM.md §6): runs of consecutive valid beams
+//! whose points are closer than `cluster_gap_m` to their neighbour. Each
+//! cluster is summarised by a circle: the centroid of its points and the
+//! largest distance from it (m). The robot is not added here; the collision
+//! cone adds r.
+//!
+//! On a full 360° scan the last and the first beam are neighbours, so a
+//! cluster spanning the scan's seam is one cluster, not two.
+
+use super::geometry::Vec2;
+
+/// One cluster: points `start..end` of the scan's valid points (in beam
+/// order; when it wraps round the seam, `start > end` and it is
+/// `start..len` followed by `0..end`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cluster {
+    pub start: usize,
+    pub end: usize,
+    /// Number of points.
+    pub len: usize,
+    /// Centroid of the points, robot frame (m).
+    pub centroid: Vec2,
+    /// Largest distance from the centroid to a point (m).
+    pub radius_m: f64,
+}
+
+impl Cluster {
+    /// The indices of its points.
+    pub fn indices(&self, n_points: usize) -> impl Iterator<Item = usize> {
+        let (a, b) = if self.start < self.end {
+            (self.start..self.end, 0..0)
+        } else {
+            (self.start..n_points, 0..self.end)
+        };
+        a.chain(b)
+    }
+}
+
+/// Clusters of one scan, rebuilt every scan in a reused buffer.
+#[derive(Debug, Default, Clone)]
+pub struct Clusters {
+    clusters: Vec<Cluster>,
+}
+
+impl Clusters {
+    pub fn as_slice(&self) -> &[Cluster] {
+        &self.clusters
+    }
+
+    pub fn len(&self) -> usize {
+        self.clusters.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.clusters.is_empty()
+    }
+
+    /// Rebuilds the clusters of `points` (robot frame, beam order) whose beam
+    /// indices are `beam_index`, out of a scan of `beams` beams;
+    /// `full_circle` tells whether beam `beams − 1` neighbours beam 0.
+    pub fn build(&mut self, points: &[Vec2], beam_index: &[u32], beams: usize, full_circle: bool, gap_m: f64) {
+        self.clusters.clear();
+        self.clusters.reserve(points.len());
+        let n = points.len();
+        if n == 0 {
+            return;
+        }
+        let gap2 = gap_m * gap_m;
+        let joined = |i: usize, j: usize| (points[j] - points[i]).norm_squared() <= gap2;
+        let mut start = 0;
+        for i in 1..=n {
+            let breaks = i == n || beam_index[i] != beam_index[i - 1] + 1 || !joined(i - 1, i);
+            if breaks {
+                self.clusters.push(summarise(points, start, i, n));
+                start = i;
+            }
+        }
+        // The seam of a 360° scan: beam beams−1 next to beam 0.
+        if full_circle && self.clusters.len() > 1 {
+            let first = self.clusters[0];
+            let last = *self.clusters.last().expect("more than one cluster");
+            let adjacent = beam_index[0] == 0 && beam_index[n - 1] as usize == beams - 1;
+            if adjacent && joined(n - 1, 0) {
+                self.clusters.pop();
+                self.clusters[0] = summarise(points, last.start, first.end, n);
+            }
+        }
+    }
+}
+
+/// The circle summary of points `start..end` (wrapping when start ≥ end).
+fn summarise(points: &[Vec2], start: usize, end: usize, n: usize) -> Cluster {
+    let mut c = Cluster {
+        start,
+        end,
+        len: 0,
+        centroid: Vec2::zeros(),
+        radius_m: 0.0,
+    };
+    let mut sum = Vec2::zeros();
+    for i in c.indices(n) {
+        sum += points[i];
+        c.len += 1;
+    }
+    c.centroid = sum / c.len as f64;
+    for i in c.indices(n) {
+        c.radius_m = c.radius_m.max((points[i] - c.centroid).norm());
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64, y: f64) -> Vec2 {
+        Vec2::new(x, y)
+    }
+
+    #[test]
+    fn splits_on_distance_and_on_missing_beams() {
+        // Beams 0-2 close together, beam 3 far away, beams 5-6 after a missing beam 4.
+        let pts = [
+            v(1.0, 0.0),
+            v(1.0, 0.05),
+            v(1.0, 0.1),
+            v(3.0, 0.0),
+            v(1.0, 0.3),
+            v(1.0, 0.35),
+        ];
+        let idx = [0, 1, 2, 3, 5, 6];
+        let mut c = Clusters::default();
+        c.build(&pts, &idx, 360, false, 0.15);
+        let runs: Vec<(usize, usize)> = c.as_slice().iter().map(|k| (k.start, k.end)).collect();
+        assert_eq!(runs, [(0, 3), (3, 4), (4, 6)]);
+        let first = c.as_slice()[0];
+        assert!((first.centroid - v(1.0, 0.05)).norm() < 1e-12);
+        assert!((first.radius_m - 0.05).abs() < 1e-12);
+        assert_eq!(c.as_slice()[1].radius_m, 0.0);
+    }
+
+    #[test]
+    fn a_cluster_across_the_seam_of_a_full_scan_is_one() {
+        // Beams 0, 1 and 358, 359 of a 360-beam scan all near (1, 0).
+        let pts = [v(1.0, 0.02), v(1.0, 0.05), v(2.0, 2.0), v(1.0, -0.05), v(1.0, -0.02)];
+        let idx = [0, 1, 100, 358, 359];
+        let mut c = Clusters::default();
+        c.build(&pts, &idx, 360, true, 0.15);
+        assert_eq!(c.len(), 2);
+        let seam = c.as_slice()[0];
+        assert_eq!((seam.start, seam.end, seam.len), (3, 2, 4));
+        assert!(seam.centroid.y.abs() < 1e-12 && (seam.centroid.x - 1.0).abs() < 1e-12);
+        assert_eq!(seam.indices(5).collect::<Vec<_>>(), [3, 4, 0, 1]);
+        // Not a full circle: two clusters there.
+        c.build(&pts, &idx, 360, false, 0.15);
+        assert_eq!(c.len(), 3);
+    }
+
+    #[test]
+    fn empty_scan_has_no_clusters() {
+        let mut c = Clusters::default();
+        c.build(&[], &[], 360, true, 0.15);
+        assert!(c.is_empty());
+    }
+}

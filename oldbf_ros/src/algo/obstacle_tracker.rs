@@ -1,0 +1,390 @@
+//! Tracking clusters across scans (ALGORITHM.md §6): which obstacles move,
+//! and how fast.
+//!
+//! Tracks live in a *tracking frame*: the odometry frame when a pose is
+//! given, else a frame dead-reckoned from the commands sent (so the robot's
+//! own motion is compensated either way and a static obstacle stays put).
+//! Each scan:
+//! 1. every track is predicted to the scan's stamp with a constant-velocity
+//!    model (a Kalman filter per axis, white-acceleration process noise);
+//! 2. candidate clusters (at least `min_cluster_points` points, at most
+//!    `max_cluster_diameter_m` across: people and robots, not walls) are
+//!    associated to tracks by gated nearest neighbour, greedily by distance,
+//!    within `gate_m` of the prediction;
+//! 3. associated tracks are updated with the cluster's centroid.
+//!
+//! Lifecycle rules:
+//! * an unassociated candidate starts a **tentative** track;
+//! * a track associated `confirm_hits` times is **confirmed**;
+//! * a confirmed track that misses a scan **coasts** (prediction only), and
+//!   is deleted after more than `max_misses` misses in a row;
+//! * a tentative track that misses a scan is deleted;
+//! * a confirmed track faster than `moving_speed_mps` counts as moving.
+//!
+//! All buffers are reused: no allocation in steady state.
+
+use super::clusters::Cluster;
+use super::geometry::{Pose2, Vec2};
+use super::params::ObstacleParams;
+
+/// A 1-D constant-velocity Kalman filter (position, velocity).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CvFilter {
+    x: f64,
+    v: f64,
+    p00: f64,
+    p01: f64,
+    p11: f64,
+}
+
+/// Initial velocity standard deviation of a new track (m/s).
+const INITIAL_SPEED_STD_MPS: f64 = 1.0;
+
+impl CvFilter {
+    fn new(x: f64, meas_std: f64) -> Self {
+        Self {
+            x,
+            v: 0.0,
+            p00: meas_std * meas_std,
+            p01: 0.0,
+            p11: INITIAL_SPEED_STD_MPS * INITIAL_SPEED_STD_MPS,
+        }
+    }
+
+    /// Predicts `dt` s ahead with white acceleration of std `q` (m/s²).
+    fn predict(&mut self, dt: f64, q: f64) {
+        let q2 = q * q;
+        self.x += self.v * dt;
+        let (p00, p01, p11) = (self.p00, self.p01, self.p11);
+        self.p00 = p00 + 2.0 * dt * p01 + dt * dt * p11 + q2 * dt.powi(4) / 4.0;
+        self.p01 = p01 + dt * p11 + q2 * dt.powi(3) / 2.0;
+        self.p11 = p11 + q2 * dt * dt;
+    }
+
+    /// Updates with a position measurement `z` of std `r` (m).
+    fn update(&mut self, z: f64, r: f64) {
+        let s = self.p00 + r * r;
+        let (k0, k1) = (self.p00 / s, self.p01 / s);
+        let y = z - self.x;
+        self.x += k0 * y;
+        self.v += k1 * y;
+        let (p00, p01, p11) = (self.p00, self.p01, self.p11);
+        self.p00 = (1.0 - k0) * p00;
+        self.p01 = (1.0 - k0) * p01;
+        self.p11 = p11 - k1 * p01;
+    }
+}
+
+/// Where a track is in its life.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackStatus {
+    Tentative,
+    Confirmed,
+    Coasting,
+}
+
+/// One tracked obstacle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Track {
+    pub id: u32,
+    pub status: TrackStatus,
+    /// Radius of the obstacle's circle (m), smoothed over its clusters.
+    pub radius_m: f64,
+    /// Consecutive associations so far / consecutive misses.
+    pub hits: u32,
+    pub misses: u32,
+    fx: CvFilter,
+    fy: CvFilter,
+}
+
+impl Track {
+    /// Position in the tracking frame (m).
+    pub fn position(&self) -> Vec2 {
+        Vec2::new(self.fx.x, self.fy.x)
+    }
+
+    /// Velocity in the tracking frame (m/s).
+    pub fn velocity(&self) -> Vec2 {
+        Vec2::new(self.fx.v, self.fy.v)
+    }
+
+    pub fn is_confirmed(&self) -> bool {
+        self.status != TrackStatus::Tentative
+    }
+
+    /// Confirmed and faster than `moving_speed_mps`.
+    pub fn is_moving(&self, p: &ObstacleParams) -> bool {
+        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps
+    }
+}
+
+/// The tracker's state between scans.
+#[derive(Debug, Default, Clone)]
+pub struct ObstacleTracker {
+    tracks: Vec<Track>,
+    next_id: u32,
+    last_stamp_s: Option<f64>,
+    /// Robot pose in the tracking frame at the last update.
+    robot_pose: Pose2,
+    /// Scratch: candidate pairs (distance, track, cluster).
+    pairs: Vec<(f64, usize, usize)>,
+    /// Per cluster of the last scan: the track it was associated with.
+    cluster_track: Vec<Option<usize>>,
+    track_taken: Vec<bool>,
+}
+
+impl ObstacleTracker {
+    pub fn tracks(&self) -> &[Track] {
+        &self.tracks
+    }
+
+    /// For each cluster of the last update, the index of its track.
+    pub fn cluster_track(&self) -> &[Option<usize>] {
+        &self.cluster_track
+    }
+
+    /// The robot's pose in the tracking frame at the last update.
+    pub fn robot_pose(&self) -> Pose2 {
+        self.robot_pose
+    }
+
+    /// A track's position and velocity in the robot frame at the last update.
+    pub fn in_robot_frame(&self, t: &Track) -> (Vec2, Vec2) {
+        let pose = self.robot_pose;
+        let (s, c) = pose.theta.sin_cos();
+        let v = t.velocity();
+        (
+            pose.inverse_transform_point(t.position()),
+            Vec2::new(c * v.x + s * v.y, -s * v.x + c * v.y),
+        )
+    }
+
+    /// Drops every track (e.g. when the frame source changes).
+    pub fn reset(&mut self) {
+        self.tracks.clear();
+        self.last_stamp_s = None;
+        self.cluster_track.clear();
+    }
+
+    fn candidate(c: &Cluster, p: &ObstacleParams) -> bool {
+        c.len >= p.min_cluster_points && 2.0 * c.radius_m <= p.max_cluster_diameter_m
+    }
+
+    /// One scan: `clusters` (robot frame) at `stamp_s`, the robot at
+    /// `robot_pose` in the tracking frame.
+    pub fn update(&mut self, clusters: &[Cluster], stamp_s: f64, robot_pose: Pose2, p: &ObstacleParams) {
+        self.cluster_track.clear();
+        self.cluster_track.resize(clusters.len(), None);
+        let dt = match self.last_stamp_s {
+            Some(t) => stamp_s - t,
+            None => 0.0,
+        };
+        if self.last_stamp_s.is_some() && !(dt > 0.0) {
+            // The same scan again (or out of order): nothing new to learn.
+            return;
+        }
+        self.last_stamp_s = Some(stamp_s);
+        self.robot_pose = robot_pose;
+        let (q, r) = (p.accel_noise_mps2, p.measurement_noise_m);
+        for t in &mut self.tracks {
+            t.fx.predict(dt, q);
+            t.fy.predict(dt, q);
+        }
+
+        // Gated nearest neighbour, greedy by distance.
+        self.pairs.clear();
+        self.pairs.reserve(self.tracks.len() * clusters.len().min(p.max_tracks));
+        for (ci, c) in clusters.iter().enumerate() {
+            if !Self::candidate(c, p) {
+                continue;
+            }
+            let z = robot_pose.transform_point(c.centroid);
+            for (ti, t) in self.tracks.iter().enumerate() {
+                let d = (z - t.position()).norm();
+                if d <= p.gate_m {
+                    self.pairs.push((d, ti, ci));
+                }
+            }
+        }
+        self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        self.track_taken.clear();
+        self.track_taken.resize(self.tracks.len(), false);
+        for &(_, ti, ci) in &self.pairs {
+            if self.track_taken[ti] || self.cluster_track[ci].is_some() {
+                continue;
+            }
+            self.track_taken[ti] = true;
+            self.cluster_track[ci] = Some(ti);
+            let z = robot_pose.transform_point(clusters[ci].centroid);
+            let t = &mut self.tracks[ti];
+            t.fx.update(z.x, r);
+            t.fy.update(z.y, r);
+            t.radius_m = 0.8 * t.radius_m + 0.2 * clusters[ci].radius_m;
+            t.hits += 1;
+            t.misses = 0;
+            if t.hits >= p.confirm_hits {
+                t.status = TrackStatus::Confirmed;
+            }
+        }
+
+        // Misses; the survivors keep their indices for `cluster_track` via a remap.
+        for (ti, t) in self.tracks.iter_mut().enumerate() {
+            if !self.track_taken[ti] {
+                t.misses += 1;
+                t.hits = 0;
+                if t.status != TrackStatus::Tentative {
+                    t.status = TrackStatus::Coasting;
+                }
+            }
+        }
+        let mut kept = 0;
+        for ti in 0..self.tracks.len() {
+            let t = self.tracks[ti];
+            let dead = match t.status {
+                TrackStatus::Tentative => t.misses > 0,
+                _ => t.misses > p.max_misses,
+            };
+            if dead {
+                continue;
+            }
+            for slot in self.cluster_track.iter_mut() {
+                if *slot == Some(ti) {
+                    *slot = Some(kept);
+                }
+            }
+            self.tracks[kept] = t;
+            kept += 1;
+        }
+        self.tracks.truncate(kept);
+
+        // Births.
+        for (ci, c) in clusters.iter().enumerate() {
+            if self.cluster_track[ci].is_some() || !Self::candidate(c, p) || self.tracks.len() >= p.max_tracks {
+                continue;
+            }
+            let z = robot_pose.transform_point(c.centroid);
+            self.next_id = self.next_id.wrapping_add(1);
+            self.tracks.push(Track {
+                id: self.next_id,
+                status: if p.confirm_hits <= 1 {
+                    TrackStatus::Confirmed
+                } else {
+                    TrackStatus::Tentative
+                },
+                radius_m: c.radius_m,
+                hits: 1,
+                misses: 0,
+                fx: CvFilter::new(z.x, r),
+                fy: CvFilter::new(z.y, r),
+            });
+            self.cluster_track[ci] = Some(self.tracks.len() - 1);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cluster_at(x: f64, y: f64) -> Cluster {
+        Cluster {
+            start: 0,
+            end: 4,
+            len: 4,
+            centroid: Vec2::new(x, y),
+            radius_m: 0.1,
+        }
+    }
+
+    #[test]
+    fn cv_filter_converges_to_a_constant_velocity() {
+        let mut f = CvFilter::new(0.0, 0.05);
+        for k in 1..=30 {
+            f.predict(0.1, 1.0);
+            f.update(0.2 * 0.1 * k as f64, 0.05);
+        }
+        assert!((f.v - 0.2).abs() < 0.01, "{}", f.v);
+        assert!((f.x - 0.6).abs() < 0.01, "{}", f.x);
+    }
+
+    #[test]
+    fn lifecycle_birth_confirm_coast_delete() {
+        let p = ObstacleParams::default(); // confirm 3, max misses 5
+        let mut tr = ObstacleTracker::default();
+        let pose = Pose2::default();
+        for k in 0..3 {
+            tr.update(&[cluster_at(2.0, 0.0)], k as f64 * 0.1, pose, &p);
+        }
+        assert_eq!(tr.tracks().len(), 1);
+        assert_eq!(tr.tracks()[0].status, TrackStatus::Confirmed);
+        assert_eq!(tr.cluster_track(), [Some(0)]);
+        for k in 3..8 {
+            tr.update(&[], k as f64 * 0.1, pose, &p);
+            assert_eq!(tr.tracks()[0].status, TrackStatus::Coasting, "miss {}", k - 2);
+        }
+        tr.update(&[], 0.8, pose, &p);
+        assert!(tr.tracks().is_empty(), "deleted at the 6th miss in a row");
+        // A tentative track dies at its first miss.
+        tr.update(&[cluster_at(1.0, 1.0)], 1.0, pose, &p);
+        tr.update(&[], 1.1, pose, &p);
+        assert!(tr.tracks().is_empty());
+    }
+
+    #[test]
+    fn walls_are_not_tracked_and_repeated_scans_change_nothing() {
+        let p = ObstacleParams::default();
+        let mut tr = ObstacleTracker::default();
+        let wall = Cluster {
+            radius_m: 2.0,
+            ..cluster_at(1.0, 0.0)
+        };
+        tr.update(&[wall], 0.0, Pose2::default(), &p);
+        assert!(tr.tracks().is_empty());
+        tr.update(&[cluster_at(1.0, 0.0)], 0.1, Pose2::default(), &p);
+        let before = tr.tracks().to_vec();
+        tr.update(&[cluster_at(5.0, 0.0)], 0.1, Pose2::default(), &p);
+        assert_eq!(tr.tracks(), before.as_slice(), "same stamp: ignored");
+    }
+
+    #[test]
+    fn the_robots_motion_is_compensated() {
+        // A static obstacle at world (3, 0); the robot drives +x 0.1 m per scan.
+        let p = ObstacleParams::default();
+        let mut tr = ObstacleTracker::default();
+        for k in 0..20 {
+            let pose = Pose2::new(0.1 * k as f64, 0.0, 0.0);
+            tr.update(&[cluster_at(3.0 - 0.1 * k as f64, 0.0)], k as f64 * 0.1, pose, &p);
+        }
+        let t = tr.tracks()[0];
+        assert!(t.velocity().norm() < 1e-6 && !t.is_moving(&p), "{:?}", t.velocity());
+        let (pos, _) = tr.in_robot_frame(&t);
+        assert!((pos - Vec2::new(1.1, 0.0)).norm() < 1e-6, "{pos:?}");
+    }
+
+    #[test]
+    fn two_crossing_tracks_keep_their_identities() {
+        // Two obstacles crossing at 0.5 m/s in opposite directions, 0.3 m apart in x.
+        let p = ObstacleParams::default();
+        let mut tr = ObstacleTracker::default();
+        let mut ids_at_end = (0, 0);
+        for k in 0..40 {
+            let t = k as f64 * 0.1;
+            let a = cluster_at(2.0, -1.0 + 0.5 * t);
+            let b = cluster_at(2.3, 1.0 - 0.5 * t);
+            tr.update(&[a, b], t, Pose2::default(), &p);
+            if k == 5 {
+                ids_at_end = (
+                    tr.tracks()[tr.cluster_track()[0].unwrap()].id,
+                    tr.tracks()[tr.cluster_track()[1].unwrap()].id,
+                );
+            }
+        }
+        let (ia, ib) = (
+            tr.tracks()[tr.cluster_track()[0].unwrap()].id,
+            tr.tracks()[tr.cluster_track()[1].unwrap()].id,
+        );
+        assert_eq!((ia, ib), ids_at_end, "identities swapped");
+        let va = tr.tracks()[tr.cluster_track()[0].unwrap()].velocity();
+        assert!((va - Vec2::new(0.0, 0.5)).norm() < 0.05, "{va:?}");
+    }
+}
