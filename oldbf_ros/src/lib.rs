@@ -10,6 +10,7 @@
 //!   values rejected by name.
 
 pub mod algo;
+pub mod batch;
 pub mod carmen;
 pub mod config;
 pub mod node_config;

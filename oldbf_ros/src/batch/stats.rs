@@ -1,0 +1,232 @@
+//! Aggregation of per-world outcomes into one row per controller: rates,
+//! percentiles and means.
+//!
+//! Why explicit definitions: a paper table is only comparable if its
+//! statistics are stated. Percentiles interpolate linearly between order
+//! statistics (numpy's default, "type 7"): the p-th percentile of n sorted
+//! values x₀ ≤ … ≤ x₍ₙ₋₁₎ is x at the fractional rank p/100 · (n − 1). NaN
+//! values are ignored everywhere; an empty set has no percentile or mean
+//! (`None`, `null` in JSON).
+
+use super::WorldOutcome;
+use crate::sim::run::Controller;
+use serde::Serialize;
+
+/// The p-th percentile (p in [0, 100]) of the non-NaN `values`, linearly
+/// interpolated; `None` if there are none or p is out of range.
+pub fn percentile(values: impl IntoIterator<Item = f64>, p: f64) -> Option<f64> {
+    let mut v: Vec<f64> = values.into_iter().filter(|x| !x.is_nan()).collect();
+    v.sort_by(f64::total_cmp);
+    percentile_of_sorted(&v, p)
+}
+
+/// As [`percentile`], of values already sorted ascending (no NaN).
+pub fn percentile_of_sorted(sorted: &[f64], p: f64) -> Option<f64> {
+    if sorted.is_empty() || !(0.0..=100.0).contains(&p) {
+        return None;
+    }
+    let rank = p / 100.0 * (sorted.len() - 1) as f64;
+    let lo = rank.floor() as usize;
+    let hi = rank.ceil() as usize;
+    let frac = rank - lo as f64;
+    if lo == hi {
+        return Some(sorted[lo]);
+    }
+    Some(sorted[lo] + frac * (sorted[hi] - sorted[lo]))
+}
+
+/// Mean of the non-NaN `values`; `None` if there are none.
+pub fn mean(values: impl IntoIterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values
+        .into_iter()
+        .filter(|x| !x.is_nan())
+        .fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// `count / total`, 0 for an empty set.
+pub fn rate(count: usize, total: usize) -> f64 {
+    if total == 0 {
+        0.0
+    } else {
+        count as f64 / total as f64
+    }
+}
+
+/// One controller over all worlds: a row of the comparison table. Units in
+/// the names; rates are fractions of `worlds` in [0, 1].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ControllerStats {
+    pub controller: Controller,
+    pub worlds: usize,
+    /// Worlds with at least one collision.
+    pub worlds_with_collision: usize,
+    pub collision_rate: f64,
+    /// Collisions summed over worlds (a contact counts once when it begins).
+    pub collisions_total: usize,
+    /// Least, 5th percentile and median over worlds of each world's least
+    /// body-to-obstacle distance (m; negative = penetration).
+    pub min_clearance_min_m: Option<f64>,
+    pub min_clearance_p5_m: Option<f64>,
+    pub min_clearance_median_m: Option<f64>,
+    pub worlds_reached: usize,
+    pub goal_rate: f64,
+    /// Mean time to goal over the worlds where it was reached (s).
+    pub mean_time_to_goal_s: Option<f64>,
+    /// Mean path length over all worlds (m).
+    pub mean_path_length_m: Option<f64>,
+    /// Mean over worlds of each world's largest distance from the reference (m).
+    pub mean_max_tracking_error_m: Option<f64>,
+    /// Steps where the logged DTCBF condition failed for the sent command,
+    /// summed over worlds, and the worlds with any.
+    pub cbf_violations_total: usize,
+    pub worlds_with_cbf_violation: usize,
+    /// The same on the exact geometry after the step.
+    pub true_cbf_violations_total: usize,
+    pub worlds_with_true_cbf_violation: usize,
+    /// Control steps over all worlds.
+    pub steps_total: usize,
+    /// Mean and 99th percentile of the controller's compute per step over
+    /// every step of every world (µs, wall clock).
+    pub mean_step_us: Option<f64>,
+    pub p99_step_us: Option<f64>,
+}
+
+impl ControllerStats {
+    /// Aggregates `outcomes` (this controller's, one per world).
+    pub fn from_outcomes(controller: Controller, outcomes: &[&WorldOutcome]) -> ControllerStats {
+        let n = outcomes.len();
+        let count = |f: fn(&WorldOutcome) -> bool| outcomes.iter().filter(|o| f(o)).count();
+        let clearances: Vec<f64> = outcomes.iter().map(|o| o.min_clearance_m).collect();
+        let worlds_with_collision = count(|o| o.collisions > 0);
+        let worlds_reached = count(|o| o.reached_goal);
+        let mut steps_us: Vec<f64> = outcomes
+            .iter()
+            .flat_map(|o| o.step_us.iter().map(|&t| f64::from(t)))
+            .filter(|t| !t.is_nan())
+            .collect();
+        steps_us.sort_by(f64::total_cmp);
+        ControllerStats {
+            controller,
+            worlds: n,
+            worlds_with_collision,
+            collision_rate: rate(worlds_with_collision, n),
+            collisions_total: outcomes.iter().map(|o| o.collisions).sum(),
+            min_clearance_min_m: percentile(clearances.iter().copied(), 0.0),
+            min_clearance_p5_m: percentile(clearances.iter().copied(), 5.0),
+            min_clearance_median_m: percentile(clearances.iter().copied(), 50.0),
+            worlds_reached,
+            goal_rate: rate(worlds_reached, n),
+            mean_time_to_goal_s: mean(outcomes.iter().filter_map(|o| o.time_to_goal_s)),
+            mean_path_length_m: mean(outcomes.iter().map(|o| o.path_length_m)),
+            mean_max_tracking_error_m: mean(outcomes.iter().filter_map(|o| o.max_tracking_error_m)),
+            cbf_violations_total: outcomes.iter().map(|o| o.cbf_violations).sum(),
+            worlds_with_cbf_violation: count(|o| o.cbf_violations > 0),
+            true_cbf_violations_total: outcomes.iter().map(|o| o.true_cbf_violations).sum(),
+            worlds_with_true_cbf_violation: count(|o| o.true_cbf_violations > 0),
+            steps_total: outcomes.iter().map(|o| o.steps).sum(),
+            mean_step_us: mean(steps_us.iter().copied()),
+            p99_step_us: percentile_of_sorted(&steps_us, 99.0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: Option<f64>, b: f64) -> bool {
+        a.is_some_and(|a| (a - b).abs() < 1e-12)
+    }
+
+    #[test]
+    fn percentiles_interpolate_between_order_statistics() {
+        // Sorted: 1 2 3 4 5 (n − 1 = 4).
+        let v = [5.0, 1.0, 4.0, 2.0, 3.0];
+        assert!(close(percentile(v, 0.0), 1.0));
+        assert!(close(percentile(v, 100.0), 5.0));
+        assert!(close(percentile(v, 50.0), 3.0));
+        assert!(close(percentile(v, 25.0), 2.0));
+        // Rank 0.05 · 4 = 0.2: 1 + 0.2 · (2 − 1).
+        assert!(close(percentile(v, 5.0), 1.2));
+        // Rank 0.99 · 4 = 3.96: 4 + 0.96 · (5 − 4).
+        assert!(close(percentile(v, 99.0), 4.96));
+        // Two values: the median is their mean; NaN is ignored.
+        assert!(close(percentile([10.0, f64::NAN, 20.0], 50.0), 15.0));
+        assert!(close(percentile([7.0], 99.0), 7.0));
+        assert_eq!(percentile([], 50.0), None);
+        assert_eq!(percentile([f64::NAN], 50.0), None);
+        assert_eq!(percentile([1.0], 101.0), None);
+        assert_eq!(percentile([1.0], f64::NAN), None);
+        // Negative values (penetration) sort below zero.
+        assert!(close(percentile([0.3, -0.05, 0.1], 0.0), -0.05));
+    }
+
+    #[test]
+    fn means_and_rates() {
+        assert!(close(mean([1.0, 2.0, 6.0]), 3.0));
+        assert!(close(mean([1.0, f64::NAN, 3.0]), 2.0));
+        assert_eq!(mean([]), None);
+        assert_eq!(rate(1, 4), 0.25);
+        assert_eq!(rate(0, 0), 0.0);
+    }
+
+    fn outcome(world: usize, collisions: usize, clearance: f64, goal: Option<f64>, steps_us: &[f32]) -> WorldOutcome {
+        WorldOutcome {
+            world,
+            controller: Controller::Oldbf,
+            sensor_seed: 0,
+            steps: steps_us.len(),
+            collisions,
+            min_clearance_m: clearance,
+            reached_goal: goal.is_some(),
+            time_to_goal_s: goal,
+            path_length_m: 2.0 * world as f64,
+            max_tracking_error_m: Some(0.1 * world as f64),
+            cbf_violations: world,
+            true_cbf_violations: 0,
+            mean_step_us: 0.0,
+            step_us: steps_us.to_vec(),
+        }
+    }
+
+    #[test]
+    fn a_row_from_hand_made_outcomes() {
+        let o = [
+            outcome(0, 0, 0.40, Some(30.0), &[1.0, 2.0]),
+            outcome(1, 2, -0.02, None, &[3.0]),
+            outcome(2, 0, 0.20, Some(50.0), &[4.0, 100.0]),
+            outcome(3, 1, 0.05, None, &[]),
+        ];
+        let refs: Vec<&WorldOutcome> = o.iter().collect();
+        let s = ControllerStats::from_outcomes(Controller::Oldbf, &refs);
+        assert_eq!(s.worlds, 4);
+        assert_eq!(s.worlds_with_collision, 2);
+        assert_eq!(s.collision_rate, 0.5);
+        assert_eq!(s.collisions_total, 3);
+        assert!(close(s.min_clearance_min_m, -0.02));
+        // Sorted −0.02 0.05 0.2 0.4, rank 0.15: −0.02 + 0.15 · 0.07.
+        assert!(close(s.min_clearance_p5_m, -0.02 + 0.15 * 0.07));
+        assert!(close(s.min_clearance_median_m, 0.125));
+        assert_eq!((s.worlds_reached, s.goal_rate), (2, 0.5));
+        assert!(close(s.mean_time_to_goal_s, 40.0));
+        assert!(close(s.mean_path_length_m, 3.0));
+        assert!(close(s.mean_max_tracking_error_m, 0.15));
+        assert_eq!((s.cbf_violations_total, s.worlds_with_cbf_violation), (6, 3));
+        assert_eq!((s.true_cbf_violations_total, s.worlds_with_true_cbf_violation), (0, 0));
+        assert_eq!(s.steps_total, 5);
+        // Pooled steps 1 2 3 4 100: mean 22, p99 at rank 3.96 = 4 + 0.96 · 96.
+        assert!(close(s.mean_step_us, 22.0));
+        assert!(close(s.p99_step_us, 4.0 + 0.96 * 96.0));
+    }
+
+    #[test]
+    fn an_empty_row_has_no_statistics() {
+        let s = ControllerStats::from_outcomes(Controller::None, &[]);
+        assert_eq!(s.worlds, 0);
+        assert_eq!(s.collision_rate, 0.0);
+        assert_eq!(s.min_clearance_p5_m, None);
+        assert_eq!(s.mean_time_to_goal_s, None);
+        assert_eq!(s.p99_step_us, None);
+    }
+}

@@ -1,0 +1,265 @@
+//! The comparison as text (for the terminal) and as CSV (for the paper).
+//!
+//! Why both: the text table is for reading (aligned, rates with counts,
+//! three decimals); the CSV keeps every figure at full precision, one column
+//! per field of [`ControllerStats`], units in the column names.
+
+use super::{controller_name, BatchReport, ControllerStats, WorldOutcome};
+use std::fmt::Write as _;
+
+/// `–` for a missing value, else `v` with `decimals`.
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or("–".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+fn rate(r: f64, count: usize, total: usize) -> String {
+    format!("{r:.2} ({count}/{total})")
+}
+
+/// The header of the text table, two lines per column (name, unit).
+const TEXT_HEADER: [(&str, &str); 12] = [
+    ("controller", ""),
+    ("worlds", ""),
+    ("collision", "rate"),
+    ("min clear.", "min (m)"),
+    ("min clear.", "p5 (m)"),
+    ("goal", "rate"),
+    ("time to", "goal (s)"),
+    ("path", "(m)"),
+    ("max track.", "err. (m)"),
+    ("CBF viol. logged", "steps (worlds)"),
+    ("CBF viol. exact", "steps (worlds)"),
+    ("step (µs)", "mean / p99"),
+];
+
+fn text_cells(r: &ControllerStats) -> [String; 12] {
+    [
+        controller_name(r.controller),
+        r.worlds.to_string(),
+        rate(r.collision_rate, r.worlds_with_collision, r.worlds),
+        opt(r.min_clearance_min_m, 3),
+        opt(r.min_clearance_p5_m, 3),
+        rate(r.goal_rate, r.worlds_reached, r.worlds),
+        opt(r.mean_time_to_goal_s, 1),
+        opt(r.mean_path_length_m, 2),
+        opt(r.mean_max_tracking_error_m, 2),
+        format!("{} ({})", r.cbf_violations_total, r.worlds_with_cbf_violation),
+        format!("{} ({})", r.true_cbf_violations_total, r.worlds_with_true_cbf_violation),
+        format!("{} / {}", opt(r.mean_step_us, 1), opt(r.p99_step_us, 1)),
+    ]
+}
+
+/// The readable comparison: a title line, the aligned table (one row per
+/// controller) and a legend of the columns.
+pub fn text(report: &BatchReport) -> String {
+    let mut rows: Vec<[String; 12]> = vec![
+        TEXT_HEADER.map(|(name, _)| name.to_string()),
+        TEXT_HEADER.map(|(_, unit)| unit.to_string()),
+    ];
+    rows.extend(report.rows.iter().map(text_cells));
+    let widths: Vec<usize> = (0..TEXT_HEADER.len())
+        .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
+        .collect();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "batch {} ({}) | {} worlds | seed {} | {} threads | {:.1} s",
+        report.name, report.template, report.worlds, report.seed, report.threads, report.wall_time_s
+    );
+    for (i, row) in rows.iter().enumerate() {
+        let mut line = String::new();
+        for (c, cell) in row.iter().enumerate() {
+            let pad = widths[c] - cell.chars().count();
+            if c == 0 {
+                let _ = write!(line, "{cell}{}", " ".repeat(pad));
+            } else {
+                let _ = write!(line, "  {}{cell}", " ".repeat(pad));
+            }
+        }
+        let _ = writeln!(out, "{}", line.trim_end());
+        if i == 1 {
+            let total: usize = widths.iter().sum::<usize>() + 2 * (widths.len() - 1);
+            let _ = writeln!(out, "{}", "-".repeat(total));
+        }
+    }
+    out.push_str(
+        "collision rate: worlds with >= 1 contact. min clear.: each world's least body-to-obstacle \
+         distance, least and 5th percentile over worlds. time to goal: mean over worlds reached. \
+         max track. err.: mean over worlds of each world's largest distance from the reference. \
+         CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command, logged \
+         (from the scan) and exact (true geometry), total and (worlds with any). step: compute per \
+         control step over every step of every world; wall clock with the worlds running in \
+         parallel, so indicative only.",
+    );
+    out
+}
+
+/// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
+pub const CSV_COLUMNS: [&str; 21] = [
+    "controller",
+    "worlds",
+    "worlds_with_collision",
+    "collision_rate",
+    "collisions_total",
+    "min_clearance_min_m",
+    "min_clearance_p5_m",
+    "min_clearance_median_m",
+    "worlds_reached",
+    "goal_rate",
+    "mean_time_to_goal_s",
+    "mean_path_length_m",
+    "mean_max_tracking_error_m",
+    "cbf_violations_total",
+    "worlds_with_cbf_violation",
+    "true_cbf_violations_total",
+    "worlds_with_true_cbf_violation",
+    "steps_total",
+    "mean_step_us",
+    "p99_step_us",
+    "template",
+];
+
+/// A CSV number: full precision, empty when missing.
+fn num(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| x.to_string())
+}
+
+/// The comparison as CSV: a header ([`CSV_COLUMNS`]) and one row per controller.
+pub fn csv(report: &BatchReport) -> String {
+    let mut out = CSV_COLUMNS.join(",");
+    out.push('\n');
+    for r in &report.rows {
+        let cells = [
+            controller_name(r.controller),
+            r.worlds.to_string(),
+            r.worlds_with_collision.to_string(),
+            r.collision_rate.to_string(),
+            r.collisions_total.to_string(),
+            num(r.min_clearance_min_m),
+            num(r.min_clearance_p5_m),
+            num(r.min_clearance_median_m),
+            r.worlds_reached.to_string(),
+            r.goal_rate.to_string(),
+            num(r.mean_time_to_goal_s),
+            num(r.mean_path_length_m),
+            num(r.mean_max_tracking_error_m),
+            r.cbf_violations_total.to_string(),
+            r.worlds_with_cbf_violation.to_string(),
+            r.true_cbf_violations_total.to_string(),
+            r.worlds_with_true_cbf_violation.to_string(),
+            r.steps_total.to_string(),
+            num(r.mean_step_us),
+            num(r.p99_step_us),
+            report.name.clone(),
+        ];
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// Every (world, controller) outcome as CSV, one row each.
+pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
+    let mut out = String::from(
+        "world,controller,sensor_seed,steps,collisions,min_clearance_m,reached_goal,time_to_goal_s,\
+         path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,mean_step_us\n",
+    );
+    for o in outcomes {
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            o.world,
+            controller_name(o.controller),
+            o.sensor_seed,
+            o.steps,
+            o.collisions,
+            o.min_clearance_m,
+            o.reached_goal,
+            num(o.time_to_goal_s),
+            o.path_length_m,
+            num(o.max_tracking_error_m),
+            o.cbf_violations,
+            o.true_cbf_violations,
+            o.mean_step_us
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::run::Controller;
+
+    fn report() -> BatchReport {
+        let row = |controller, collisions| ControllerStats {
+            controller,
+            worlds: 4,
+            worlds_with_collision: collisions,
+            collision_rate: collisions as f64 / 4.0,
+            collisions_total: collisions,
+            min_clearance_min_m: Some(-0.0125),
+            min_clearance_p5_m: Some(0.01),
+            min_clearance_median_m: Some(0.2),
+            worlds_reached: 3,
+            goal_rate: 0.75,
+            mean_time_to_goal_s: None,
+            mean_path_length_m: Some(6.5),
+            mean_max_tracking_error_m: Some(0.5),
+            cbf_violations_total: 7,
+            worlds_with_cbf_violation: 2,
+            true_cbf_violations_total: 1,
+            worlds_with_true_cbf_violation: 1,
+            steps_total: 4000,
+            mean_step_us: Some(6.25),
+            p99_step_us: Some(40.0),
+        };
+        BatchReport {
+            template: "t.yaml".into(),
+            name: "t".into(),
+            seed: 1,
+            worlds: 4,
+            controllers: vec![Controller::Oldbf, Controller::None],
+            threads: 2,
+            wall_time_s: 1.0,
+            rows: vec![row(Controller::Oldbf, 0), row(Controller::None, 3)],
+            per_world: vec![],
+        }
+    }
+
+    #[test]
+    fn text_table_has_one_aligned_row_per_controller() {
+        let t = text(&report());
+        let lines: Vec<&str> = t.lines().collect();
+        assert!(lines[0].starts_with("batch t (t.yaml) | 4 worlds | seed 1"), "{t}");
+        let oldbf = lines.iter().find(|l| l.starts_with("oldbf")).expect("oldbf row");
+        let none = lines.iter().find(|l| l.starts_with("none")).expect("none row");
+        assert_eq!(oldbf.chars().count(), none.chars().count(), "{t}");
+        assert!(oldbf.contains("0.00 (0/4)") && none.contains("0.75 (3/4)"), "{t}");
+        assert!(oldbf.contains("-0.013") && oldbf.contains("6.2 / 40.0"), "{t}");
+        // A missing mean time to goal is a dash, not NaN.
+        assert!(oldbf.contains('–') && !t.contains("NaN"), "{t}");
+    }
+
+    #[test]
+    fn csv_columns_are_the_json_fields() {
+        let r = report();
+        let c = csv(&r);
+        let mut lines = c.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(header, CSV_COLUMNS);
+        let json = serde_json::to_value(&r.rows[0]).unwrap();
+        let mut fields: Vec<&str> = json.as_object().unwrap().keys().map(String::as_str).collect();
+        fields.push("template");
+        let (mut a, mut b) = (header.clone(), fields);
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b, "CSV columns and JSON fields differ");
+        let row: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(row.len(), CSV_COLUMNS.len());
+        assert_eq!(row[0], "oldbf");
+        assert_eq!(row[5], "-0.0125");
+        assert_eq!(row[10], "", "a missing value is an empty cell");
+        assert_eq!(lines.count(), 1);
+    }
+}

@@ -1,0 +1,795 @@
+//! Batch templates (`config/batch/*.yaml`) and the random worlds drawn from
+//! them.
+//!
+//! Why a template and not a list of scenarios: a comparison over 100+ worlds
+//! must not depend on a hand-picked few, and must be reproducible. A template
+//! gives the distributions (room size, obstacle counts and sizes, how the
+//! movers move and how fast, relative to the robot), and world `i` of seed
+//! `S` is drawn from an RNG seeded by (S, i) alone, so it does not depend on
+//! the number of worlds, the thread count or the order of runs.
+//!
+//! Every world is built as a scenario file (YAML text) and loaded through
+//! [`Scenario::from_str_over`], so it gets exactly the validation a
+//! hand-written scenario gets, and `oldbf sim` on the saved text reruns it.
+//! By construction (tested over many seeds): the robot's start and goal are
+//! at least r + d_safe + `start_clearance_m` from every static obstacle and
+//! wall, and from every mover's position at t = 0; every static obstacle lies
+//! inside the room, and every mover stays inside it at all times.
+//!
+//! Units: m, s, m/s; box yaw in degrees (`yaw_deg`, as in scenarios).
+
+use crate::algo::geometry::Vec2;
+use crate::algo::params::Params;
+use crate::config::{self, ConfigError};
+use crate::sim::lidar::LidarSpec;
+use crate::sim::motion::{MotionSpec, MovingObstacleSpec};
+use crate::sim::robot::RobotSpec;
+use crate::sim::scenario::Scenario;
+use crate::sim::world::{BoxSpec, CircleSpec, WorldSpec};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+use serde_yaml::Value;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// The rectangular room [0, width] × [0, height] (m); its outline is a wall.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoomSpec {
+    pub width_m: f64,
+    pub height_m: f64,
+}
+
+fn default_wall_margin() -> f64 {
+    0.8
+}
+
+/// The nominal command: a straight line, tracked at `v_mps`, from a start
+/// `wall_margin_m` from one wall (drawn at random among the four) to a goal
+/// `wall_margin_m` from the opposite wall; both at random positions along
+/// their walls.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineNominalSpec {
+    /// The robot's nominal speed v_nom (m/s); movers' speeds are fractions of it.
+    pub v_mps: f64,
+    /// Distance of the start and the goal from their walls (m).
+    #[serde(default = "default_wall_margin")]
+    pub wall_margin_m: f64,
+}
+
+/// How many static discs, and how large.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CirclesSpec {
+    /// [least, most] discs per world (inclusive).
+    pub count: [usize; 2],
+    /// [least, most] radius (m), uniform.
+    pub radius_m: [f64; 2],
+}
+
+impl Default for CirclesSpec {
+    fn default() -> Self {
+        Self {
+            count: [0, 0],
+            radius_m: [0.1, 0.3],
+        }
+    }
+}
+
+/// How many static boxes, and how large; yaw uniform in [0°, 180°).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxesSpec {
+    /// [least, most] boxes per world (inclusive).
+    pub count: [usize; 2],
+    /// [least, most] side length (m), uniform, drawn for each side.
+    pub size_m: [f64; 2],
+}
+
+impl Default for BoxesSpec {
+    fn default() -> Self {
+        Self {
+            count: [0, 0],
+            size_m: [0.3, 0.8],
+        }
+    }
+}
+
+/// Static obstacles, placed uniformly in the room away from start and goal.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StaticObstaclesSpec {
+    #[serde(default)]
+    pub circles: CirclesSpec,
+    #[serde(default)]
+    pub boxes: BoxesSpec,
+}
+
+/// How a generated mover moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MoverKind {
+    /// Walks back and forth, wall to wall, across the robot's line (within
+    /// ±30° of perpendicular) at constant speed, timed to cross it 20-80 %
+    /// of the way along about when the robot's nominal motion gets there
+    /// (×0.9 to ×1.3 of that time).
+    Crossing,
+    /// Bounces elastically inside the room, in a random direction.
+    Bounce,
+    /// Loops through 2 to 4 random waypoints in the room.
+    WaypointLoop,
+}
+
+/// Moving discs: how many, how large, how fast relative to the robot, and
+/// how they move (each draws its kind uniformly from `kinds`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MovingObstaclesSpec {
+    /// [least, most] movers per world (inclusive).
+    pub count: [usize; 2],
+    /// [least, most] speed as a fraction of `nominal.v_mps`; above 1 the
+    /// movers are faster than the robot.
+    pub speed_fraction: [f64; 2],
+    /// [least, most] disc radius (m).
+    pub radius_m: [f64; 2],
+    pub kinds: Vec<MoverKind>,
+}
+
+impl Default for MovingObstaclesSpec {
+    fn default() -> Self {
+        Self {
+            count: [0, 0],
+            speed_fraction: [0.5, 0.5],
+            radius_m: [0.15, 0.15],
+            kinds: vec![MoverKind::Crossing],
+        }
+    }
+}
+
+fn default_goal_tolerance() -> f64 {
+    0.2
+}
+fn default_start_clearance() -> f64 {
+    0.3
+}
+
+/// The template file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemplateSpec {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Longest simulated time per world (s); a run also ends at the goal.
+    pub duration_s: f64,
+    pub room: RoomSpec,
+    pub robot: RobotSpec,
+    #[serde(default)]
+    pub lidar: LidarSpec,
+    pub nominal: LineNominalSpec,
+    /// The goal counts as reached within this distance of the line's end (m).
+    #[serde(default = "default_goal_tolerance")]
+    pub goal_tolerance_m: f64,
+    /// Free space around the start and the goal beyond r + d_safe (m).
+    #[serde(default = "default_start_clearance")]
+    pub start_clearance_m: f64,
+    #[serde(default)]
+    pub static_obstacles: StaticObstaclesSpec,
+    #[serde(default)]
+    pub moving_obstacles: MovingObstaclesSpec,
+    /// Overrides of `config/oldbf.yaml`, as in a scenario file.
+    #[serde(default)]
+    pub oldbf: Option<Value>,
+}
+
+/// A loaded, validated template.
+#[derive(Debug, Clone)]
+pub struct Template {
+    /// Where it came from, for messages.
+    pub file: String,
+    pub spec: TemplateSpec,
+    /// Filter parameters after the template's overrides.
+    pub params: Params,
+    /// The base parameter document the worlds' `oldbf:` is merged over.
+    base: Value,
+}
+
+/// One generated world, ready to run.
+#[derive(Debug, Clone)]
+pub struct GeneratedWorld {
+    /// Index within the batch (0-based).
+    pub index: usize,
+    /// Seed of the LiDAR noise and dropouts, the same for every controller.
+    pub sensor_seed: u64,
+    pub scenario: Scenario,
+    /// The world as a scenario file; `oldbf sim` on it reruns this world
+    /// (with the same `--config`).
+    pub yaml: String,
+}
+
+/// Tries per obstacle before a template is declared too crowded.
+const PLACEMENT_ATTEMPTS: usize = 1000;
+/// Gap kept between a mover's path and the walls (m).
+const WALL_GAP_M: f64 = 0.01;
+/// Shortest waypoint loop worth generating (m).
+const MIN_LOOP_M: f64 = 0.5;
+
+fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
+    ConfigError::Parse {
+        file: file.to_string(),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+/// Range checks that name the file and the key.
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    /// `v` in (lo, hi] (`open_low`) or [lo, hi].
+    fn value(&self, key: &str, v: f64, lo: f64, hi: f64, open_low: bool, unit: &str) -> Result<(), ConfigError> {
+        let above = if open_low { v > lo } else { v >= lo };
+        if v.is_finite() && above && v <= hi {
+            Ok(())
+        } else {
+            let open = if open_low { "(" } else { "[" };
+            Err(invalid(
+                self.file,
+                key,
+                format!("{v} is out of range; allowed: {open}{lo}, {hi}]{unit}"),
+            ))
+        }
+    }
+
+    /// A `[least, most]` pair: both within the bounds, least ≤ most.
+    fn pair(&self, key: &str, p: [f64; 2], lo: f64, hi: f64, open_low: bool, unit: &str) -> Result<(), ConfigError> {
+        self.value(&format!("{key}[0]"), p[0], lo, hi, open_low, unit)?;
+        self.value(&format!("{key}[1]"), p[1], lo, hi, open_low, unit)?;
+        if p[0] > p[1] {
+            return Err(invalid(
+                self.file,
+                key,
+                format!("[{}, {}]: the least value must not exceed the most", p[0], p[1]),
+            ));
+        }
+        Ok(())
+    }
+
+    fn count(&self, key: &str, c: [usize; 2], most: usize) -> Result<(), ConfigError> {
+        if c[0] > c[1] || c[1] > most {
+            return Err(invalid(
+                self.file,
+                key,
+                format!(
+                    "[{}, {}] is out of range; allowed: [least, most] with least <= most <= {most}",
+                    c[0], c[1]
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Largest obstacle count per kind and world.
+const MAX_COUNT: usize = 1000;
+
+impl Template {
+    /// Loads a template over the base parameters (`base_params`: a parameter
+    /// file, or None for the built-in `config/oldbf.yaml`).
+    pub fn load(path: &Path, base_params: Option<&Path>) -> Result<Template, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
+            file: file.clone(),
+            error,
+        })?;
+        Self::from_str(&text, &file, base_params)
+    }
+
+    /// As `load`, from text.
+    pub fn from_str(text: &str, file: &str, base_params: Option<&Path>) -> Result<Template, ConfigError> {
+        let (base, _) = config::base_params_value(base_params)?;
+        let spec: TemplateSpec = config::from_value(config::parse_yaml(text, file)?, file, "")?;
+        let mut merged = base.clone();
+        if let Some(over) = &spec.oldbf {
+            config::merge(&mut merged, over);
+        }
+        let params = config::params_from_value(merged, file, "oldbf.")?;
+        let t = Template {
+            file: file.to_string(),
+            spec,
+            params,
+            base,
+        };
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// Least distance (m) from the robot's start and goal to any static
+    /// obstacle, wall or mover at t = 0: r + d_safe + `start_clearance_m`,
+    /// with r the larger of the filter's radius and the body's.
+    pub fn start_clearance_radius_m(&self) -> f64 {
+        let body = self.spec.robot.resolve().map(|l| l.body_radius_m).unwrap_or(0.0);
+        self.params.robot_radius_m().max(body) + self.params.barrier.d_safe_m + self.spec.start_clearance_m
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        let s = &self.spec;
+        let c = Checker { file: &self.file };
+        c.value("duration_s", s.duration_s, 0.0, 36_000.0, true, " s")?;
+        c.value("room.width_m", s.room.width_m, 0.0, 1000.0, true, " m")?;
+        c.value("room.height_m", s.room.height_m, 0.0, 1000.0, true, " m")?;
+        c.value("nominal.v_mps", s.nominal.v_mps, 0.0, 5.0, true, " m/s")?;
+        c.value(
+            "nominal.wall_margin_m",
+            s.nominal.wall_margin_m,
+            0.0,
+            1000.0,
+            true,
+            " m",
+        )?;
+        c.value("goal_tolerance_m", s.goal_tolerance_m, 0.0, 10.0, true, " m")?;
+        c.value("start_clearance_m", s.start_clearance_m, 0.0, 10.0, false, " m")?;
+        s.robot.resolve().map_err(|m| invalid(&self.file, "robot", m))?;
+        s.lidar.validate().map_err(|m| invalid(&self.file, "lidar", m))?;
+
+        let v_max = self.params.control.v_max_mps;
+        if s.nominal.v_mps > v_max {
+            return Err(invalid(
+                &self.file,
+                "nominal.v_mps",
+                format!(
+                    "{} exceeds the filter's control.v_max_mps = {v_max} m/s",
+                    s.nominal.v_mps
+                ),
+            ));
+        }
+        let clear = self.start_clearance_radius_m();
+        if s.nominal.wall_margin_m < clear {
+            return Err(invalid(
+                &self.file,
+                "nominal.wall_margin_m",
+                format!(
+                    "{} is too small: the start and goal need {clear:.3} m from the walls \
+                     (r + d_safe + start_clearance_m)",
+                    s.nominal.wall_margin_m
+                ),
+            ));
+        }
+        let short_side = s.room.width_m.min(s.room.height_m);
+        if 2.0 * s.nominal.wall_margin_m >= short_side {
+            return Err(invalid(
+                &self.file,
+                "nominal.wall_margin_m",
+                format!(
+                    "{} leaves no room between the start and the goal: it must be below half the \
+                     room's shorter side ({short_side} m)",
+                    s.nominal.wall_margin_m
+                ),
+            ));
+        }
+        let longest_line_m = s.room.width_m.hypot(s.room.height_m);
+        let longest_nominal_s = longest_line_m / s.nominal.v_mps;
+        if s.duration_s < longest_nominal_s {
+            return Err(invalid(
+                &self.file,
+                "duration_s",
+                format!(
+                    "{} s is shorter than the longest line's nominal time ({longest_nominal_s:.1} s at {} m/s)",
+                    s.duration_s, s.nominal.v_mps
+                ),
+            ));
+        }
+
+        let size_limit = 0.25 * short_side;
+        let so = &s.static_obstacles;
+        c.count("static_obstacles.circles.count", so.circles.count, MAX_COUNT)?;
+        c.pair(
+            "static_obstacles.circles.radius_m",
+            so.circles.radius_m,
+            0.0,
+            size_limit,
+            true,
+            " m (a quarter of the room's shorter side)",
+        )?;
+        c.count("static_obstacles.boxes.count", so.boxes.count, MAX_COUNT)?;
+        c.pair(
+            "static_obstacles.boxes.size_m",
+            so.boxes.size_m,
+            0.0,
+            size_limit,
+            true,
+            " m (a quarter of the room's shorter side)",
+        )?;
+        let m = &s.moving_obstacles;
+        c.count("moving_obstacles.count", m.count, MAX_COUNT)?;
+        c.pair(
+            "moving_obstacles.speed_fraction",
+            m.speed_fraction,
+            0.0,
+            20.0,
+            true,
+            " (of nominal.v_mps)",
+        )?;
+        c.pair(
+            "moving_obstacles.radius_m",
+            m.radius_m,
+            0.0,
+            size_limit,
+            true,
+            " m (a quarter of the room's shorter side)",
+        )?;
+        if m.count[1] > 0 && m.kinds.is_empty() {
+            return Err(invalid(
+                &self.file,
+                "moving_obstacles.kinds",
+                "is empty; give at least one of crossing, bounce, waypoint_loop",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The RNG seed of world `index` of a batch with seed `seed`.
+    pub fn world_rng_seed(seed: u64, index: usize) -> u64 {
+        splitmix64(splitmix64(seed) ^ index as u64)
+    }
+
+    /// Draws world `index` of a batch with seed `seed` and loads it as a
+    /// scenario. Deterministic in (seed, index). Errors name the template
+    /// and the key (e.g. a room too crowded to place the obstacles clear of
+    /// the start and the goal).
+    pub fn world(&self, seed: u64, index: usize) -> Result<GeneratedWorld, ConfigError> {
+        let mut rng = StdRng::seed_from_u64(Self::world_rng_seed(seed, index));
+        let sensor_seed: u64 = rng.gen();
+        let mut g = Generator {
+            t: self,
+            rng,
+            index,
+            free_radius_m: self.start_clearance_radius_m(),
+        };
+        let line = g.line();
+        let mut world = WorldSpec {
+            polygons: vec![vec![
+                [0.0, 0.0],
+                [self.spec.room.width_m, 0.0],
+                [self.spec.room.width_m, self.spec.room.height_m],
+                [0.0, self.spec.room.height_m],
+            ]],
+            ..WorldSpec::default()
+        };
+        g.static_obstacles(&line, &mut world)?;
+        g.movers(&line, &mut world)?;
+
+        let spec = &self.spec;
+        let name = format!("{}_w{index:04}", spec.name);
+        let out = ScenarioOut {
+            name: name.clone(),
+            description: format!("world {index} of batch template {} (seed {seed})", spec.name),
+            duration_s: spec.duration_s,
+            seed: sensor_seed,
+            robot: &spec.robot,
+            start: StartOut {
+                x_m: line.start.x,
+                y_m: line.start.y,
+                theta_deg: line.heading_rad.to_degrees(),
+            },
+            lidar: &spec.lidar,
+            nominal: NominalOut::Line {
+                v_mps: spec.nominal.v_mps,
+                length_m: line.length_m,
+            },
+            goal_tolerance_m: spec.goal_tolerance_m,
+            world,
+            oldbf: spec.oldbf.as_ref(),
+        };
+        let file = format!("{} (world {index})", self.file);
+        let yaml = serde_yaml::to_string(&out).map_err(|e| invalid(&file, "", e.to_string()))?;
+        let scenario = Scenario::from_str_over(&yaml, &file, self.base.clone())?;
+        Ok(GeneratedWorld {
+            index,
+            sensor_seed,
+            scenario,
+            yaml,
+        })
+    }
+}
+
+/// SplitMix64: decorrelates nearby seeds (0, 1, 2…) before they seed the RNG.
+fn splitmix64(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The robot's nominal line.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    start: Vec2,
+    goal: Vec2,
+    heading_rad: f64,
+    length_m: f64,
+}
+
+impl Line {
+    fn direction(&self) -> Vec2 {
+        Vec2::new(self.heading_rad.cos(), self.heading_rad.sin())
+    }
+}
+
+/// Exact distance (m) from `p` to a filled, rotated rectangle (0 inside).
+fn distance_to_box(p: Vec2, b: &BoxSpec) -> f64 {
+    let (s, c) = b.yaw_deg.to_radians().sin_cos();
+    let d = p - Vec2::new(b.center[0], b.center[1]);
+    let local = Vec2::new(c * d.x + s * d.y, -s * d.x + c * d.y);
+    let dx = (local.x.abs() - 0.5 * b.size[0]).max(0.0);
+    let dy = (local.y.abs() - 0.5 * b.size[1]).max(0.0);
+    dx.hypot(dy)
+}
+
+fn distance_to_circle(p: Vec2, c: &CircleSpec) -> f64 {
+    ((p - Vec2::new(c.center[0], c.center[1])).norm() - c.radius_m).max(0.0)
+}
+
+/// Distance along `origin + t·dir` (unit `dir`, origin inside) to the edge of
+/// the box [lo, hi] (m).
+fn exit_distance(origin: Vec2, dir: Vec2, lo: Vec2, hi: Vec2) -> f64 {
+    let axis = |o: f64, d: f64, lo: f64, hi: f64| {
+        if d > 0.0 {
+            (hi - o) / d
+        } else if d < 0.0 {
+            (lo - o) / d
+        } else {
+            f64::INFINITY
+        }
+    };
+    axis(origin.x, dir.x, lo.x, hi.x)
+        .min(axis(origin.y, dir.y, lo.y, hi.y))
+        .max(0.0)
+}
+
+/// Draws one world's contents from the template.
+struct Generator<'a> {
+    t: &'a Template,
+    rng: StdRng,
+    index: usize,
+    free_radius_m: f64,
+}
+
+impl Generator<'_> {
+    fn uniform(&mut self, range: [f64; 2]) -> f64 {
+        self.rng.gen_range(range[0]..=range[1])
+    }
+
+    fn count(&mut self, range: [usize; 2]) -> usize {
+        self.rng.gen_range(range[0]..=range[1])
+    }
+
+    fn room(&self) -> (f64, f64) {
+        (self.t.spec.room.width_m, self.t.spec.room.height_m)
+    }
+
+    fn line(&mut self) -> Line {
+        let (w, h) = self.room();
+        let m = self.t.spec.nominal.wall_margin_m;
+        let side = self.rng.gen_range(0..4);
+        let (ya, yb) = (self.rng.gen_range(m..=h - m), self.rng.gen_range(m..=h - m));
+        let (xa, xb) = (self.rng.gen_range(m..=w - m), self.rng.gen_range(m..=w - m));
+        let (start, goal) = match side {
+            0 => (Vec2::new(m, ya), Vec2::new(w - m, yb)),
+            1 => (Vec2::new(w - m, ya), Vec2::new(m, yb)),
+            2 => (Vec2::new(xa, m), Vec2::new(xb, h - m)),
+            _ => (Vec2::new(xa, h - m), Vec2::new(xb, m)),
+        };
+        let d = goal - start;
+        Line {
+            start,
+            goal,
+            heading_rad: d.y.atan2(d.x),
+            length_m: d.norm(),
+        }
+    }
+
+    fn crowded(&self, key: &str, what: &str, i: usize) -> ConfigError {
+        invalid(
+            &self.t.file,
+            key,
+            format!(
+                "could not place {what} {i} of world {} clear of the start and the goal \
+                 ({:.3} m) after {PLACEMENT_ATTEMPTS} attempts: the room is too small for \
+                 these counts and sizes",
+                self.index, self.free_radius_m
+            ),
+        )
+    }
+
+    fn static_obstacles(&mut self, line: &Line, world: &mut WorldSpec) -> Result<(), ConfigError> {
+        let (w, h) = self.room();
+        let spec = self.t.spec.static_obstacles;
+        let free = self.free_radius_m;
+        let keeps_free = |dist: &dyn Fn(Vec2) -> f64| dist(line.start) >= free && dist(line.goal) >= free;
+        let n = self.count(spec.circles.count);
+        for i in 0..n {
+            let radius_m = self.uniform(spec.circles.radius_m);
+            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                let c = CircleSpec {
+                    center: [
+                        self.rng.gen_range(radius_m..=w - radius_m),
+                        self.rng.gen_range(radius_m..=h - radius_m),
+                    ],
+                    radius_m,
+                };
+                keeps_free(&|p| distance_to_circle(p, &c)).then_some(c)
+            });
+            world
+                .circles
+                .push(placed.ok_or_else(|| self.crowded("static_obstacles.circles", "circle", i))?);
+        }
+        let n = self.count(spec.boxes.count);
+        for i in 0..n {
+            let size = [self.uniform(spec.boxes.size_m), self.uniform(spec.boxes.size_m)];
+            let yaw_deg = self.rng.gen_range(0.0..180.0);
+            let half_diag = 0.5 * size[0].hypot(size[1]);
+            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                let b = BoxSpec {
+                    center: [
+                        self.rng.gen_range(half_diag..=w - half_diag),
+                        self.rng.gen_range(half_diag..=h - half_diag),
+                    ],
+                    size,
+                    yaw_deg,
+                };
+                keeps_free(&|p| distance_to_box(p, &b)).then_some(b)
+            });
+            world
+                .boxes
+                .push(placed.ok_or_else(|| self.crowded("static_obstacles.boxes", "box", i))?);
+        }
+        Ok(())
+    }
+
+    /// True if a mover of `radius_m` at `p` at t = 0 keeps the start free and
+    /// does not sit inside a static obstacle.
+    fn mover_start_ok(&self, p: Vec2, radius_m: f64, line: &Line, world: &WorldSpec) -> bool {
+        let off_robot = (p - line.start).norm() - radius_m >= self.free_radius_m;
+        let off_static = world.circles.iter().all(|c| distance_to_circle(p, c) >= radius_m)
+            && world.boxes.iter().all(|b| distance_to_box(p, b) >= radius_m);
+        off_robot && off_static
+    }
+
+    fn movers(&mut self, line: &Line, world: &mut WorldSpec) -> Result<(), ConfigError> {
+        let spec = self.t.spec.moving_obstacles.clone();
+        let v_nom = self.t.spec.nominal.v_mps;
+        let n = self.count(spec.count);
+        for i in 0..n {
+            let radius_m = self.uniform(spec.radius_m);
+            let speed_mps = self.uniform(spec.speed_fraction) * v_nom;
+            let kind = spec.kinds[self.rng.gen_range(0..spec.kinds.len())];
+            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                let motion = match kind {
+                    MoverKind::Crossing => self.crossing(line, radius_m, speed_mps)?,
+                    MoverKind::Bounce => self.bounce(radius_m, speed_mps),
+                    MoverKind::WaypointLoop => self.waypoint_loop(radius_m, speed_mps)?,
+                };
+                let start = match &motion {
+                    MotionSpec::ConstantVelocity { start, .. } | MotionSpec::Bounce { start, .. } => *start,
+                    MotionSpec::WaypointLoop { waypoints, .. } => waypoints[0],
+                };
+                self.mover_start_ok(Vec2::new(start[0], start[1]), radius_m, line, world)
+                    .then_some(motion)
+            });
+            let motion = placed.ok_or_else(|| self.crowded("moving_obstacles", "mover", i))?;
+            let label = match kind {
+                MoverKind::Crossing => "crossing",
+                MoverKind::Bounce => "bounce",
+                MoverKind::WaypointLoop => "loop",
+            };
+            world.moving.push(MovingObstacleSpec {
+                radius_m,
+                motion,
+                name: Some(format!("{label}_{i}")),
+            });
+        }
+        Ok(())
+    }
+
+    /// The box a mover's centre may visit (m).
+    fn inner_region(&self, radius_m: f64) -> (Vec2, Vec2) {
+        let (w, h) = self.room();
+        let e = radius_m + WALL_GAP_M;
+        (Vec2::new(e, e), Vec2::new(w - e, h - e))
+    }
+
+    /// Paces back and forth across the robot's line, wall to wall, phased to
+    /// pass the crossing point (moving forward) at the chosen time.
+    fn crossing(&mut self, line: &Line, radius_m: f64, speed_mps: f64) -> Option<MotionSpec> {
+        let v_nom = self.t.spec.nominal.v_mps;
+        let along = self.rng.gen_range(0.2..=0.8) * line.length_m;
+        let cross = line.start + line.direction() * along;
+        let t_cross_s = along / v_nom * self.rng.gen_range(0.9..=1.3);
+        let side = if self.rng.gen::<bool>() { 1.0 } else { -1.0 };
+        let angle = line.heading_rad + side * PI / 2.0 + self.rng.gen_range(-PI / 6.0..=PI / 6.0);
+        let dir = Vec2::new(angle.cos(), angle.sin());
+        let (lo, hi) = self.inner_region(radius_m);
+        // The walk's ends A (behind the crossing point) and B (ahead), on the region's edge.
+        let behind_m = exit_distance(cross, -dir, lo, hi);
+        let ahead_m = exit_distance(cross, dir, lo, hi);
+        let span_m = behind_m + ahead_m;
+        if span_m < MIN_LOOP_M {
+            return None;
+        }
+        let (a, b) = (cross - dir * behind_m, cross + dir * ahead_m);
+        // Loop coordinate u ∈ [0, 2·span): A → B for u ≤ span, then back. At t = 0 the
+        // mover is at u0 such that u(t_cross) = behind (at the crossing point, moving A → B).
+        let u0 = (behind_m - speed_mps * t_cross_s).rem_euclid(2.0 * span_m);
+        let waypoints = if u0 <= span_m {
+            vec![a + dir * u0, b, a]
+        } else {
+            vec![a + dir * (2.0 * span_m - u0), a, b]
+        };
+        Some(MotionSpec::WaypointLoop {
+            waypoints: waypoints.iter().map(|p| [p.x, p.y]).collect(),
+            speed_mps,
+        })
+    }
+
+    fn bounce(&mut self, radius_m: f64, speed_mps: f64) -> MotionSpec {
+        let (lo, hi) = self.inner_region(radius_m);
+        let start = [self.rng.gen_range(lo.x..=hi.x), self.rng.gen_range(lo.y..=hi.y)];
+        let a = self.rng.gen_range(0.0..2.0 * PI);
+        MotionSpec::Bounce {
+            start,
+            velocity_mps: [a.cos() * speed_mps, a.sin() * speed_mps],
+            region_min: [lo.x, lo.y],
+            region_max: [hi.x, hi.y],
+        }
+    }
+
+    fn waypoint_loop(&mut self, radius_m: f64, speed_mps: f64) -> Option<MotionSpec> {
+        let (lo, hi) = self.inner_region(radius_m);
+        let n = self.rng.gen_range(2..=4);
+        let waypoints: Vec<[f64; 2]> = (0..n)
+            .map(|_| [self.rng.gen_range(lo.x..=hi.x), self.rng.gen_range(lo.y..=hi.y)])
+            .collect();
+        let perimeter_m: f64 = (0..n)
+            .map(|k| {
+                let (a, b) = (waypoints[k], waypoints[(k + 1) % n]);
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            })
+            .sum();
+        (perimeter_m >= MIN_LOOP_M).then_some(MotionSpec::WaypointLoop { waypoints, speed_mps })
+    }
+}
+
+/// A scenario file as `Scenario` parses it (the keys the batch sets).
+#[derive(Serialize)]
+struct ScenarioOut<'a> {
+    name: String,
+    description: String,
+    duration_s: f64,
+    seed: u64,
+    robot: &'a RobotSpec,
+    start: StartOut,
+    lidar: &'a LidarSpec,
+    nominal: NominalOut,
+    goal_tolerance_m: f64,
+    world: WorldSpec,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    oldbf: Option<&'a Value>,
+}
+
+#[derive(Serialize)]
+struct StartOut {
+    x_m: f64,
+    y_m: f64,
+    theta_deg: f64,
+}
+
+#[derive(Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum NominalOut {
+    Line { v_mps: f64, length_m: f64 },
+}
