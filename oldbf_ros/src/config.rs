@@ -184,10 +184,11 @@ mod tests {
     fn unknown_key_is_named() {
         let text = format!("{DEFAULT_PARAMS_YAML}\n  d_saf_m: 0.3\n");
         let e = load_params_str(&text, "my.yaml").unwrap_err();
-        assert_eq!(e.keys(), ["tracking.d_saf_m"], "{e}");
+        // The key was appended to the file's last section, `obstacles`.
+        assert_eq!(e.keys(), ["obstacles.d_saf_m"], "{e}");
         assert!(
             e.to_string()
-                .starts_with("my.yaml: key `tracking.d_saf_m`: unknown field"),
+                .starts_with("my.yaml: key `obstacles.d_saf_m`: unknown field"),
             "{e}"
         );
         let e = load_params_str(&format!("{DEFAULT_PARAMS_YAML}\nbogus: 1\n"), "my.yaml").unwrap_err();
