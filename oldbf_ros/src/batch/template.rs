@@ -793,3 +793,284 @@ struct StartOut {
 enum NominalOut {
     Line { v_mps: f64, length_m: f64 },
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::world::World;
+    use proptest::prelude::*;
+
+    const SLOW: &str = include_str!("../../../config/batch/slow_obstacles.yaml");
+    const FAST: &str = include_str!("../../../config/batch/fast_obstacles.yaml");
+
+    fn template(text: &str) -> Template {
+        Template::from_str(text, "t.yaml", None).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn error_keys(text: &str) -> (Vec<String>, String) {
+        let e = Template::from_str(text, "t.yaml", None).expect_err("must be rejected");
+        (e.keys(), e.to_string())
+    }
+
+    /// Is `p` strictly inside the convex outline `edges` (a box's four edges)?
+    fn inside_convex(p: Vec2, edges: &[crate::sim::Segment]) -> bool {
+        let side = |s: &crate::sim::Segment| {
+            let (e, w) = (s.b - s.a, p - s.a);
+            e.x * w.y - e.y * w.x
+        };
+        edges.iter().all(|s| side(s) > 0.0) || edges.iter().all(|s| side(s) < 0.0)
+    }
+
+    /// Every validity rule of the module docs, checked independently of the generator.
+    fn check_world(t: &Template, w: &GeneratedWorld) -> Result<(), String> {
+        let (width, height) = (t.spec.room.width_m, t.spec.room.height_m);
+        let free = t.start_clearance_radius_m();
+        let agent = &w.scenario.agents[0];
+        let start = agent.start.position();
+        let goal = agent.reference.ok_or("no reference")?.goal().position();
+        let spec = &w.scenario.spec.world;
+        let statics = World::new(&WorldSpec {
+            polygons: spec.polygons.clone(),
+            boxes: spec.boxes.clone(),
+            circles: spec.circles.clone(),
+            ..WorldSpec::default()
+        })?;
+        for (what, p) in [("start", start), ("goal", goal)] {
+            let d = statics.distance_to_nearest(p);
+            if d < free - 1e-9 {
+                return Err(format!("{what} {p:?} is {d} m from a static obstacle (< {free})"));
+            }
+            // The room outline first (4 edges), then 4 edges per box.
+            for k in 0..spec.boxes.len() {
+                if inside_convex(p, &statics.segments()[4 + 4 * k..8 + 4 * k]) {
+                    return Err(format!("{what} is inside box {k}"));
+                }
+            }
+        }
+        let only_obstacles = World::new(&WorldSpec {
+            boxes: spec.boxes.clone(),
+            circles: spec.circles.clone(),
+            ..WorldSpec::default()
+        })?;
+        if let Some((lo, hi)) = only_obstacles.bounds() {
+            if lo.x < -1e-9 || lo.y < -1e-9 || hi.x > width + 1e-9 || hi.y > height + 1e-9 {
+                return Err(format!("static obstacles span {lo:?}..{hi:?}, outside the room"));
+            }
+        }
+        let v_nom = t.spec.nominal.v_mps;
+        let [f_lo, f_hi] = t.spec.moving_obstacles.speed_fraction;
+        let world = World::new(spec)?;
+        for (i, m) in world.moving().iter().enumerate() {
+            let r = m.radius_m();
+            let d0 = (m.position_at(0.0) - start).norm() - r;
+            if d0 < free - 1e-9 {
+                return Err(format!("mover {i} starts {d0} m from the robot (< {free})"));
+            }
+            for k in 0..=(t.spec.duration_s as usize * 4) {
+                let ts = k as f64 * 0.25;
+                let p = m.position_at(ts);
+                if p.x - r < -1e-9 || p.y - r < -1e-9 || p.x + r > width + 1e-9 || p.y + r > height + 1e-9 {
+                    return Err(format!("mover {i} at {p:?} (r {r}) leaves the room at t = {ts} s"));
+                }
+                let speed = m.velocity_at(ts).norm();
+                if speed < f_lo * v_nom - 1e-9 || speed > f_hi * v_nom + 1e-9 {
+                    return Err(format!("mover {i} moves at {speed} m/s at t = {ts} s"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn shipped_templates_load_with_their_speed_ranges() {
+        let slow = template(SLOW);
+        assert_eq!(slow.spec.moving_obstacles.speed_fraction, [0.3, 0.9]);
+        let fast = template(FAST);
+        assert_eq!(fast.spec.moving_obstacles.speed_fraction, [1.1, 2.0]);
+        // r = 0.178 (filter) > 0.105 (body), + d_safe 0.2 + 0.3.
+        assert!((slow.start_clearance_radius_m() - 0.678).abs() < 1e-12);
+    }
+
+    /// Fixed seed (reproducible CI) unless PROPTEST_RNG_SEED asks for another.
+    fn proptest_config(cases: u32) -> ProptestConfig {
+        let mut c = ProptestConfig::with_cases(cases);
+        if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+            c.rng_seed = proptest::test_runner::RngSeed::Fixed(0xBA7C);
+        }
+        c.failure_persistence = None;
+        c
+    }
+
+    proptest! {
+        #![proptest_config(proptest_config(64))]
+
+        #[test]
+        fn every_generated_world_is_valid(seed in any::<u64>(), index in 0usize..100_000, fast in any::<bool>()) {
+            let t = template(if fast { FAST } else { SLOW });
+            let w = t.world(seed, index).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            prop_assert_eq!(w.index, index);
+            prop_assert_eq!(w.scenario.spec.seed, w.sensor_seed);
+            if let Err(m) = check_world(&t, &w) {
+                return Err(TestCaseError::fail(format!("{m}\n{}", w.yaml)));
+            }
+        }
+    }
+
+    #[test]
+    fn the_checker_catches_a_bad_world() {
+        // Guard against a check that cannot fail: move a post onto the start.
+        let t = template(SLOW);
+        let mut w = t.world(3, 0).unwrap();
+        assert!(check_world(&t, &w).is_ok());
+        let start = w.scenario.agents[0].start.position();
+        w.scenario.spec.world.circles.push(CircleSpec {
+            center: [start.x + 0.5, start.y],
+            radius_m: 0.1,
+        });
+        assert!(check_world(&t, &w).unwrap_err().contains("start"));
+    }
+
+    #[test]
+    fn generation_is_deterministic_in_seed_and_index() {
+        let t = template(SLOW);
+        let a: Vec<String> = (0..5).map(|i| t.world(42, i).unwrap().yaml).collect();
+        let b: Vec<String> = (0..5).rev().map(|i| t.world(42, i).unwrap().yaml).collect();
+        assert!(a.iter().eq(b.iter().rev()), "order of generation must not matter");
+        let other_seed = t.world(43, 0).unwrap().yaml;
+        assert_ne!(a[0], other_seed);
+        assert_ne!(a[0], a[1]);
+        // A world's sensor seed is part of its file, and reloading the file gives the same world.
+        let w = t.world(42, 2).unwrap();
+        let again = Scenario::from_str(&w.yaml, "again.yaml", None).unwrap();
+        assert_eq!(again.spec.seed, w.sensor_seed);
+        assert_eq!(again.spec.world, w.scenario.spec.world);
+        assert_eq!(again.agents, w.scenario.agents);
+    }
+
+    #[test]
+    fn draws_cover_the_ranges() {
+        // Over many worlds every mover kind, both directions of speed and
+        // every obstacle count appear: the ranges are really used.
+        let t = template(FAST);
+        let (mut kinds, mut counts) = (std::collections::BTreeSet::new(), std::collections::BTreeSet::new());
+        let mut max_fraction: f64 = 0.0;
+        for i in 0..60 {
+            let w = t.world(7, i).unwrap();
+            let spec = &w.scenario.spec.world;
+            counts.insert(spec.moving.len());
+            for m in &spec.moving {
+                kinds.insert(m.name.as_deref().unwrap_or("").split('_').next().unwrap().to_string());
+                let speed = match &m.motion {
+                    MotionSpec::Bounce { velocity_mps, .. } => velocity_mps[0].hypot(velocity_mps[1]),
+                    MotionSpec::WaypointLoop { speed_mps, .. } => *speed_mps,
+                    MotionSpec::ConstantVelocity { velocity_mps, .. } => velocity_mps[0].hypot(velocity_mps[1]),
+                };
+                max_fraction = max_fraction.max(speed / t.spec.nominal.v_mps);
+            }
+        }
+        assert_eq!(kinds.into_iter().collect::<Vec<_>>(), ["bounce", "crossing", "loop"]);
+        assert_eq!(counts.into_iter().collect::<Vec<_>>(), [3, 4, 5]);
+        assert!(max_fraction > 1.8 && max_fraction <= 2.0, "{max_fraction}");
+    }
+
+    #[test]
+    fn crossing_movers_cross_the_line_ahead_of_the_nominal_robot() {
+        let text = SLOW.replace(
+            "kinds: [crossing, crossing, bounce, waypoint_loop]",
+            "kinds: [crossing]",
+        );
+        let t = template(&text);
+        for i in 0..10 {
+            let w = t.world(11, i).unwrap();
+            let reference = w.scenario.agents[0].reference.unwrap();
+            let world = World::new(&w.scenario.spec.world).unwrap();
+            for m in world.moving() {
+                // Some time in the window the robot's nominal motion covers 20-80 % of the line
+                // (×0.9 to ×1.3), the mover's centre is on the line within one sample's travel.
+                let (t0, t1) = (0.2 * 0.9 * reference.duration_s, 0.8 * 1.3 * reference.duration_s);
+                let dt = 0.05;
+                let n = ((t1 - t0) / dt).ceil() as usize;
+                let nearest = (0..=n)
+                    .map(|k| {
+                        let p = m.position_at(t0 + k as f64 * dt);
+                        let seg = crate::sim::Segment::new(reference.start.position(), reference.goal().position());
+                        seg.distance_to(p)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert!(nearest <= m.velocity_at(0.0).norm() * dt, "world {i}: {nearest} m");
+            }
+        }
+    }
+
+    #[test]
+    fn template_errors_name_the_key() {
+        let (keys, msg) = error_keys(&format!("{SLOW}\nspeed: 3\n"));
+        assert_eq!(keys, ["speed"], "{msg}");
+        let (keys, msg) = error_keys(&SLOW.replace("  count: [3, 5]", "  count: [3, 5]\n  colour: red"));
+        assert_eq!(keys, ["moving_obstacles.colour"], "{msg}");
+        assert!(msg.contains("unknown field `colour`"), "{msg}");
+        let (keys, msg) = error_keys(&SLOW.replace("speed_fraction: [0.3, 0.9]", "speed_fraction: [0.9, 0.3]"));
+        assert_eq!(keys, ["moving_obstacles.speed_fraction"], "{msg}");
+        assert!(
+            msg.starts_with("t.yaml: key `moving_obstacles.speed_fraction`"),
+            "{msg}"
+        );
+        let (keys, msg) = error_keys(&SLOW.replace("speed_fraction: [0.3, 0.9]", "speed_fraction: [0, 0.9]"));
+        assert_eq!(keys, ["moving_obstacles.speed_fraction[0]"], "{msg}");
+        assert!(msg.contains("allowed: (0, 20]"), "{msg}");
+        let (keys, msg) = error_keys(&SLOW.replace("count: [3, 5]", "count: [3, -5]"));
+        assert_eq!(keys, ["moving_obstacles.count[1]"], "{msg}");
+        let (keys, _) = error_keys(&SLOW.replace("count: [2, 4]", "count: [4, 2]"));
+        assert_eq!(keys, ["static_obstacles.circles.count"]);
+        let (keys, msg) = error_keys(&SLOW.replace("wall_margin_m: 0.8", "wall_margin_m: 0.5"));
+        assert_eq!(keys, ["nominal.wall_margin_m"], "{msg}");
+        assert!(msg.contains("0.678"), "{msg}");
+        let (keys, msg) = error_keys(&SLOW.replace("duration_s: 120 ", "duration_s: 30 "));
+        assert_eq!(keys, ["duration_s"], "{msg}");
+        let (keys, _) = error_keys(&SLOW.replace("v_mps: 0.15 ", "v_mps: 0.3 "));
+        assert_eq!(keys, ["nominal.v_mps"]);
+        let (keys, _) = error_keys(&SLOW.replace("room: {width_m: 8.0", "room: {width_m: .nan"));
+        assert_eq!(keys, ["room.width_m"]);
+        let (keys, _) = error_keys(&SLOW.replace("kinds: [crossing, crossing, bounce, waypoint_loop]", "kinds: []"));
+        assert_eq!(keys, ["moving_obstacles.kinds"]);
+        let (keys, _) = error_keys(&SLOW.replace("kinds: [crossing,", "kinds: [teleport,"));
+        assert_eq!(keys, ["moving_obstacles.kinds[0]"]);
+        let (keys, _) = error_keys(&format!("{SLOW}\noldbf: {{dtcbf: {{gamma: 2}}}}\n"));
+        assert_eq!(keys, ["dtcbf.gamma"]);
+        let (keys, _) = error_keys(&SLOW.replace("dropout: mixed", "dropout: sometimes"));
+        assert_eq!(keys, ["lidar.dropout"]);
+    }
+
+    /// The error of world 0 (a world is too large to print on failure).
+    fn crowded_error(text: &str) -> ConfigError {
+        match template(text).world(1, 0) {
+            Ok(_) => panic!("the room should be too crowded"),
+            Err(e) => e,
+        }
+    }
+
+    #[test]
+    fn a_room_too_crowded_is_an_error_naming_the_key() {
+        // A 2 × 2 m room: no post of radius 0.5 m fits 0.678 m from both start and goal,
+        // and no mover of radius 0.5 m can start 0.678 m from the robot.
+        let small = SLOW
+            .replace(
+                "room: {width_m: 8.0, height_m: 6.0}",
+                "room: {width_m: 2.0, height_m: 2.0}",
+            )
+            .replace("size_m: [0.3, 0.8]", "size_m: [0.3, 0.5]");
+        let posts = small.replace(
+            "circles: {count: [2, 4], radius_m: [0.1, 0.3]}",
+            "circles: {count: [1, 1], radius_m: [0.5, 0.5]}",
+        );
+        let e = crowded_error(&posts);
+        assert_eq!(e.keys(), ["static_obstacles.circles"], "{e}");
+        assert!(e.to_string().contains("too small"), "{e}");
+        let movers = small
+            .replace("count: [2, 4]", "count: [0, 0]")
+            .replace("count: [1, 3]", "count: [0, 0]")
+            .replace("radius_m: [0.12, 0.25]", "radius_m: [0.5, 0.5]");
+        let e = crowded_error(&movers);
+        assert_eq!(e.keys(), ["moving_obstacles"], "{e}");
+    }
+}
