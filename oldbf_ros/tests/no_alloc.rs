@@ -2,7 +2,7 @@
 //! allocator proves it. Allocations are counted per thread, so the test
 //! harness's other threads cannot disturb the count.
 
-use oldbf_ros::algo::{LaserScan, Params, SafetyPipeline, Twist};
+use oldbf_ros::algo::{LaserScan, Params, Pose2, SafetyPipeline, Twist};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -107,6 +107,108 @@ fn steady_state_steps_do_not_allocate() {
             during, 0,
             "{beams} beams: {during} allocations in 250 steady-state steps"
         );
+    }
+}
+
+/// Ten legs (radius 0.1 m) swinging back and forth at up to 0.5 m/s around
+/// fixed centres 1.2–2.6 m from a robot at the origin: a 360° scan of `ranges`
+/// beams at time `t_s`, written in place.
+fn ten_movers(ranges: &mut [f32], t_s: f64) {
+    const LEG_M: f64 = 0.1;
+    let beams = ranges.len();
+    let legs: [(f64, f64, f64); 10] = std::array::from_fn(|i| {
+        let bearing = i as f64 * std::f64::consts::TAU / 10.0;
+        let dist = 1.2 + 0.15 * i as f64;
+        let phase = (t_s + i as f64).sin(); // 1 rad/s
+                                            // Even legs swing ±0.45 m across the line of sight (0.45 m/s peak), odd legs
+                                            // ±0.5 m towards and away from the robot (0.5 m/s peak, on a collision
+                                            // course half the time). None touches or hides another; all travel more than
+                                            // `min_travel_m` from wherever they are first seen.
+        let (s, c) = bearing.sin_cos();
+        if i % 2 == 0 {
+            let swing = 0.45 * phase;
+            (dist * c - swing * s, dist * s + swing * c, LEG_M)
+        } else {
+            let swing = 0.5 * phase;
+            ((dist + swing) * c, (dist + swing) * s, LEG_M)
+        }
+    });
+    for (i, r) in ranges.iter_mut().enumerate() {
+        let a = -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / beams as f64;
+        let (dy, dx) = a.sin_cos();
+        let mut best = f64::INFINITY;
+        for &(cx, cy, rad) in &legs {
+            // Ray from the origin along (dx, dy) against the circle: s² − 2 s (d·c) + |c|² − r² = 0.
+            let b = dx * cx + dy * cy;
+            let disc = b * b - (cx * cx + cy * cy - rad * rad);
+            if disc >= 0.0 && b - disc.sqrt() > 0.0 {
+                best = best.min(b - disc.sqrt());
+            }
+        }
+        *r = best as f32;
+    }
+}
+
+#[test]
+fn steady_state_steps_with_ten_tracked_obstacles_do_not_allocate() {
+    for beams in [360, 2048] {
+        let mut ranges = vec![0.0_f32; beams];
+        let params = Params::default();
+        let obstacles = params.obstacles.clone();
+        let mut pipe = SafetyPipeline::new(params);
+        let mut step = |pipe: &mut SafetyPipeline, k: usize| {
+            let t = k as f64 * 0.1;
+            ten_movers(&mut ranges, t);
+            let scan = LaserScan {
+                stamp_s: t,
+                angle_min_rad: -std::f32::consts::PI,
+                angle_increment_rad: 2.0 * std::f32::consts::PI / beams as f32,
+                range_min_m: 0.12,
+                range_max_m: 3.5,
+                ranges_m: &ranges,
+                intensities: &[],
+            };
+            let rec = pipe.step_with_pose(&scan, t, Twist::new(0.15, 0.0), 0.0, Some(Pose2::default()));
+            assert!(rec.cmd.is_finite());
+            assert_eq!(
+                pipe.tracker().tracks().len(),
+                if k < 10 { pipe.tracker().tracks().len() } else { 10 }
+            );
+            (
+                pipe.tracker()
+                    .tracks()
+                    .iter()
+                    .filter(|tr| tr.is_moving(&obstacles))
+                    .count(),
+                pipe.threats().len(),
+            )
+        };
+        for k in 0..100 {
+            step(&mut pipe, k); // tracks are born and confirmed, buffers reach their size
+        }
+        let before = allocations();
+        let (mut max_moving, mut sum_moving, mut max_threats) = (0, 0, 0);
+        for k in 100..400 {
+            let (moving, threats) = step(&mut pipe, k);
+            max_moving = max_moving.max(moving);
+            sum_moving += moving;
+            max_threats = max_threats.max(threats);
+        }
+        let during = allocations() - before;
+        assert_eq!(
+            during, 0,
+            "{beams} beams: {during} allocations in 300 steps with ten movers"
+        );
+        // The load really was ten tracked movers, some on a collision course.
+        // A leg slows to a stop where it turns (and the phases differ), so not all
+        // ten move at once; on average well over half do.
+        assert!(max_moving >= 9, "{beams} beams: at most {max_moving} moving tracks");
+        assert!(
+            sum_moving >= 5 * 300,
+            "{beams} beams: {} moving tracks per step on average",
+            sum_moving / 300
+        );
+        assert!(max_threats >= 1, "{beams} beams: no mover was ever a threat");
     }
 }
 

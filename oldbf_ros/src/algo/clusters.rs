@@ -43,6 +43,13 @@ pub struct Clusters {
 }
 
 impl Clusters {
+    /// Room for the clusters of a scan of `max_points` points without reallocating.
+    pub fn with_capacity(max_points: usize) -> Self {
+        Self {
+            clusters: Vec::with_capacity(max_points),
+        }
+    }
+
     pub fn as_slice(&self) -> &[Cluster] {
         &self.clusters
     }

@@ -19,7 +19,12 @@
 //! * a confirmed track that misses a scan **coasts** (prediction only), and
 //!   is deleted after more than `max_misses` misses in a row;
 //! * a tentative track that misses a scan is deleted;
-//! * a confirmed track faster than `moving_speed_mps` counts as moving.
+//! * a confirmed track counts as moving once it is faster than
+//!   `moving_speed_mps` *and* has travelled `min_travel_m` from where it was
+//!   first seen. The centroid of a static object's visible part jitters and
+//!   jumps as the robot's view of it changes (up to about half its size), which
+//!   the filter reads as speed; only a real mover keeps getting farther from
+//!   where it started.
 //!
 //! All buffers are reused: no allocation in steady state.
 
@@ -93,6 +98,11 @@ pub struct Track {
     /// Consecutive associations so far / consecutive misses.
     pub hits: u32,
     pub misses: u32,
+    /// Where it was first seen, tracking frame (m).
+    pub born_at: Vec2,
+    /// The farthest it has been from `born_at` so far (m): proof that it really
+    /// moves, kept when it turns round (a pacing person stays a mover).
+    pub max_travel_m: f64,
     fx: CvFilter,
     fy: CvFilter,
 }
@@ -112,9 +122,11 @@ impl Track {
         self.status != TrackStatus::Tentative
     }
 
-    /// Confirmed and faster than `moving_speed_mps`.
+    /// Confirmed, faster than `moving_speed_mps`, and once at least
+    /// `min_travel_m` away from where it was first seen (centroid jitter on a
+    /// static object never adds up to that).
     pub fn is_moving(&self, p: &ObstacleParams) -> bool {
-        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps
+        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps && self.max_travel_m >= p.min_travel_m
     }
 }
 
@@ -134,6 +146,19 @@ pub struct ObstacleTracker {
 }
 
 impl ObstacleTracker {
+    /// A tracker whose buffers already hold `max_tracks` tracks and
+    /// `max_clusters` clusters, so steady-state updates do not allocate.
+    pub fn with_capacity(max_tracks: usize, max_clusters: usize) -> Self {
+        Self {
+            tracks: Vec::with_capacity(max_tracks),
+            // Gated pairs: a cluster rarely falls inside the gate of more than a few tracks.
+            pairs: Vec::with_capacity(8 * max_tracks),
+            cluster_track: Vec::with_capacity(max_clusters),
+            track_taken: Vec::with_capacity(max_tracks),
+            ..Self::default()
+        }
+    }
+
     pub fn tracks(&self) -> &[Track] {
         &self.tracks
     }
@@ -179,7 +204,7 @@ impl ObstacleTracker {
             Some(t) => stamp_s - t,
             None => 0.0,
         };
-        if self.last_stamp_s.is_some() && !(dt > 0.0) {
+        if self.last_stamp_s.is_some() && (dt.is_nan() || dt <= 0.0) {
             // The same scan again (or out of order): nothing new to learn.
             return;
         }
@@ -193,7 +218,6 @@ impl ObstacleTracker {
 
         // Gated nearest neighbour, greedy by distance.
         self.pairs.clear();
-        self.pairs.reserve(self.tracks.len() * clusters.len().min(p.max_tracks));
         for (ci, c) in clusters.iter().enumerate() {
             if !Self::candidate(c, p) {
                 continue;
@@ -220,6 +244,7 @@ impl ObstacleTracker {
             t.fx.update(z.x, r);
             t.fy.update(z.y, r);
             t.radius_m = 0.8 * t.radius_m + 0.2 * clusters[ci].radius_m;
+            t.max_travel_m = t.max_travel_m.max((t.position() - t.born_at).norm());
             t.hits += 1;
             t.misses = 0;
             if t.hits >= p.confirm_hits {
@@ -274,6 +299,8 @@ impl ObstacleTracker {
                 radius_m: c.radius_m,
                 hits: 1,
                 misses: 0,
+                born_at: z,
+                max_travel_m: 0.0,
                 fx: CvFilter::new(z.x, r),
                 fy: CvFilter::new(z.y, r),
             });
@@ -386,5 +413,38 @@ mod tests {
         assert_eq!((ia, ib), ids_at_end, "identities swapped");
         let va = tr.tracks()[tr.cluster_track()[0].unwrap()].velocity();
         assert!((va - Vec2::new(0.0, 0.5)).norm() < 0.05, "{va:?}");
+    }
+
+    #[test]
+    fn jitter_in_place_is_not_motion() {
+        // A static object whose centroid jumps ±0.1 m between views (the robot's view of
+        // it changes): speed estimates spike, but it never travels 0.3 m from its birth.
+        let p = ObstacleParams::default();
+        let mut tr = ObstacleTracker::default();
+        for k in 0..60 {
+            let dx = if k % 6 < 3 { 0.1 } else { -0.1 };
+            tr.update(&[cluster_at(2.0 + dx, 0.0)], k as f64 * 0.1, Pose2::default(), &p);
+            assert!(
+                !tr.tracks()[0].is_moving(&p),
+                "scan {k}: {:?}",
+                tr.tracks()[0].velocity()
+            );
+        }
+        // A walker at 0.15 m/s has travelled 0.3 m after 2 s (scan 20); the filtered
+        // position trails the measurements by about a scan.
+        let mut tr = ObstacleTracker::default();
+        let mut first_moving = None;
+        for k in 0..40 {
+            tr.update(
+                &[cluster_at(2.0, 0.015 * k as f64)],
+                k as f64 * 0.1,
+                Pose2::default(),
+                &p,
+            );
+            if first_moving.is_none() && tr.tracks()[0].is_moving(&p) {
+                first_moving = Some(k);
+            }
+        }
+        assert!(matches!(first_moving, Some(20..=22)), "{first_moving:?}");
     }
 }

@@ -300,8 +300,10 @@ pub struct ObstacleParams {
     pub accel_noise_mps2: f64,
     /// Centroid measurement noise standard deviation (m).
     pub measurement_noise_m: f64,
-    /// A confirmed track faster than this is moving (m/s).
+    /// A confirmed track faster than this is moving (m/s)…
     pub moving_speed_mps: f64,
+    /// …once it has been this far from where it was first seen (m; kept when it turns round).
+    pub min_travel_m: f64,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
     pub lookahead_s: f64,
     /// At most this many tracks (bounds memory and time).
@@ -321,6 +323,7 @@ impl Default for ObstacleParams {
             accel_noise_mps2: 1.0,
             measurement_noise_m: 0.05,
             moving_speed_mps: 0.05,
+            min_travel_m: 0.3,
             lookahead_s: 2.0,
             max_tracks: 32,
         }
@@ -496,6 +499,7 @@ impl Params {
         c.range("obstacles.accel_noise_mps2", o.accel_noise_mps2, "(0, 100] m/s²");
         c.range("obstacles.measurement_noise_m", o.measurement_noise_m, "(0, 10] m");
         c.range("obstacles.moving_speed_mps", o.moving_speed_mps, "[0, 10] m/s");
+        c.range("obstacles.min_travel_m", o.min_travel_m, "[0, 100] m");
         c.range("obstacles.lookahead_s", o.lookahead_s, "[0, 60] s");
         c.range("obstacles.max_tracks", o.max_tracks as f64, "[1, 1000]");
 

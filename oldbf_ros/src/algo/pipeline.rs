@@ -77,6 +77,7 @@ impl SafetyPipeline {
     pub fn new(params: Params) -> Self {
         let derived = Derived::new(&params);
         let cap = 1024;
+        let max_tracks = params.obstacles.max_tracks;
         Self {
             params,
             derived,
@@ -85,17 +86,23 @@ impl SafetyPipeline {
             filter: DtcbfFilter::with_capacity(cap),
             last_cmd: Twist::ZERO,
             last_clearances: Clearances::OPEN,
-            clusters: Clusters::default(),
-            tracker: ObstacleTracker::default(),
+            clusters: Clusters::with_capacity(cap),
+            tracker: ObstacleTracker::with_capacity(max_tracks, cap),
             points_next: Vec::with_capacity(cap),
             ego: None,
-            threats: Vec::with_capacity(32),
+            threats: Vec::with_capacity(max_tracks),
         }
     }
 
     /// The obstacle tracker (tracks in its tracking frame; see `in_robot_frame`).
     pub fn tracker(&self) -> &ObstacleTracker {
         &self.tracker
+    }
+
+    /// Where the valid points will be after one step, as the filter predicted
+    /// them (moving clusters on a collision course advanced by v_o Δt).
+    pub fn points_next(&self) -> &[Vec2] {
+        &self.points_next
     }
 
     /// Tracked obstacles on a collision course at the last step.
@@ -164,9 +171,10 @@ impl SafetyPipeline {
         pose
     }
 
-    /// Clusters, tracks, and for every moving track on a collision course:
-    /// its points advanced by v_o Δt in `points_next`, and its side's
-    /// clearance lowered to its predicted clearance within the look-ahead.
+    /// Clusters, tracks, and for every moving track on a collision course with
+    /// a time to collision within `lookahead_s`: its points advanced by v_o Δt
+    /// in `points_next`, and its side's clearance lowered to its clearance
+    /// predicted at the time to collision.
     fn predict_obstacles(
         &mut self,
         c: &mut Clearances,
@@ -204,8 +212,11 @@ impl SafetyPipeline {
             }
             let (pos, vel) = self.tracker.in_robot_frame(&track);
             let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
-            let Some(ttc) = cone.time_to_collision_s else { continue };
-            let horizon = ttc.min(o.lookahead_s);
+            // Only an imminent collision counts: within the look-ahead.
+            let Some(ttc) = cone.time_to_collision_s.filter(|&t| t <= o.lookahead_s) else {
+                continue;
+            };
+            let horizon = ttc;
             let mut predicted = f64::INFINITY;
             for i in cluster.indices(n) {
                 self.points_next[i] += vel * dt;

@@ -313,11 +313,13 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 // Same input box as the filter, so the comparison is only about safety.
                 Controller::None => input_box.clamp(nominal),
             };
-            // The logged condition, recomputed here from the scan's points for the command
-            // actually sent (not taken from the filter's own record).
+            // The logged condition, recomputed here from the predicted points for the
+            // command actually sent (not taken from the filter's own record).
             let (h_next_pred, held) = if rec.measured() {
                 let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
-                let h_next = min_distance(a.pipeline.points(), disp) - r - d_safe;
+                // The same prediction the filter made: static points stay, tracked moving
+                // obstacles on a collision course advance by v_o Δt (ALGORITHM.md §5).
+                let h_next = min_distance(a.pipeline.points_next(), disp) - r - d_safe;
                 (
                     h_next,
                     !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
