@@ -10,8 +10,12 @@
 //! For scans, [`World::prepare_scan`] copies into a reusable [`ScanScratch`]
 //! only the shapes that can be hit within the sensor's range — an exact cull
 //! (a shape farther than `max_range_m` from the sensor cannot give a hit
-//! below `max_range_m`), so [`ScanScratch::ray_cast`] returns the same value
-//! as [`World::ray_cast`], only faster in large worlds.
+//! below `max_range_m`) — and files each under the bearings it covers as
+//! seen from the sensor (angular bins). A ray then tests only the shapes of
+//! its bearing's bin, which hold every shape it can hit, so
+//! [`ScanScratch::ray_cast`] returns exactly the value of
+//! [`World::ray_cast`], an order of magnitude faster in cluttered worlds
+//! (the LiDAR was two thirds of a closed-loop step with 50 obstacles).
 //!
 //! Units: m, s; box yaw in degrees in YAML only (`yaw_deg`).
 
@@ -293,6 +297,13 @@ impl World {
                 .chain(&self.agents)
                 .filter(|c| c.signed_distance_to(origin) < max_range_m),
         );
+        scratch.origin = origin;
+        scratch
+            .segment_bins
+            .fill(scratch.segments.iter().map(|s| BearingSpan::of_segment(s, origin)));
+        scratch
+            .circle_bins
+            .fill(scratch.circles.iter().map(|c| BearingSpan::of_circle(c, origin)));
     }
 
     /// Axis-aligned bounding box (min, max corners, m) of the static geometry
@@ -308,14 +319,41 @@ impl World {
 pub struct ScanScratch {
     segments: Vec<Segment>,
     circles: Vec<Circle>,
+    /// The sensor position the bins were built for (m).
+    origin: Vec2,
+    /// Indices into `segments` / `circles` by bearing from `origin`.
+    segment_bins: BearingBins,
+    circle_bins: BearingBins,
 }
 
 impl ScanScratch {
     /// Like [`World::ray_cast`], over the culled shapes only. Gives the same
     /// answer as the world for rays from the `origin` given to
-    /// [`World::prepare_scan`] with `max_range_m` no larger than there.
+    /// [`World::prepare_scan`] with `max_range_m` no larger than there. Rays
+    /// from that origin test only the shapes filed under their bearing;
+    /// rays from elsewhere test every culled shape.
     pub fn ray_cast(&self, origin: Vec2, dir_unit: Vec2, max_range_m: f64) -> Option<f64> {
-        ray_cast_shapes(&self.segments, &self.circles, &[], origin, dir_unit, max_range_m)
+        if origin != self.origin {
+            return ray_cast_shapes(&self.segments, &self.circles, &[], origin, dir_unit, max_range_m);
+        }
+        let bin = BearingBins::bin_of(dir_unit);
+        let mut best = max_range_m;
+        for &i in self.segment_bins.items(bin) {
+            if let Some(t) = self.segments[i as usize].ray_hit(origin, dir_unit) {
+                if t < best {
+                    best = t;
+                }
+            }
+        }
+        for &i in self.circle_bins.items(bin) {
+            if let Some(t) = self.circles[i as usize].ray_hit(origin, dir_unit) {
+                if t < best {
+                    best = t;
+                }
+            }
+        }
+        // As in `ray_cast_shapes`: only an improving hit gives a value.
+        (best < max_range_m).then_some(best)
     }
 
     /// Number of (segments, circles) kept by the last cull.
@@ -326,6 +364,150 @@ impl ScanScratch {
     /// True if the last cull kept nothing.
     pub fn is_empty(&self) -> bool {
         self.segments.is_empty() && self.circles.is_empty()
+    }
+}
+
+/// Number of bearing bins over the full circle (0.9° to 1.8° each): about
+/// one beam per bin at 256 beams; a people-sized disc 2 m away covers 4-8.
+const BEARING_BINS: usize = 256;
+
+/// Width by which every shape's bearing interval is widened (rad), so that
+/// rounding in the bearings can never drop a shape from a ray's bin (the
+/// rounding is ~1e-15 rad).
+const BEARING_MARGIN_RAD: f64 = 1e-6;
+
+/// The bearings a shape covers seen from the sensor: `count` bins from
+/// `first` (wrapping past the last bin), or all of them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BearingSpan {
+    first: usize,
+    count: usize,
+}
+
+impl BearingSpan {
+    const ALL: BearingSpan = BearingSpan {
+        first: 0,
+        count: BEARING_BINS,
+    };
+
+    /// Bins covering the bearings [`lo_rad`, `lo_rad + width_rad`], widened
+    /// by `margin_rad` on both sides; all of them from half a turn on.
+    fn covering(lo_rad: f64, width_rad: f64, margin_rad: f64) -> BearingSpan {
+        let (a, b) = (lo_rad - margin_rad, lo_rad + width_rad + margin_rad);
+        if !(b - a < std::f64::consts::PI) {
+            return Self::ALL;
+        }
+        let first = BearingBins::bin_of(Vec2::new(a.cos(), a.sin()));
+        let last = BearingBins::bin_of(Vec2::new(b.cos(), b.sin()));
+        let count = if last >= first {
+            last - first + 1
+        } else {
+            BEARING_BINS - first + last + 1
+        };
+        BearingSpan { first, count }
+    }
+
+    /// The bins, in order.
+    fn bins(self) -> impl Iterator<Item = usize> {
+        (0..self.count).map(move |j| (self.first + j) % BEARING_BINS)
+    }
+
+    /// Every bearing at which a ray from `origin` can hit the segment: the
+    /// angle it subtends, widened for the endpoint tolerance of
+    /// [`Segment::ray_hit`]; all bearings if the origin is on it.
+    fn of_segment(s: &Segment, origin: Vec2) -> BearingSpan {
+        let (a, b) = (s.a - origin, s.b - origin);
+        let near = a.norm().min(b.norm());
+        if s.distance_to(origin) <= 1e-9 || near <= 1e-9 {
+            return Self::ALL;
+        }
+        // Signed angle from a to b, in (−π, π]: the short way round (the
+        // segment misses the origin, so it subtends less than π).
+        let sweep = (a.x * b.y - a.y * b.x).atan2(a.dot(&b));
+        let (lo, width) = if sweep >= 0.0 {
+            (a.y.atan2(a.x), sweep)
+        } else {
+            (b.y.atan2(b.x), -sweep)
+        };
+        // `ray_hit` accepts the segment extended by 2e-9 of its length at each end.
+        let tolerance = 4.0 * 1e-9 * s.length_m() / near;
+        Self::covering(lo, width, BEARING_MARGIN_RAD + tolerance)
+    }
+
+    /// Every bearing at which a ray from `origin` can hit the disc (its
+    /// tangents), or all bearings if the origin is inside or on it.
+    fn of_circle(c: &Circle, origin: Vec2) -> BearingSpan {
+        let d = c.center - origin;
+        let dist = d.norm();
+        if !(dist > c.radius_m * (1.0 + 1e-9) + 1e-12) {
+            return Self::ALL;
+        }
+        let half = (c.radius_m / dist).asin();
+        Self::covering(d.y.atan2(d.x) - half, 2.0 * half, BEARING_MARGIN_RAD)
+    }
+}
+
+/// Shape indices filed by bearing bin (compressed rows: bin k holds
+/// `items[start[k]..start[k + 1]]`). Reused across scans: allocates only
+/// while it grows.
+#[derive(Debug, Clone, Default)]
+struct BearingBins {
+    start: Vec<u32>,
+    items: Vec<u32>,
+    spans: Vec<BearingSpan>,
+}
+
+impl BearingBins {
+    /// The bin of direction `d`'s bearing. Bins are uniform not in the
+    /// angle but in a pseudo-angle that grows with it (from 0 at −π to 4 at
+    /// +π, piecewise d.y / (|d.x| + |d.y|)): the same order of bearings with
+    /// no trigonometry per ray. A NaN direction falls in bin 0.
+    fn bin_of(d: Vec2) -> usize {
+        let p = d.y / (d.x.abs() + d.y.abs());
+        let q = if d.x >= 0.0 {
+            2.0 + p
+        } else if d.y >= 0.0 {
+            4.0 - p
+        } else {
+            -p
+        };
+        ((q * (BEARING_BINS as f64 / 4.0)) as usize).min(BEARING_BINS - 1)
+    }
+
+    /// Files shape i under every bin of the i-th span.
+    fn fill(&mut self, spans: impl Iterator<Item = BearingSpan>) {
+        self.spans.clear();
+        self.spans.extend(spans);
+        self.start.clear();
+        self.start.resize(BEARING_BINS + 1, 0);
+        for s in &self.spans {
+            for k in s.bins() {
+                self.start[k + 1] += 1;
+            }
+        }
+        for k in 0..BEARING_BINS {
+            self.start[k + 1] += self.start[k];
+        }
+        let total = self.start[BEARING_BINS] as usize;
+        self.items.clear();
+        self.items.resize(total, 0);
+        // Fill each bin from its end down (start[k + 1] is its end), leaving start[k + 1] at the bin's start...
+        for (i, s) in self.spans.iter().enumerate() {
+            for k in s.bins() {
+                self.start[k + 1] -= 1;
+                self.items[self.start[k + 1] as usize] = i as u32;
+            }
+        }
+        // ...so now start[k + 1] is bin k's start: shift back by one bin.
+        self.start.copy_within(1..=BEARING_BINS, 0);
+        self.start[BEARING_BINS] = total as u32;
+    }
+
+    fn items(&self, bin: usize) -> &[u32] {
+        if self.start.len() != BEARING_BINS + 1 {
+            return &[];
+        }
+        &self.items[self.start[bin] as usize..self.start[bin + 1] as usize]
     }
 }
 
@@ -485,6 +667,122 @@ mod tests {
             let d = v(a.cos(), a.sin());
             assert_eq!(sc.ray_cast(o, d, 6.0), w.ray_cast(o, d, 6.0), "beam {k}");
         }
+    }
+
+    /// Directions that probe the bin edges: uniform ones, ±x (bearing ±π),
+    /// and rays aimed exactly at every vertex and along every disc's tangents.
+    fn probe_directions(o: Vec2, spec: &WorldSpec) -> Vec<Vec2> {
+        let mut dirs: Vec<Vec2> = (0..1024)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 1024.0 + 0.0003;
+                v(a.cos(), a.sin())
+            })
+            .collect();
+        dirs.extend([v(-1.0, 0.0), v(-1.0, -0.0), v(1.0, 0.0), v(0.0, 1.0), v(0.0, -1.0)]);
+        for w in &spec.walls {
+            for p in [w.from, w.to] {
+                dirs.push(v(p[0], p[1]) - o);
+            }
+        }
+        for c in &spec.circles {
+            let d = v(c.center[0], c.center[1]) - o;
+            if d.norm() > c.radius_m {
+                let half = (c.radius_m / d.norm()).asin();
+                let a = d.y.atan2(d.x);
+                dirs.extend([a - half, a + half].map(|b| v(b.cos(), b.sin())));
+            }
+        }
+        dirs.into_iter()
+            .filter(|d| d.norm() > 0.0)
+            .map(|d| d.normalize())
+            .collect()
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 200,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x5CA7),
+            failure_persistence: None,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+
+        /// The bearing bins never change a ray's answer: the binned cast equals
+        /// the brute-force cast over the whole world, also from origins on a
+        /// wall, at a vertex or inside a disc.
+        #[test]
+        fn binned_scan_casts_equal_brute_force(
+            walls in proptest::collection::vec(((-5.0..5.0f64, -5.0..5.0f64), (-5.0..5.0f64, -5.0..5.0f64)), 0..12),
+            circles in proptest::collection::vec(((-5.0..5.0f64, -5.0..5.0f64), 0.01..2.0f64), 0..12),
+            origin in (-5.0..5.0f64, -5.0..5.0f64),
+            origin_kind in 0usize..4,
+            range in proptest::prop_oneof![proptest::strategy::Just(100.0f64), 0.5..6.0f64],
+        ) {
+            let spec = WorldSpec {
+                walls: walls
+                    .iter()
+                    .filter(|(a, b)| a != b)
+                    .map(|&(a, b)| WallSpec { from: [a.0, a.1], to: [b.0, b.1] })
+                    .collect(),
+                circles: circles
+                    .iter()
+                    .map(|&(c, r)| CircleSpec { center: [c.0, c.1], radius_m: r })
+                    .collect(),
+                ..WorldSpec::default()
+            };
+            let w = World::new(&spec).expect("valid");
+            // The origin: free, at a wall's vertex, on a wall, or at a disc's centre.
+            let o = match (origin_kind, spec.walls.first(), spec.circles.first()) {
+                (1, Some(wall), _) => v(wall.from[0], wall.from[1]),
+                (2, Some(wall), _) => (v(wall.from[0], wall.from[1]) + v(wall.to[0], wall.to[1])) * 0.5,
+                (3, _, Some(c)) => v(c.center[0], c.center[1]),
+                _ => v(origin.0, origin.1),
+            };
+            let mut sc = ScanScratch::default();
+            w.prepare_scan(o, range, &mut sc);
+            for d in probe_directions(o, &spec) {
+                proptest::prop_assert_eq!(sc.ray_cast(o, d, range), w.ray_cast(o, d, range), "direction {:?}", d);
+            }
+        }
+    }
+
+    #[test]
+    fn bearing_bins_hold_each_shape_where_it_is_seen() {
+        // A post due east of the sensor is filed under the bins around bearing 0
+        // only, a wall around the sensor under every bin.
+        let mut bins = BearingBins::default();
+        let east = BearingSpan::of_circle(&Circle::new(v(2.0, 0.0), 0.1), v(0.0, 0.0));
+        let around = BearingSpan::of_segment(&Segment::new(v(-1.0, 0.0), v(1.0, 0.0)), v(0.0, 0.0));
+        assert_eq!(around, BearingSpan::ALL);
+        bins.fill([east, around].into_iter());
+        let zero = BearingBins::bin_of(v(1.0, 0.0));
+        assert_eq!(bins.items(zero).len(), 2);
+        assert_eq!(bins.items(BearingBins::bin_of(v(0.0, 1.0))), [1]);
+        // The post subtends ±asin(0.1 / 2) ≈ ±2.9°; bins near bearing 0 are 0.9° wide.
+        let covered: Vec<usize> = (0..BEARING_BINS).filter(|&k| bins.items(k).contains(&0)).collect();
+        assert!(covered.len() >= 7 && covered.len() <= 10, "{covered:?}");
+        assert!(covered.contains(&zero) && covered.contains(&(zero - 1)), "{covered:?}");
+        // Bearings ±π share the wrap-around: a post due west is in the first and last bins.
+        let west = BearingSpan::of_circle(&Circle::new(v(-2.0, 0.0), 0.1), v(0.0, 0.0));
+        bins.fill(std::iter::once(west));
+        assert_eq!(bins.items(BearingBins::bin_of(v(-1.0, 0.0))), [0]);
+        assert_eq!(bins.items(BearingBins::bin_of(v(-1.0, -1e-12))), [0]);
+        assert_eq!(BearingBins::bin_of(v(-1.0, -1e-12)), 0);
+        assert_eq!(BearingBins::bin_of(v(-1.0, 0.0)), BEARING_BINS - 1);
+        // The bins follow the bearing round the circle, each used, none out of order.
+        let seen: Vec<usize> = (0..=100_000)
+            .map(|k| {
+                let a = -std::f64::consts::PI + k as f64 * std::f64::consts::TAU / 100_000.0;
+                BearingBins::bin_of(v(a.cos(), a.sin()))
+            })
+            .collect();
+        assert!(seen
+            .windows(2)
+            .all(|w| w[0] <= w[1] || (w[0] == BEARING_BINS - 1 && w[1] == 0)));
+        assert_eq!(
+            seen.iter().collect::<std::collections::BTreeSet<_>>().len(),
+            BEARING_BINS
+        );
+        assert!(bins.items(zero).is_empty());
     }
 
     #[test]
