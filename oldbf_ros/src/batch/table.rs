@@ -63,8 +63,14 @@ pub fn text(report: &BatchReport) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "batch {} ({}) | {} worlds | seed {} | {} threads | {:.1} s",
-        report.name, report.template, report.worlds, report.seed, report.threads, report.wall_time_s
+        "batch {} ({}) | {} worlds | seed {} | {} thread{} | {:.1} s",
+        report.name,
+        report.template,
+        report.worlds,
+        report.seed,
+        report.threads,
+        if report.threads == 1 { "" } else { "s" },
+        report.wall_time_s
     );
     for (i, row) in rows.iter().enumerate() {
         let mut line = String::new();
@@ -82,15 +88,18 @@ pub fn text(report: &BatchReport) -> String {
             let _ = writeln!(out, "{}", "-".repeat(total));
         }
     }
-    out.push_str(
-        "collision rate: worlds with >= 1 contact. min clear.: each world's least body-to-obstacle \
-         distance, least and 5th percentile over worlds. time to goal: mean over worlds reached. \
-         max track. err.: mean over worlds of each world's largest distance from the reference. \
-         CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command, logged \
-         (from the scan) and exact (true geometry), total and (worlds with any). step: compute per \
-         control step over every step of every world; wall clock with the worlds running in \
-         parallel, so indicative only.",
-    );
+    for line in [
+        "collision rate: worlds with >= 1 contact (worlds with / worlds).",
+        "min clear.: each world's least body-to-obstacle distance; least and 5th percentile over worlds.",
+        "time to goal: mean over the worlds reached. path: mean over all worlds.",
+        "max track. err.: mean over worlds of each world's largest distance from the reference.",
+        "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command, logged (from the scan)",
+        "  and exact (true geometry); total steps (worlds with any).",
+        "step: compute per control step over every step of every world; wall clock while worlds run in",
+        "  parallel on shared cores, so indicative only.",
+    ] {
+        let _ = writeln!(out, "{line}");
+    }
     out
 }
 

@@ -239,7 +239,7 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
             );
             let report = run_worlds(&tpl, &generated, &options, &progress)?;
             progress.finish_and_clear();
-            println!("{}", batch::table::text(&report));
+            print!("{}", batch::table::text(&report));
             if let Some(dir) = out {
                 batch::output::write_outputs(&dir, &report, &generated)
                     .with_context(|| format!("writing outputs to {}", dir.display()))?;
