@@ -182,13 +182,14 @@ mod tests {
 
     #[test]
     fn unknown_key_is_named() {
-        let text = format!("{DEFAULT_PARAMS_YAML}\n  d_saf_m: 0.3\n");
+        // A misspelt key at the top of the `barrier` section.
+        let text = DEFAULT_PARAMS_YAML.replacen("\nbarrier:\n", "\nbarrier:\n  d_saf_m: 0.3\n", 1);
+        assert_ne!(text, DEFAULT_PARAMS_YAML);
         let e = load_params_str(&text, "my.yaml").unwrap_err();
-        // The key was appended to the file's last section, `obstacles`.
-        assert_eq!(e.keys(), ["obstacles.d_saf_m"], "{e}");
+        assert_eq!(e.keys(), ["barrier.d_saf_m"], "{e}");
         assert!(
             e.to_string()
-                .starts_with("my.yaml: key `obstacles.d_saf_m`: unknown field"),
+                .starts_with("my.yaml: key `barrier.d_saf_m`: unknown field"),
             "{e}"
         );
         let e = load_params_str(&format!("{DEFAULT_PARAMS_YAML}\nbogus: 1\n"), "my.yaml").unwrap_err();

@@ -4,12 +4,15 @@
 //! * [`algo`] — the pure core (no ROS, no CAN): scan sanitation, clearances,
 //!   barriers, DOAA steering, the exact discrete-time CBF filter, reference
 //!   trajectories and Kanayama tracking.
+//! * [`baselines`] — the DCBF-QP filter and ORCA velocity obstacles the
+//!   paper compares against, on the same perception.
 //! * [`sim`] — a 2-D simulator that stands in for the robot: walls, circles,
 //!   moving obstacles, a ray-cast LiDAR, a unicycle with limits.
 //! * [`config`] — YAML configuration with unknown keys and out-of-range
 //!   values rejected by name.
 
 pub mod algo;
+pub mod baselines;
 pub mod batch;
 pub mod carmen;
 pub mod config;

@@ -7,7 +7,7 @@
 
 use super::barrier::compute_barriers;
 use super::clearance::{compute_clearances, Clearances, Sector};
-use super::clusters::Clusters;
+use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
 use super::doaa::{Doaa, DoaaState};
 use super::dtcbf::{DtcbfFilter, InputBox};
@@ -99,6 +99,11 @@ impl SafetyPipeline {
         &self.tracker
     }
 
+    /// The clusters of the last accepted scan (indices into `points`).
+    pub fn clusters(&self) -> &[Cluster] {
+        self.clusters.as_slice()
+    }
+
     /// Where the valid points will be after one step, as the filter predicted
     /// them (moving clusters on a collision course advanced by v_o Δt).
     pub fn points_next(&self) -> &[Vec2] {
@@ -186,6 +191,14 @@ impl SafetyPipeline {
         self.points_next.clear();
         self.points_next.extend_from_slice(&self.points.points);
         self.threats.clear();
+        // Clusters always (the baselines use them), tracking only when enabled.
+        self.clusters.build(
+            &self.points.points,
+            &self.points.beam_index,
+            self.points.beams,
+            full_circle,
+            self.params.obstacles.cluster_gap_m,
+        );
         if !self.params.obstacles.enabled {
             return;
         }
@@ -193,13 +206,6 @@ impl SafetyPipeline {
         let p = &self.params;
         let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
         let pts = &self.points.points;
-        self.clusters.build(
-            pts,
-            &self.points.beam_index,
-            self.points.beams,
-            full_circle,
-            o.cluster_gap_m,
-        );
         self.tracker.update(self.clusters.as_slice(), stamp_s, pose, o);
         let n = pts.len();
         for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {

@@ -55,8 +55,10 @@ enum Command {
         /// scenario's `oldbf:` section is merged over it.
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
-        /// Controller closing the loop: `oldbf` (the filter) or `none` (the
-        /// nominal command unfiltered, to see what the filter prevents).
+        /// Controller closing the loop: `oldbf` (the filter), the baselines
+        /// `dcbf` (DCBF-QP) and `vo` (ORCA velocity obstacles) on the same
+        /// perception, or `none` (the nominal command unfiltered, to see what
+        /// the filter prevents).
         #[arg(long, value_enum, default_value = "oldbf")]
         controller: Controller,
     },

@@ -28,6 +28,7 @@ use crate::algo::record::StepRecord;
 use crate::algo::reference::ReferenceProgress;
 use crate::algo::scan::LaserScan;
 use crate::algo::tracking::{track, TrackingError};
+use crate::baselines::{vo_command, DcbfFilter, VoScene};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -37,6 +38,10 @@ use std::time::Instant;
 pub enum Controller {
     /// OLDBF barriers + DOAA steering + exact DTCBF filter.
     Oldbf,
+    /// The standard DCBF-QP safety filter (clarabel) on the same points.
+    Dcbf,
+    /// ORCA velocity obstacles (dodgy_2d) on the tracked obstacles and the scan outline.
+    Vo,
     /// The nominal command alone (the filter still runs, only to monitor).
     None,
 }
@@ -192,6 +197,7 @@ pub struct RunResult {
 struct AgentLoop {
     plan: AgentPlan,
     pipeline: SafetyPipeline,
+    dcbf: DcbfFilter,
     progress: ReferenceProgress,
     ranges: Vec<f32>,
     scan_stamp: f64,
@@ -236,6 +242,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .map(|plan| AgentLoop {
             plan: plan.clone(),
             pipeline: SafetyPipeline::new(params.clone()),
+            dcbf: DcbfFilter::new(),
             progress: ReferenceProgress::default(),
             ranges: Vec::with_capacity(lidar.beams),
             scan_stamp: f64::NEG_INFINITY,
@@ -307,12 +314,29 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             let v_now = fleet.agents()[i].robot.twist.v_mps;
             let t0 = Instant::now();
             let rec: StepRecord = a.pipeline.step_with_pose(&scan, t, nominal, v_now, Some(pose));
-            let step_us = t0.elapsed().as_secs_f64() * 1e6;
+            // The baselines share the pipeline's perception (points, prediction, tracks)
+            // and its rule that no usable scan means a stop; their time includes it.
             let cmd = match controller {
                 Controller::Oldbf => rec.cmd,
+                Controller::Dcbf if rec.measured() => {
+                    let pl = &a.pipeline;
+                    a.dcbf.filter(pl.points(), pl.points_next(), nominal, params).cmd
+                }
+                Controller::Vo if rec.measured() => {
+                    let pl = &a.pipeline;
+                    let scene = VoScene {
+                        points: pl.points(),
+                        clusters: pl.clusters(),
+                        tracker: pl.tracker(),
+                        v_now_mps: v_now,
+                    };
+                    vo_command(&scene, nominal, params).cmd
+                }
+                Controller::Dcbf | Controller::Vo => rec.cmd,
                 // Same input box as the filter, so the comparison is only about safety.
                 Controller::None => input_box.clamp(nominal),
             };
+            let step_us = t0.elapsed().as_secs_f64() * 1e6;
             // The logged condition, recomputed here from the predicted points for the
             // command actually sent (not taken from the filter's own record).
             let (h_next_pred, held) = if rec.measured() {
