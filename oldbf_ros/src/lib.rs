@@ -15,6 +15,7 @@ pub mod algo;
 pub mod baselines;
 pub mod batch;
 pub mod carmen;
+pub mod compare;
 pub mod config;
 pub mod node_config;
 pub mod node_core;

@@ -49,11 +49,16 @@ const PALETTE: [RGBColor; 10] = [
 ];
 
 const ROBOT_COLOR: RGBColor = PALETTE[0];
-const REFERENCE_COLOR: RGBColor = PALETTE[1];
+/// Black (dashed), so that the palette's second colour can be a compared path.
+const REFERENCE_COLOR: RGBColor = RGBColor(0, 0, 0);
 const GOAL_COLOR: RGBColor = PALETTE[2];
 const COLLISION_COLOR: RGBColor = PALETTE[3];
 const MOVER_COLOR: RGBColor = PALETTE[4];
 const SAFETY_COLOR: RGBColor = PALETTE[9];
+/// Colours of compared paths (`TrajectoryPlot::other_paths`): the same as
+/// the second, third… series of a time-series plot, so one controller has one
+/// colour in every figure of a comparison.
+const OTHER_PATH_COLORS: [RGBColor; 4] = [PALETTE[1], PALETTE[2], PALETTE[3], PALETTE[5]];
 const WALL_COLOR: RGBColor = RGBColor(60, 60, 60);
 const OBSTACLE_COLOR: RGBColor = RGBColor(110, 110, 110);
 
@@ -230,6 +235,11 @@ pub struct TrajectoryPlot<'a> {
     pub title: &'a str,
     /// Robot centre over time (m, world frame).
     pub robot_path: &'a [Vec2],
+    /// Its legend entry, e.g. "robot path" or the controller's name.
+    pub robot_label: &'a str,
+    /// Further paths to compare with it (label, centre over time), each in
+    /// its own colour, without safety perimeter or body.
+    pub other_paths: &'a [(String, Vec<Vec2>)],
     /// Reference trajectory (m); may be empty.
     pub reference_path: &'a [Vec2],
     /// Static segments.
@@ -301,6 +311,9 @@ fn trajectory_bounds(p: &TrajectoryPlot<'_>) -> Bounds {
     }
     for q in p.reference_path {
         b.add(*q, 0.0);
+    }
+    for q in p.other_paths.iter().flat_map(|(_, path)| path) {
+        b.add(*q, p.body_radius_m);
     }
     for (a, c) in p.walls {
         if finite2(a) && finite2(c) {
@@ -639,7 +652,16 @@ fn draw_trajectory<DB: DrawingBackend>(
             .map_err(pe)?;
     }
     if !path_runs.is_empty() {
-        legend.push(("robot path".into(), Swatch::Line(path_style)));
+        legend.push((p.robot_label.to_string(), Swatch::Line(path_style)));
+    }
+
+    // Compared paths, in colours the figure does not otherwise use.
+    for (k, (label, path)) in p.other_paths.iter().enumerate() {
+        let style = OTHER_PATH_COLORS[k % OTHER_PATH_COLORS.len()].stroke_width(3);
+        for run in finite_runs(path) {
+            chart.draw_series(LineSeries::new(run, style)).map_err(pe)?;
+        }
+        legend.push((label.clone(), Swatch::Line(style)));
     }
 
     // Robot body at start and end.
@@ -1301,6 +1323,8 @@ mod tests {
         let plot = TrajectoryPlot {
             title: "Trajectory test title",
             robot_path: &path,
+            robot_label: "robot path",
+            other_paths: &[],
             reference_path: &reference,
             walls: &walls,
             circles: &circles,
@@ -1328,6 +1352,8 @@ mod tests {
             let plot = TrajectoryPlot {
                 title: "iso",
                 robot_path: robot,
+                robot_label: "robot path",
+                other_paths: &[],
                 reference_path: reference,
                 walls: &[],
                 circles: &[],
@@ -1359,6 +1385,8 @@ mod tests {
         let plot = TrajectoryPlot {
             title: "empty",
             robot_path: &[],
+            robot_label: "robot path",
+            other_paths: &[],
             reference_path: &[],
             walls: &[],
             circles: &[],

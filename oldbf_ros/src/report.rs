@@ -186,6 +186,8 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
         &TrajectoryPlot {
             title: &title,
             robot_path: &robot_path,
+            robot_label: "robot path",
+            other_paths: &[],
             reference_path: &reference_path,
             walls: &walls,
             circles: &circles,

@@ -70,6 +70,53 @@ fn sim_out_writes_csv_and_plots() {
 }
 
 #[test]
+fn compare_runs_each_controller_on_the_same_scenario_and_plots_them() {
+    let dir = std::env::temp_dir().join(format!("oldbf-compare-{}", std::process::id()));
+    let out = oldbf()
+        .args([
+            "compare",
+            "config/scenarios/crossing.yaml",
+            "--controllers",
+            "oldbf,vo,none",
+            "--json",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = stdout_of(&out);
+    for row in ["oldbf ", "vo ", "none "] {
+        assert!(text.lines().any(|l| l.starts_with(row)), "no row {row:?} in {text}");
+    }
+    let figs: serde_json::Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    let figs = figs.as_array().unwrap();
+    assert_eq!(figs.len(), 3);
+    assert_eq!(figs[0]["controller"], "oldbf");
+    assert_eq!(figs[2]["controller"], "none");
+    // The same world and seed: each row equals a plain `sim` run of that controller.
+    let sim = oldbf()
+        .args(["sim", "config/scenarios/crossing.yaml", "--controller", "vo", "--json"])
+        .output()
+        .unwrap();
+    let sim: serde_json::Value = serde_json::from_str(stdout_of(&sim).lines().last().unwrap()).unwrap();
+    assert_eq!(figs[1]["min_clearance_m"], sim["min_clearance_m"]);
+    assert_eq!(figs[1]["path_length_m"], sim["path_length_m"]);
+    for f in ["trajectories", "tracking_error", "commands"] {
+        for ext in ["png", "svg"] {
+            let p = dir.join(format!("{f}.{ext}"));
+            assert!(
+                std::fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
+                "{}",
+                p.display()
+            );
+        }
+    }
+    assert!(dir.join("comparison.json").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn bad_configuration_exits_2_naming_file_and_key() {
     let dir = std::env::temp_dir().join(format!("oldbf-cli-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

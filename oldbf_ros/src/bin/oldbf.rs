@@ -8,6 +8,7 @@ use log::{info, warn};
 use oldbf_ros::algo::geometry::Twist;
 use oldbf_ros::algo::pipeline::SafetyPipeline;
 use oldbf_ros::batch::{self, generate_worlds, run_worlds, runner::default_threads, BatchOptions, Template};
+use oldbf_ros::compare;
 use oldbf_ros::config;
 use oldbf_ros::replay::replay_carmen;
 use oldbf_ros::report::{summary_text, write_outputs};
@@ -62,6 +63,35 @@ enum Command {
         #[arg(long, value_enum, default_value = "oldbf")]
         controller: Controller,
     },
+    /// Run one scenario with several controllers and compare them side by side.
+    ///
+    /// Same world, same seed, same nominal command law for every controller
+    /// (the paper's Fig. 9 is `compare config/scenarios/paper_circle.yaml
+    /// --controllers oldbf,dcbf`). Prints one row per controller for robot 0:
+    /// collisions, least clearance (m), time to goal (s), path length (m),
+    /// distance to the (governed) reference point and to the reference path,
+    /// max / mean (m), and compute per step (µs).
+    Compare {
+        /// Scenario file (YAML), e.g. config/scenarios/paper_circle.yaml.
+        scenario: PathBuf,
+        /// Controllers, comma-separated; the first is drawn with its safety perimeter.
+        #[arg(long, value_enum, value_delimiter = ',', value_name = "LIST", default_values_t = [Controller::Oldbf, Controller::Dcbf])]
+        controllers: Vec<Controller>,
+        /// Seed for LiDAR noise and dropouts [default: the scenario's `seed`].
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+        /// Write comparison.json and plots (trajectories overlaid, tracking
+        /// error over time, commands over time; PNG and SVG) into DIR.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Also print the figures as one JSON array on the last stdout line.
+        #[arg(long)]
+        json: bool,
+        /// Base parameter file [default: the built-in config/oldbf.yaml]; the
+        /// scenario's `oldbf:` section is merged over it.
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
     /// Compare controllers over N seeded random worlds drawn from a template.
     ///
     /// Draws N worlds from TEMPLATE (room, static circles and boxes, moving
@@ -91,7 +121,7 @@ enum Command {
         seed: u64,
         /// Controllers to compare, comma-separated, each a table row in this
         /// order (repeats are dropped).
-        #[arg(long, value_enum, value_delimiter = ',', value_name = "LIST", default_values_t = [Controller::Oldbf, Controller::None])]
+        #[arg(long, value_enum, value_delimiter = ',', value_name = "LIST", default_values_t = [Controller::Oldbf, Controller::Dcbf, Controller::Vo, Controller::None])]
         controllers: Vec<Controller>,
         /// Also print the whole comparison as one JSON object on the last stdout line.
         #[arg(long)]
@@ -202,6 +232,37 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
             }
             if json {
                 println!("{}", serde_json::to_string(&result.summary)?);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare {
+            scenario,
+            controllers,
+            seed,
+            out,
+            json,
+            config,
+        } => {
+            let scn = Scenario::load(&scenario, config.as_deref())?;
+            let seed = seed.unwrap_or(scn.spec.seed);
+            let mut unique = Vec::new();
+            for c in controllers {
+                if !unique.contains(&c) {
+                    unique.push(c);
+                }
+            }
+            info!("running {} with {unique:?}, seed {seed}", scn.spec.name);
+            let runs =
+                compare::run_comparison(&scn, &unique, seed).map_err(|m| anyhow::anyhow!("{}: {m}", scn.file))?;
+            let figs = compare::figures(&runs);
+            print!("{}", compare::comparison_text(&scn, seed, &figs));
+            if let Some(dir) = out {
+                compare::write_comparison(&dir, &scn, seed, &runs)
+                    .with_context(|| format!("writing outputs to {}", dir.display()))?;
+                println!("  wrote comparison.json and plots to {}", dir.display());
+            }
+            if json {
+                println!("{}", serde_json::to_string(&figs)?);
             }
             Ok(ExitCode::SUCCESS)
         }

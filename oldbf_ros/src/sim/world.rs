@@ -394,7 +394,8 @@ impl BearingSpan {
     /// by `margin_rad` on both sides; all of them from half a turn on.
     fn covering(lo_rad: f64, width_rad: f64, margin_rad: f64) -> BearingSpan {
         let (a, b) = (lo_rad - margin_rad, lo_rad + width_rad + margin_rad);
-        if !(b - a < std::f64::consts::PI) {
+        // (NaN, e.g. from an infinite bound, also takes the safe branch.)
+        if (b - a).is_nan() || b - a >= std::f64::consts::PI {
             return Self::ALL;
         }
         let first = BearingBins::bin_of(Vec2::new(a.cos(), a.sin()));
@@ -439,7 +440,7 @@ impl BearingSpan {
     fn of_circle(c: &Circle, origin: Vec2) -> BearingSpan {
         let d = c.center - origin;
         let dist = d.norm();
-        if !(dist > c.radius_m * (1.0 + 1e-9) + 1e-12) {
+        if dist.is_nan() || dist <= c.radius_m * (1.0 + 1e-9) + 1e-12 {
             return Self::ALL;
         }
         let half = (c.radius_m / dist).asin();
