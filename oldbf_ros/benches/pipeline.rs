@@ -23,13 +23,25 @@ use std::time::Duration;
 /// Beam counts measured.
 const BEAMS: [usize; 4] = [360, 720, 1440, 2048];
 
-/// Pipeline configurations measured, each a change of the default
-/// parameters. Moving-obstacle tracking is `obstacles.enabled`.
-const VARIANTS: [(&str, fn(&mut Params)); 2] = [
+/// A pipeline configuration: a name and a change of the default parameters.
+struct Variant {
+    name: &'static str,
+    configure: fn(&mut Params),
+}
+
+/// Pipeline configurations measured. Moving-obstacle tracking is
+/// `obstacles.enabled`.
+const VARIANTS: [Variant; 2] = [
     // The static-world filter of the paper: no tracking.
-    ("tracking_off", |p| p.obstacles.enabled = false),
+    Variant {
+        name: "tracking_off",
+        configure: |p| p.obstacles.enabled = false,
+    },
     // With 10 tracked obstacles (the people): clusters, Kalman tracks, collision cones.
-    ("tracking_10_people", |p| p.obstacles.enabled = true),
+    Variant {
+        name: "tracking_10_people",
+        configure: |p| p.obstacles.enabled = true,
+    },
 ];
 
 /// The scan of frame `k` (of an endless sequence) as the pipeline takes it.
@@ -85,9 +97,9 @@ fn bench_pipeline(c: &mut Criterion) {
     group.throughput(Throughput::Elements(1));
     for beams in BEAMS {
         let cycle = ScanCycle::generate(beams);
-        for (name, setup) in VARIANTS {
+        for Variant { name, configure } in VARIANTS {
             let mut params = Params::default();
-            setup(&mut params);
+            configure(&mut params);
             describe(name, &params, &cycle);
             let mut pipe = SafetyPipeline::new(params);
             // Warm the buffers and the tracks up over one cycle.
