@@ -88,7 +88,7 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
         w,
         "t_s,x_m,y_m,theta_rad,ref_x_m,ref_y_m,v_nominal_mps,omega_nominal_radps,v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
-         clearance_true_m,state,filter_changed,condition_held,in_collision,step_us"
+         clearance_true_m,state,filter_changed,condition_held,in_collision,moving_tracks,threats,min_ttc_s,step_us"
     )?;
     for r in rows {
         let nums = [
@@ -116,11 +116,14 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
         let mut line = nums.iter().map(|v| csv_value(*v)).collect::<Vec<_>>().join(",");
         let _ = write!(
             line,
-            ",{},{},{},{},{:.2}",
+            ",{},{},{},{},{},{},{},{:.2}",
             r.state.as_str(),
             r.filter_changed as u8,
             r.condition_held as u8,
             r.in_collision as u8,
+            r.moving_tracks,
+            r.threats,
+            csv_value(r.min_ttc_s),
             r.step_us
         );
         writeln!(w, "{line}")?;

@@ -22,10 +22,13 @@
 //! (hysteresis). A corridor (both sides near, front clear) is not this case:
 //! the differential law centres the robot.
 //!
-//! The turn serves forward motion: it neither starts nor stays latched while
-//! the nominal command has no forward speed (e.g. the tracking law turning in
-//! place towards a goal behind the robot), which a circular robot can always
-//! do safely; otherwise the two turns would alternate.
+//! The turn serves forward motion: it does not stay latched while the nominal
+//! command has no forward speed (e.g. the tracking law turning in place
+//! towards a goal behind the robot), which a circular robot can always do
+//! safely; otherwise the two turns would alternate. It starts only above
+//! `both_sides_min_speed_mps` (hysteresis): a tracking law whose speed hovers
+//! round zero would otherwise switch it on and off every few steps, turning
+//! the robot left and right on the spot for as long as that lasts.
 //!
 //! Departure from ALGORITHM.md §4: the "front is the nearest" condition is
 //! ours. In a corridor narrower than 2 (r + d_act) (2.8 m at the defaults)
@@ -126,12 +129,11 @@ impl Doaa {
         let front_is_nearest = c.d_front_m <= c.d_left_m.min(c.d_right_m) + p.doaa.front_nearest_tolerance_m;
         // The turn exists to unblock forward motion: a nominal that only turns in place
         // (safe for a circular robot) neither starts nor keeps it.
-        let forward = nominal.v_mps > 0.0;
-        if !forward {
+        if nominal.v_mps <= 0.0 {
             self.both_sides = None;
         }
         if self.both_sides.is_none()
-            && forward
+            && nominal.v_mps > p.doaa.both_sides_min_speed_mps
             && c.d_left_m < d_act
             && c.d_right_m < d_act
             && c.d_front_m < d_act
@@ -301,6 +303,23 @@ mod tests {
         let (cmd, state) = run(&mut doaa, Twist::new(0.0, 0.25), clear(0.45, 0.8, 0.45));
         assert_eq!((cmd, state), (Twist::new(0.0, 0.25), DoaaState::Avoid));
         assert_eq!(doaa.latched_turn(), None);
+    }
+
+    #[test]
+    fn both_sides_starts_above_a_speed_and_stays_until_the_nominal_stops() {
+        // The tracking law hovering round v = 0 (both_sides_min_speed_mps = 0.02): no latch.
+        let blocked = clear(0.45, 0.8, 0.45);
+        let mut doaa = Doaa::new();
+        let (cmd, state) = run(&mut doaa, Twist::new(0.01, -0.3), blocked);
+        assert_eq!(state, DoaaState::Avoid);
+        assert_eq!(cmd.omega_radps, -0.3, "the nominal's own turn passes");
+        // Real forward intent starts it; a slower (but still forward) nominal keeps it.
+        let (_, state) = run(&mut doaa, Twist::new(0.05, -0.3), blocked);
+        assert_eq!(state, DoaaState::BothSides);
+        let (cmd, state) = run(&mut doaa, Twist::new(0.01, -0.3), blocked);
+        assert_eq!((state, cmd.omega_radps), (DoaaState::BothSides, -0.3));
+        let (_, state) = run(&mut doaa, Twist::new(0.0, -0.3), blocked);
+        assert_eq!(state, DoaaState::Avoid);
     }
 
     #[test]

@@ -18,7 +18,13 @@
 //! 3. else (e.g. points move towards the robot) the input box is searched,
 //!    over a grid of ω and exactly in v, for the admissible command closest
 //!    to the DOAA command in (v − v_d)² + w (ω − ω_d)²;
-//! 4. else the robot stops and the step is reported infeasible.
+//! 4. else the step is reported infeasible and the robot stops, unless a
+//!    command of the box keeps h(k+1) higher than standing still (only
+//!    possible when points move towards the robot: a tracked obstacle walks
+//!    in); then it takes the one that keeps h(k+1) highest (our departure:
+//!    a robot that freezes in front of a mover is hit); if none does, it turns
+//!    in place at ω_max away from the nearest point (same h as a stop, and it
+//!    faces the robot away), in one direction until a command is admissible.
 //!
 //! Inside the unsafe set (h < 0) the same search runs first with the DTCBF
 //! target (h must rise by γ|h|) and then with h(k+1) ≥ h(k) + ε (escape); if
@@ -40,6 +46,11 @@ use super::params::{Params, PredictionModel};
 
 /// Numerical tolerance on the condition (m).
 const TOL_M: f64 = 1e-9;
+
+/// Speeds tried (plus one) across the box by the least-bad fallback.
+const LEAST_BAD_SPEEDS: usize = 8;
+/// The least-bad command replaces a stop only if it keeps h(k+1) this much higher (m).
+const LEAST_BAD_GAIN_M: f64 = 1e-6;
 
 /// What the filter did with one command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -131,11 +142,26 @@ pub fn min_distance(points: &[Vec2], disp: Vec2) -> f64 {
     m2.sqrt()
 }
 
+/// −1 (turn right) if the nearest point is on the left or dead ahead, else +1 (robot frame).
+fn turn_away_sign(points: &[Vec2]) -> f64 {
+    let nearest = points
+        .iter()
+        .min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
+    match nearest {
+        Some(p) if p.y < 0.0 => 1.0,
+        _ => -1.0,
+    }
+}
+
 /// The DTCBF filter. Holds a scratch buffer reused across steps.
 #[derive(Debug, Default, Clone)]
 pub struct DtcbfFilter {
     /// Forbidden open speed intervals (v_lo, v_hi) (m/s) for the ω being examined.
     intervals: Vec<(f64, f64)>,
+    /// Direction of the turn in place while no command is admissible (+1 left,
+    /// −1 right, 0 none yet): kept until a command is admissible again, so the
+    /// robot does not dither between the two.
+    turn_sign: f64,
 }
 
 impl DtcbfFilter {
@@ -146,6 +172,7 @@ impl DtcbfFilter {
     pub fn with_capacity(points: usize) -> Self {
         Self {
             intervals: Vec::with_capacity(points),
+            turn_sign: 0.0,
         }
     }
 
@@ -214,6 +241,7 @@ impl DtcbfFilter {
             }
             if let Some(cmd) = self.solve(points_next, desired, t, h, &bx, p) {
                 if h_next_of(cmd) >= t - TOL_M {
+                    self.turn_sign = 0.0;
                     return outcome(cmd, false);
                 }
             }
@@ -221,11 +249,48 @@ impl DtcbfFilter {
         // Nothing admissible. Inside the unsafe set a circular robot may still turn in
         // place (h is unchanged for static points): the only way a forward-only robot can
         // find a way out. Otherwise (an approaching obstacle) stop.
-        if escape && h_next_of(Twist::new(0.0, desired.omega_radps)) >= h - TOL_M {
+        if escape && desired.omega_radps != 0.0 && h_next_of(Twist::new(0.0, desired.omega_radps)) >= h - TOL_M {
             return outcome(Twist::new(0.0, desired.omega_radps), true);
         }
         log::debug!("DTCBF infeasible: h = {h:.4} m, desired {desired:?}, targets {targets:?}");
-        outcome(Twist::ZERO, true)
+        // Standing still keeps static points where they are, but not an obstacle that
+        // walks in: then the least bad command, the one that keeps h(k+1) highest, beats
+        // waiting to be hit.
+        let stop_h_next = h_next_of(Twist::ZERO);
+        match self.least_bad(points_next, &bx, p) {
+            Some((cmd, h_next)) if h_next > stop_h_next + LEAST_BAD_GAIN_M => outcome(cmd, true),
+            // Nothing beats standing still. Turning in place is as good for h (a circular
+            // footprint) and faces the robot away from the nearest point, so that moving
+            // away becomes possible: a forward-only robot that freezes facing an obstacle
+            // walking towards it is hit.
+            _ => {
+                if self.turn_sign == 0.0 {
+                    self.turn_sign = turn_away_sign(points);
+                }
+                outcome(Twist::new(0.0, self.turn_sign * bx.omega_max), true)
+            }
+        }
+    }
+
+    /// The command of the box (a grid: `LEAST_BAD_SPEEDS` speeds by the ω
+    /// candidates) that keeps h(k+1) highest, and that h(k+1) (m).
+    fn least_bad(&self, points_next: &[Vec2], bx: &InputBox, p: &Params) -> Option<(Twist, f64)> {
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        let n = p.dtcbf.omega_candidates;
+        let mut best: Option<(Twist, f64)> = None;
+        for k in 0..n {
+            let omega = -bx.omega_max + 2.0 * bx.omega_max * k as f64 / (n - 1) as f64;
+            for j in 0..=LEAST_BAD_SPEEDS {
+                let v = bx.v_lo + (bx.v_hi - bx.v_lo) * j as f64 / LEAST_BAD_SPEEDS as f64;
+                let cmd = Twist::new(v, omega);
+                let h_next = min_distance(points_next, predicted_displacement(model, cmd, dt));
+                if best.is_none_or(|(_, b)| h_next > b) {
+                    best = Some((cmd, h_next));
+                }
+            }
+        }
+        let r_total = p.robot_radius_m() + p.barrier.d_safe_m;
+        best.map(|(cmd, d)| (cmd, d - r_total))
     }
 
     /// The admissible command closest to `desired` for the requirement
@@ -439,9 +504,44 @@ mod tests {
         // gives h+ = −0.028 < 0.8 h. No forward speed helps; reverse is not allowed.
         let now = [Vec2::new(0.4, 0.0)];
         let next = [Vec2::new(0.35, 0.0)];
-        let out = DtcbfFilter::new().filter(&now, &next, Twist::new(0.15, 0.0), &params());
+        let mut f = DtcbfFilter::new();
+        let out = f.filter(&now, &next, Twist::new(0.15, 0.0), &params());
         assert!(out.infeasible && !out.condition_held);
-        assert_eq!(out.cmd, Twist::ZERO);
+        // Nothing beats standing still, so the robot turns in place (the same h+) at
+        // ω_max, away from the point: dead ahead counts as left, so to the right.
+        assert_eq!(out.cmd, Twist::new(0.0, -0.3));
+        assert!((out.h_next_m - (0.35 - 0.378)).abs() < 1e-12, "{out:?}");
+        // The direction is kept while nothing is admissible, even if the point moves left.
+        let out = f.filter(
+            &[Vec2::new(0.4, -0.01)],
+            &[Vec2::new(0.35, -0.01)],
+            Twist::new(0.15, 0.0),
+            &params(),
+        );
+        assert_eq!(out.cmd, Twist::new(0.0, -0.3));
+        // A fresh filter turns away from a point on the right: to the left.
+        let out = DtcbfFilter::new().filter(
+            &[Vec2::new(0.4, -0.01)],
+            &[Vec2::new(0.35, -0.01)],
+            Twist::new(0.15, 0.0),
+            &params(),
+        );
+        assert_eq!(out.cmd, Twist::new(0.0, 0.3));
+    }
+
+    #[test]
+    fn a_mover_closing_from_the_side_is_outrun_not_waited_for() {
+        // A point 0.4 m to the left closes 5 cm this step: no command meets the condition
+        // (h+ ≤ 0.35 + tiny − 0.378 < 0.8 h). Driving on moves the robot away from it
+        // (second order, but more than standing still), so the filter drives on rather
+        // than stopping.
+        let now = [Vec2::new(0.0, 0.4)];
+        let next = [Vec2::new(0.0, 0.35)];
+        let out = DtcbfFilter::new().filter(&now, &next, Twist::new(0.15, 0.0), &params());
+        assert!(out.infeasible, "{out:?}");
+        assert!(out.cmd.v_mps > 0.1, "{out:?}");
+        let stop = min_distance(&next, Vec2::zeros()) - 0.378;
+        assert!(out.h_next_m > stop, "{out:?}");
     }
 
     #[test]

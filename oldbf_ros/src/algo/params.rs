@@ -185,6 +185,9 @@ pub struct DoaaParams {
     pub both_sides_release_m: f64,
     /// In the both-sides turn, linear speed is 0 when the front clearance is below d_safe + this (m).
     pub front_stop_margin_m: f64,
+    /// The both-sides turn starts only when the nominal forward speed exceeds this
+    /// (m/s); it is released when the nominal has no forward speed.
+    pub both_sides_min_speed_mps: f64,
     /// The both-sides turn needs the front obstacle to be the nearest: d_front ≤ min(d_l, d_r) + this (m).
     pub front_nearest_tolerance_m: f64,
     /// The avoidance term k (B_r − B_l) has full weight at nominal forward speeds ≥ this,
@@ -199,6 +202,7 @@ impl Default for DoaaParams {
             omega_0_radps: 0.3,
             both_sides_release_m: 0.1,
             front_stop_margin_m: 0.05,
+            both_sides_min_speed_mps: 0.02,
             front_nearest_tolerance_m: 0.05,
             full_gain_speed_mps: 0.1,
         }
@@ -517,6 +521,11 @@ impl Params {
         );
         c.range("doaa.both_sides_release_m", d.both_sides_release_m, "[0, 10] m");
         c.range("doaa.front_stop_margin_m", d.front_stop_margin_m, "[0, 10] m");
+        c.range(
+            "doaa.both_sides_min_speed_mps",
+            d.both_sides_min_speed_mps,
+            "[0, 5] m/s",
+        );
         c.range(
             "doaa.front_nearest_tolerance_m",
             d.front_nearest_tolerance_m,

@@ -218,6 +218,16 @@ impl SafetyPipeline {
             }
             let (pos, vel) = self.tracker.in_robot_frame(&track);
             let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
+            log::trace!(
+                "t {stamp_s:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}",
+                track.id,
+                pos.x,
+                pos.y,
+                vel.x,
+                vel.y,
+                track.radius_m,
+                cone
+            );
             // Only an imminent collision counts: within the look-ahead.
             let Some(ttc) = cone.time_to_collision_s.filter(|&t| t <= o.lookahead_s) else {
                 continue;

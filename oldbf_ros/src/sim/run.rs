@@ -77,6 +77,11 @@ pub struct StepRow {
     pub filter_changed: bool,
     pub condition_held: bool,
     pub in_collision: bool,
+    /// Tracks the pipeline considers moving, and those on a collision course
+    /// within the look-ahead; least time to collision among them (s, inf if none).
+    pub moving_tracks: usize,
+    pub threats: usize,
+    pub min_ttc_s: f64,
     pub step_us: f64,
 }
 
@@ -392,6 +397,9 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 filter_changed: rec.filter_changed,
                 condition_held: held,
                 in_collision: false,
+                moving_tracks: rec.tracked_obstacles,
+                threats: rec.threats,
+                min_ttc_s: rec.min_time_to_collision_s,
                 step_us,
             });
         }
