@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Regenerates every figure and result table the README shows, from the
+# commands a user would run. Deterministic except for compute times.
+#
+#   docs/make_figures.sh            # all (about a minute on 2 cores)
+#
+# Writes docs/figures/*.png and docs/results/*.txt|json; the README's numbers
+# are copied from docs/results by hand.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+cargo build --release --bin oldbf
+oldbf=target/release/oldbf
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+figs=docs/figures
+results=docs/results
+mkdir -p "$figs" "$results"
+
+# Paper Fig. 5: B_l, B_r, v, ω over time on the line with dynamic obstacles.
+"$oldbf" sim config/scenarios/paper_line.yaml --out "$tmp/line" | grep -v "  wrote" >"$results/paper_line.txt"
+for f in trajectory barriers velocities; do cp "$tmp/line/$f.png" "$figs/paper_line_$f.png"; done
+
+# Paper Fig. 6: v and ω on the circle.
+"$oldbf" sim config/scenarios/paper_circle.yaml --out "$tmp/circle" | grep -v "  wrote" >"$results/paper_circle.txt"
+for f in trajectory velocities; do cp "$tmp/circle/$f.png" "$figs/paper_circle_$f.png"; done
+
+# Paper Fig. 9: circle tracking, DCBF vs OLDBF.
+"$oldbf" compare config/scenarios/paper_circle.yaml --controllers oldbf,dcbf --out "$tmp/fig9" \
+    | grep -v "^  wrote" >"$results/fig9_circle_oldbf_vs_dcbf.txt"
+cp "$tmp/fig9/trajectories.png" "$figs/fig9_circle_trajectories.png"
+cp "$tmp/fig9/tracking_error.png" "$figs/fig9_circle_tracking_error.png"
+cp "$tmp/fig9/comparison.json" "$results/fig9_circle_oldbf_vs_dcbf.json"
+
+# Every shipped scenario with every controller (the README's scenario tables).
+for s in config/scenarios/*.yaml; do
+    name=$(basename "$s" .yaml)
+    "$oldbf" compare "$s" --controllers oldbf,dcbf,vo,none >"$results/scenario_$name.txt"
+done
+
+# Paper contribution 2: minimum distance over 100 random worlds, obstacles
+# slower and faster than the robot.
+for t in slow fast; do
+    "$oldbf" batch "config/batch/${t}_obstacles.yaml" --worlds 100 --seed 1 \
+        --controllers oldbf,dcbf,vo,none --out "$tmp/batch_$t" | grep -v "^wrote" >"$results/batch_${t}_obstacles.txt"
+    cp "$tmp/batch_$t/min_clearance.png" "$figs/batch_${t}_min_clearance.png"
+    cp "$tmp/batch_$t/comparison.csv" "$results/batch_${t}_obstacles.csv"
+done
+echo "figures in $figs, tables in $results"
