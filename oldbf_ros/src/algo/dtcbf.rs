@@ -134,12 +134,32 @@ pub fn predicted_displacement(model: PredictionModel, cmd: Twist, dt: f64) -> Ve
 /// min_i ‖P_i − disp‖ (m); +inf for no points.
 #[inline]
 pub fn min_distance(points: &[Vec2], disp: Vec2) -> f64 {
-    let mut m2 = f64::INFINITY;
-    for p in points {
-        let d = p - disp;
-        m2 = m2.min(d.norm_squared());
+    // Four running minima, one per lane of four consecutive points: a single one
+    // makes every comparison wait for the previous one. The minimum of a set does
+    // not depend on the order it is taken in, so the result is the same.
+    let mut m2 = [f64::INFINITY; 4];
+    let chunks = points.chunks_exact(4);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (m, p) in m2.iter_mut().zip(chunk) {
+            *m = lesser(*m, (p - disp).norm_squared());
+        }
     }
-    m2.sqrt()
+    for p in rest {
+        m2[0] = lesser(m2[0], (p - disp).norm_squared());
+    }
+    lesser(lesser(m2[0], m2[1]), lesser(m2[2], m2[3])).sqrt()
+}
+
+/// The smaller of `acc` and `x`, `acc` when `x` is NaN: `f64::min` for a
+/// running minimum that starts at +inf, as one compare-and-select.
+#[inline]
+fn lesser(acc: f64, x: f64) -> f64 {
+    if x < acc {
+        x
+    } else {
+        acc
+    }
 }
 
 /// −1 (turn right) if the nearest point is on the left or dead ahead, else +1 (robot frame).
@@ -153,11 +173,59 @@ fn turn_away_sign(points: &[Vec2]) -> f64 {
     }
 }
 
-/// The DTCBF filter. Holds a scratch buffer reused across steps.
+/// Margin (m) on the radius that selects the near points and on the
+/// displacement it covers: far larger than any rounding of the distances, so a
+/// point that can matter is never left out.
+const NEAR_MARGIN_M: f64 = 1e-3;
+
+/// The points that can matter to the filter this step, so that the work done
+/// per candidate command (forbidden intervals for each ω, h(k+1) for each
+/// command tried) runs over a handful of points instead of the whole scan.
+///
+/// A point is left out only when it is (a) too far to forbid any speed of the
+/// input box: farther than the required centre distance plus the longest step
+/// the box allows; and (b) too far to be the nearest point after any such
+/// step: farther than the nearest point plus two such steps. By (a) the
+/// forbidden intervals inside the box are those of all points, by (b)
+/// min_distance is that of all points: the results are the same, bit for bit.
+#[derive(Debug, Default, Clone)]
+struct NearPoints {
+    points: Vec<Vec2>,
+    /// Longest displacement over one step the selection is valid for (m).
+    max_step_m: f64,
+}
+
+impl NearPoints {
+    /// Keeps the points of `all` that can matter for required centre distances
+    /// up to `max_clearance_m` and steps up to `max_step_m` (m).
+    fn select(&mut self, all: &[Vec2], max_clearance_m: f64, max_step_m: f64) {
+        let max_step = max_step_m + NEAR_MARGIN_M;
+        let nearest = min_distance(all, Vec2::zeros());
+        let radius = max_clearance_m.max(nearest + max_step) + max_step + NEAR_MARGIN_M;
+        let r2 = radius * radius;
+        self.points.clear();
+        self.points.extend(all.iter().filter(|p| p.norm_squared() <= r2));
+        self.max_step_m = max_step;
+    }
+
+    /// `min_distance(all, disp)`: over the near points when `disp` is a step
+    /// the selection covers, else (never for a command of the box) over `all`.
+    fn min_distance(&self, all: &[Vec2], disp: Vec2) -> f64 {
+        if disp.norm() <= self.max_step_m {
+            min_distance(&self.points, disp)
+        } else {
+            min_distance(all, disp)
+        }
+    }
+}
+
+/// The DTCBF filter. Holds scratch buffers reused across steps.
 #[derive(Debug, Default, Clone)]
 pub struct DtcbfFilter {
-    /// Forbidden open speed intervals (v_lo, v_hi) (m/s) for the ω being examined.
-    intervals: Vec<(f64, f64)>,
+    /// Forbidden speeds for the ω being examined.
+    forbidden: ForbiddenSpeeds,
+    /// The points of `points_next` that can matter this step.
+    near: NearPoints,
     /// Direction of the turn in place while no command is admissible (+1 left,
     /// −1 right, 0 none yet): kept until a command is admissible again, so the
     /// robot does not dither between the two.
@@ -171,7 +239,13 @@ impl DtcbfFilter {
 
     pub fn with_capacity(points: usize) -> Self {
         Self {
-            intervals: Vec::with_capacity(points),
+            forbidden: ForbiddenSpeeds {
+                intervals: Vec::with_capacity(points),
+            },
+            near: NearPoints {
+                points: Vec::with_capacity(points),
+                max_step_m: 0.0,
+            },
             turn_sign: 0.0,
         }
     }
@@ -190,14 +264,15 @@ impl DtcbfFilter {
         let dt = p.control.dt_s();
         let model = p.dtcbf.prediction;
 
-        // At most one interval per point: sized once per largest scan, never in steady state.
-        self.intervals.clear();
-        self.intervals.reserve(points_next.len());
+        // At most one interval and one near point per point: sized once per largest scan,
+        // never in steady state.
+        self.forbidden.intervals.clear();
+        self.forbidden.intervals.reserve(points_next.len());
+        self.near.points.reserve(points_next.len());
         let h = min_distance(points, Vec2::zeros()) - r - d_safe;
-        let h_next_of = |cmd: Twist| min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
         if !h.is_finite() || points_next.is_empty() {
             // Nothing visible: nothing to keep away from.
-            let h_next = h_next_of(desired);
+            let h_next = min_distance(points_next, predicted_displacement(model, desired, dt)) - r - d_safe;
             return DtcbfOutcome {
                 cmd: desired,
                 h_m: h,
@@ -211,18 +286,6 @@ impl DtcbfFilter {
         // The definition's condition, which is what is logged.
         let target = (1.0 - gamma) * h;
         let escape = h < 0.0;
-        let outcome = |cmd: Twist, infeasible: bool| {
-            let h_next = h_next_of(cmd);
-            DtcbfOutcome {
-                cmd,
-                h_m: h,
-                h_next_m: h_next,
-                changed: cmd != desired,
-                condition_held: h_next >= target - TOL_M,
-                escape,
-                infeasible,
-            }
-        };
 
         // Targets for h(k+1), strictest first. Outside the unsafe set: the condition on
         // h − δ (noise margin), which implies the logged one; within the margin band, where
@@ -235,11 +298,30 @@ impl DtcbfFilter {
             let with_margin = (1.0 - gamma) * (h - delta) + delta;
             [with_margin, with_margin.min(h)]
         };
+        // The longest step of the box: |κ| ≤ Δt for both models.
+        let max_step = dt * bx.v_lo.abs().max(bx.v_hi.abs());
+        let max_clearance = targets.iter().map(|t| (r + d_safe + t).abs()).fold(0.0, f64::max);
+        self.near.select(points_next, max_clearance, max_step);
+        let near = &self.near;
+        let h_next_of =
+            |cmd: Twist| near.min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
+        let outcome = |cmd: Twist, infeasible: bool| {
+            let h_next = h_next_of(cmd);
+            DtcbfOutcome {
+                cmd,
+                h_m: h,
+                h_next_m: h_next,
+                changed: cmd != desired,
+                condition_held: h_next >= target - TOL_M,
+                escape,
+                infeasible,
+            }
+        };
         for (i, &t) in targets.iter().enumerate() {
             if i > 0 && t == targets[i - 1] {
                 continue;
             }
-            if let Some(cmd) = self.solve(points_next, desired, t, h, &bx, p) {
+            if let Some(cmd) = self.forbidden.solve(&near.points, desired, t, h, &bx, p) {
                 if h_next_of(cmd) >= t - TOL_M {
                     self.turn_sign = 0.0;
                     return outcome(cmd, false);
@@ -257,7 +339,7 @@ impl DtcbfFilter {
         // walks in: then the least bad command, the one that keeps h(k+1) highest, beats
         // waiting to be hit.
         let stop_h_next = h_next_of(Twist::ZERO);
-        match self.least_bad(points_next, &bx, p) {
+        match least_bad(near, points_next, &bx, p) {
             Some((cmd, h_next)) if h_next > stop_h_next + LEAST_BAD_GAIN_M => outcome(cmd, true),
             // Nothing beats standing still. Turning in place is as good for h (a circular
             // footprint) and faces the robot away from the nearest point, so that moving
@@ -271,28 +353,15 @@ impl DtcbfFilter {
             }
         }
     }
+}
 
-    /// The command of the box (a grid: `LEAST_BAD_SPEEDS` speeds by the ω
-    /// candidates) that keeps h(k+1) highest, and that h(k+1) (m).
-    fn least_bad(&self, points_next: &[Vec2], bx: &InputBox, p: &Params) -> Option<(Twist, f64)> {
-        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        let n = p.dtcbf.omega_candidates;
-        let mut best: Option<(Twist, f64)> = None;
-        for k in 0..n {
-            let omega = -bx.omega_max + 2.0 * bx.omega_max * k as f64 / (n - 1) as f64;
-            for j in 0..=LEAST_BAD_SPEEDS {
-                let v = bx.v_lo + (bx.v_hi - bx.v_lo) * j as f64 / LEAST_BAD_SPEEDS as f64;
-                let cmd = Twist::new(v, omega);
-                let h_next = min_distance(points_next, predicted_displacement(model, cmd, dt));
-                if best.is_none_or(|(_, b)| h_next > b) {
-                    best = Some((cmd, h_next));
-                }
-            }
-        }
-        let r_total = p.robot_radius_m() + p.barrier.d_safe_m;
-        best.map(|(cmd, d)| (cmd, d - r_total))
-    }
+/// Forbidden open speed intervals (v_lo, v_hi) (m/s) for one ω, sorted and merged.
+#[derive(Debug, Default, Clone)]
+struct ForbiddenSpeeds {
+    intervals: Vec<(f64, f64)>,
+}
 
+impl ForbiddenSpeeds {
     /// The admissible command closest to `desired` for the requirement
     /// h(k+1) ≥ `target`: `desired` itself; else the same ω with the largest
     /// admissible v in [0, v_d] (when standing still is admissible); else the
@@ -308,7 +377,7 @@ impl DtcbfFilter {
     ) -> Option<Twist> {
         let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target;
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        self.build_intervals(points, desired.omega_radps, clearance, model, dt);
+        self.build(points, desired.omega_radps, clearance, model, dt);
         if admissible(&self.intervals, desired.v_mps) {
             return Some(desired);
         }
@@ -320,9 +389,9 @@ impl DtcbfFilter {
         self.search_box(points, desired, clearance, bx, p)
     }
 
-    /// Fills `self.intervals` with the forbidden open speed intervals for yaw
+    /// Fills `intervals` with the forbidden open speed intervals for yaw
     /// rate ω and required centre distance `clearance`, sorted and merged.
-    fn build_intervals(&mut self, points: &[Vec2], omega: f64, clearance: f64, model: PredictionModel, dt: f64) {
+    fn build(&mut self, points: &[Vec2], omega: f64, clearance: f64, model: PredictionModel, dt: f64) {
         self.intervals.clear();
         let (u, kappa) = motion_direction(model, omega, dt);
         // Half the tolerance of the final check: the nearest point's interval ends exactly
@@ -378,7 +447,7 @@ impl DtcbfFilter {
                 -bx.omega_max + 2.0 * bx.omega_max * (k - 1) as f64 / (n - 1) as f64
             };
             if !(model == PredictionModel::Euler && built_for_euler) {
-                self.build_intervals(points, omega, clearance, model, dt);
+                self.build(points, omega, clearance, model, dt);
                 built_for_euler = true;
             }
             if let Some(v) = closest_admissible(&self.intervals, desired.v_mps, bx.v_lo, bx.v_hi) {
@@ -390,6 +459,27 @@ impl DtcbfFilter {
         }
         best.map(|(_, t)| t)
     }
+}
+
+/// The command of the box (a grid: `LEAST_BAD_SPEEDS` speeds by the ω
+/// candidates) that keeps h(k+1) highest, and that h(k+1) (m).
+fn least_bad(near: &NearPoints, points_next: &[Vec2], bx: &InputBox, p: &Params) -> Option<(Twist, f64)> {
+    let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+    let n = p.dtcbf.omega_candidates;
+    let mut best: Option<(Twist, f64)> = None;
+    for k in 0..n {
+        let omega = -bx.omega_max + 2.0 * bx.omega_max * k as f64 / (n - 1) as f64;
+        for j in 0..=LEAST_BAD_SPEEDS {
+            let v = bx.v_lo + (bx.v_hi - bx.v_lo) * j as f64 / LEAST_BAD_SPEEDS as f64;
+            let cmd = Twist::new(v, omega);
+            let h_next = near.min_distance(points_next, predicted_displacement(model, cmd, dt));
+            if best.is_none_or(|(_, b)| h_next > b) {
+                best = Some((cmd, h_next));
+            }
+        }
+    }
+    let r_total = p.robot_radius_m() + p.barrier.d_safe_m;
+    best.map(|(cmd, d)| (cmd, d - r_total))
 }
 
 /// Whether v lies in none of the (sorted, merged) open intervals.
@@ -669,5 +759,61 @@ mod tests {
         assert_eq!(closest_admissible(&iv, 0.3, -2.0, 1.0), Some(0.5));
         assert_eq!(closest_admissible(&iv, -0.9, -2.0, 1.0), Some(-1.0));
         assert_eq!(closest_admissible(&[(-1.0, 2.0)], 0.3, -0.5, 1.0), None);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 300,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0xD7CB),
+            failure_persistence: None,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+
+        /// Leaving the far points out changes nothing: for every command of the
+        /// box, the nearest distance after the step and the forbidden speeds
+        /// inside the box are those of all points, bit for bit.
+        #[test]
+        fn near_points_give_the_same_answers_as_all_points(
+            pts in proptest::collection::vec((-3.0..3.0f64, -3.0..3.0f64), 1..80),
+            close in proptest::collection::vec((-0.6..0.6f64, -0.6..0.6f64), 0..8),
+            max_clearance in 0.05..1.2f64,
+            v_lo in proptest::prop_oneof![proptest::strategy::Just(0.0f64), -0.3..0.0f64],
+            v_hi in 0.01..0.6f64,
+            arc in proptest::bool::ANY,
+        ) {
+            let all: Vec<Vec2> = pts.iter().chain(&close).map(|&(x, y)| Vec2::new(x, y)).collect();
+            let (dt, omega_max) = (0.1, 0.3);
+            let model = if arc { PredictionModel::Arc } else { PredictionModel::Euler };
+            let mut near = NearPoints::default();
+            near.select(&all, max_clearance, dt * v_lo.abs().max(v_hi));
+            let speeds: Vec<f64> = (0..=20).map(|j| v_lo + (v_hi - v_lo) * j as f64 / 20.0).collect();
+            let (mut from_near, mut from_all) = (ForbiddenSpeeds::default(), ForbiddenSpeeds::default());
+            for k in 0..=10 {
+                let omega = -omega_max + 2.0 * omega_max * k as f64 / 10.0;
+                for &v in &speeds {
+                    let disp = predicted_displacement(model, Twist::new(v, omega), dt);
+                    proptest::prop_assert_eq!(
+                        near.min_distance(&all, disp).to_bits(),
+                        min_distance(&all, disp).to_bits()
+                    );
+                }
+                for clearance in [max_clearance, 0.7 * max_clearance, 0.3 * max_clearance] {
+                    from_near.build(&near.points, omega, clearance, model, dt);
+                    from_all.build(&all, omega, clearance, model, dt);
+                    let (n, a) = (&from_near.intervals, &from_all.intervals);
+                    for &v in &speeds {
+                        proptest::prop_assert_eq!(admissible(n, v), admissible(a, v));
+                        proptest::prop_assert_eq!(
+                            largest_admissible_below(n, v, v_lo.max(0.0)),
+                            largest_admissible_below(a, v, v_lo.max(0.0))
+                        );
+                        proptest::prop_assert_eq!(
+                            closest_admissible(n, v, v_lo, v_hi),
+                            closest_admissible(a, v, v_lo, v_hi)
+                        );
+                    }
+                }
+            }
+        }
     }
 }
