@@ -88,6 +88,10 @@ json() { $ROSPY -c "import json,sys; d=json.load(sys.stdin); print($1)"; }
 
 # ------------------------------------------------------------------ tests
 t_md5() {
+  # The ROS glue's own unit tests (message conversion, markers) need the feature.
+  cargo test --release --locked -p oldbf_ros --features oldbf_ros/ros --lib ros:: > "$LOG/ros_unit.log" 2>&1 \
+    || { tail -30 "$LOG/ros_unit.log"; return 1; }
+  figure "ros glue unit tests: $(grep -o '[0-9]* passed' "$LOG/ros_unit.log" | head -1)"
   cargo test --release --locked -p oldbf_ros --features oldbf_ros/ros --test ros_msgs -- --nocapture > "$LOG/md5.log" 2>&1 \
     || { tail -30 "$LOG/md5.log"; return 1; }
   local n

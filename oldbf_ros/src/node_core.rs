@@ -175,6 +175,11 @@ pub struct NodeCore {
 }
 
 impl NodeCore {
+    /// The tracked obstacles on a collision course at the last tick (robot frame).
+    pub fn threats(&self) -> &[crate::algo::pipeline::Threat] {
+        self.pipeline.threats()
+    }
+
     pub fn new(params: Params, settings: NodeSettings, reference: Option<ReferenceTrajectory>) -> Self {
         let constant = Twist::new(params.control.v_nom_mps, 0.0);
         Self {

@@ -1,10 +1,13 @@
 //! ~markers for rviz: the robot footprint, the d_safe and d_act circles, the
 //! hemisphere and front sectors, the closest left/right points, the command
-//! and a label with B_l, B_r and the DOAA state. All in the base frame.
+//! a label with B_l, B_r and the DOAA state, and each tracked obstacle on a
+//! collision course (its circle, its velocity over 1 s, its time to
+//! collision). All in the base frame.
 
 use super::msg::{
     geometry_msgs::Point, std_msgs::ColorRGBA, visualization_msgs::Marker, visualization_msgs::MarkerArray,
 };
+use crate::algo::pipeline::Threat;
 use crate::algo::Params;
 use crate::node_core::Tick;
 
@@ -57,8 +60,13 @@ fn sector(frame: &str, stamp: rosrust::Time, id: i32, half: f64, length: f64, c:
     m
 }
 
+/// Threat markers use ids from here, three per threat.
+const THREAT_ID0: i32 = 100;
+/// At most this many threats are drawn.
+const MAX_THREATS_DRAWN: usize = 16;
+
 /// The markers for one tick.
-pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, p: &Params) -> MarkerArray {
+pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, threats: &[Threat], p: &Params) -> MarkerArray {
     let rec = &tick.record;
     let r = p.robot_radius_m();
     let d_act = p.barrier.d_act_m();
@@ -136,5 +144,80 @@ pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, p: &Params) -> Ma
         _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
     };
     v.push(label);
+    v.extend(threat_markers(frame, stamp, threats));
     MarkerArray { markers: v }
+}
+
+/// Per threat: a disc of its fitted radius, an arrow of its velocity over
+/// 1 s, and its time to collision. The slots of threats that are gone are
+/// deleted, so rviz never shows a stale one.
+fn threat_markers(frame: &str, stamp: rosrust::Time, threats: &[Threat]) -> Vec<Marker> {
+    let mut out = Vec::with_capacity(3 * MAX_THREATS_DRAWN);
+    for k in 0..MAX_THREATS_DRAWN {
+        let id = THREAT_ID0 + 3 * k as i32;
+        let mut disc = marker(frame, stamp, id, Marker::CYLINDER as i32);
+        let mut arrow = marker(frame, stamp, id + 1, Marker::ARROW as i32);
+        let mut text = marker(frame, stamp, id + 2, Marker::TEXT_VIEW_FACING as i32);
+        match threats.get(k) {
+            Some(t) => {
+                let c = color(0.95, 0.2, 0.6, 0.7);
+                disc.pose.position = point(t.position.x, t.position.y);
+                disc.scale.x = 2.0 * t.radius_m.max(0.02);
+                disc.scale.y = disc.scale.x;
+                disc.scale.z = 0.1;
+                disc.color = c.clone();
+                arrow.scale.x = 0.02;
+                arrow.scale.y = 0.05;
+                arrow.scale.z = 0.05;
+                arrow.color = c;
+                let tip = t.position + t.velocity;
+                arrow.points = vec![point(t.position.x, t.position.y), point(tip.x, tip.y)];
+                text.pose.position = point(t.position.x, t.position.y);
+                text.pose.position.z = 0.3;
+                text.scale.z = 0.1;
+                text.color = color(1.0, 0.6, 0.8, 1.0);
+                text.text = format!("TTC {:.1} s", t.time_to_collision_s);
+            }
+            None => {
+                for m in [&mut disc, &mut arrow, &mut text] {
+                    m.action = Marker::DELETE as i32;
+                }
+            }
+        }
+        out.extend([disc, arrow, text]);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::Vec2;
+
+    #[test]
+    fn each_threat_gets_a_disc_an_arrow_and_its_time_to_collision_and_gone_ones_are_deleted() {
+        let t = Threat {
+            track_id: 7,
+            position: Vec2::new(1.0, 0.5),
+            velocity: Vec2::new(-0.3, 0.0),
+            radius_m: 0.2,
+            time_to_collision_s: 1.25,
+            cone_half_angle_rad: 0.3,
+        };
+        let m = threat_markers("base_link", rosrust::Time::default(), &[t]);
+        assert_eq!(m.len(), 3 * MAX_THREATS_DRAWN);
+        let (disc, arrow, text) = (&m[0], &m[1], &m[2]);
+        assert_eq!((disc.id, disc.action), (THREAT_ID0, Marker::ADD as i32));
+        assert_eq!((disc.pose.position.x, disc.pose.position.y), (1.0, 0.5));
+        assert!((disc.scale.x - 0.4).abs() < 1e-12);
+        // The arrow spans one second of the obstacle's motion.
+        assert_eq!((arrow.points[1].x, arrow.points[1].y), (0.7, 0.5));
+        assert_eq!(text.text, "TTC 1.2 s");
+        assert!(m[3..].iter().all(|k| k.action == Marker::DELETE as i32));
+        let ids: Vec<i32> = m.iter().map(|k| k.id).collect();
+        assert_eq!(
+            ids,
+            (THREAT_ID0..THREAT_ID0 + 3 * MAX_THREATS_DRAWN as i32).collect::<Vec<_>>()
+        );
+    }
 }

@@ -183,13 +183,23 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<(), S
     let mut last_status: Option<&'static str> = None;
     while rosrust::is_ok() && !stop.is_set() {
         let now = now_s();
-        let tick = core.lock().expect("node state lock").tick(now);
+        let (tick, threats) = {
+            let mut core = core.lock().expect("node state lock");
+            let tick = core.tick(now);
+            (tick, core.threats().to_vec())
+        };
         if let Err(e) = cmd_pub.send(twist_to_msg(tick.cmd)) {
             log::warn!("publishing cmd_vel: {e}");
         }
         let _ = state_pub.send(state_msg(&settings.base_frame, now, &tick));
         if settings.publish_markers {
-            let _ = markers_pub.send(markers(&settings.base_frame, time_from_s(now), &tick, &params));
+            let _ = markers_pub.send(markers(
+                &settings.base_frame,
+                time_from_s(now),
+                &tick,
+                &threats,
+                &params,
+            ));
         }
         let mut act = activity.lock().expect("activity lock");
         act.ticked(now, &tick);
