@@ -68,32 +68,48 @@ impl Clearances {
     };
 }
 
+/// Points per batch in `compute_clearances`.
+const BATCH: usize = 8;
+
 /// Computes every clearance in one pass over the points.
 pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sector, front: Sector) -> Clearances {
     let mut c = Clearances::OPEN;
-    for &p in points {
-        let norm = p.norm();
-        let clearance = norm - robot_radius_m;
-        if clearance < c.d_min_m {
-            c.d_min_m = clearance;
-            c.closest = Some(p);
+    // The square root and the reciprocal of every point's distance are the costly
+    // part, and each waits on the divider; taken a batch at a time over a fixed
+    // number of independent lanes, the compiler issues them two by two. The
+    // bookkeeping then runs point by point, in order, as before.
+    for chunk in points.chunks(BATCH) {
+        let mut norm2 = [0.0; BATCH];
+        for (n2, p) in norm2.iter_mut().zip(chunk) {
+            *n2 = p.norm_squared();
         }
-        if front.contains(p, norm) && clearance < c.d_front_m {
-            c.d_front_m = clearance;
-        }
-        if p.y != 0.0 && hemisphere.contains(p, norm) {
-            let crowd = if norm > 0.0 { 1.0 / norm } else { f64::INFINITY };
-            if p.y > 0.0 {
-                c.crowding_left += crowd;
-                if clearance < c.d_left_m {
-                    c.d_left_m = clearance;
-                    c.closest_left = Some(p);
-                }
-            } else {
-                c.crowding_right += crowd;
-                if clearance < c.d_right_m {
-                    c.d_right_m = clearance;
-                    c.closest_right = Some(p);
+        // ‖P‖ as nalgebra computes it: the root of the squared norm.
+        let norms = norm2.map(f64::sqrt);
+        let reciprocals = norms.map(|n| 1.0 / n);
+        for (k, &p) in chunk.iter().enumerate() {
+            let norm = norms[k];
+            let clearance = norm - robot_radius_m;
+            if clearance < c.d_min_m {
+                c.d_min_m = clearance;
+                c.closest = Some(p);
+            }
+            if front.contains(p, norm) && clearance < c.d_front_m {
+                c.d_front_m = clearance;
+            }
+            if p.y != 0.0 && hemisphere.contains(p, norm) {
+                let crowd = if norm > 0.0 { reciprocals[k] } else { f64::INFINITY };
+                if p.y > 0.0 {
+                    c.crowding_left += crowd;
+                    if clearance < c.d_left_m {
+                        c.d_left_m = clearance;
+                        c.closest_left = Some(p);
+                    }
+                } else {
+                    c.crowding_right += crowd;
+                    if clearance < c.d_right_m {
+                        c.d_right_m = clearance;
+                        c.closest_right = Some(p);
+                    }
                 }
             }
         }

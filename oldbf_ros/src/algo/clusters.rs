@@ -7,7 +7,7 @@
 //! On a full 360° scan the last and the first beam are neighbours, so a
 //! cluster spanning the scan's seam is one cluster, not two.
 
-use super::geometry::Vec2;
+use super::geometry::{max_distance_squared, Vec2};
 
 /// One cluster: points `start..end` of the scan's valid points (in beam
 /// order; when it wraps round the seam, `start > end` and it is
@@ -74,14 +74,17 @@ impl Clusters {
         }
         let gap2 = gap_m * gap_m;
         let joined = |i: usize, j: usize| (points[j] - points[i]).norm_squared() <= gap2;
+        // Points i and i + 1 of each pair are neighbours when their beams are and
+        // they are close enough; a cluster ends at every pair that is not.
         let mut start = 0;
-        for i in 1..=n {
-            let breaks = i == n || beam_index[i] != beam_index[i - 1] + 1 || !joined(i - 1, i);
-            if breaks {
-                self.clusters.push(summarise(points, start, i, n));
-                start = i;
+        for (i, (p, b)) in points.windows(2).zip(beam_index.windows(2)).enumerate() {
+            let neighbours = b[1] == b[0] + 1 && (p[1] - p[0]).norm_squared() <= gap2;
+            if !neighbours {
+                self.clusters.push(summarise(points, start, i + 1, n));
+                start = i + 1;
             }
         }
+        self.clusters.push(summarise(points, start, n, n));
         // The seam of a 360° scan: beam beams−1 next to beam 0.
         if full_circle && self.clusters.len() > 1 {
             let first = self.clusters[0];
@@ -97,23 +100,25 @@ impl Clusters {
 
 /// The circle summary of points `start..end` (wrapping when start ≥ end).
 fn summarise(points: &[Vec2], start: usize, end: usize, n: usize) -> Cluster {
-    let mut c = Cluster {
+    // The points as one or two slices, in index order.
+    let (head, tail) = if start < end {
+        (&points[start..end], &points[..0])
+    } else {
+        (&points[start..n], &points[..end])
+    };
+    let sum = head.iter().chain(tail).fold(Vec2::zeros(), |sum, p| sum + p);
+    let len = head.len() + tail.len();
+    let centroid = sum / len as f64;
+    // The largest distance is the root of the largest squared distance (the
+    // square root is monotonic and correctly rounded): one root per cluster.
+    let max2 = max_distance_squared(head, centroid).max(max_distance_squared(tail, centroid));
+    Cluster {
         start,
         end,
-        len: 0,
-        centroid: Vec2::zeros(),
-        radius_m: 0.0,
-    };
-    let mut sum = Vec2::zeros();
-    for i in c.indices(n) {
-        sum += points[i];
-        c.len += 1;
+        len,
+        centroid,
+        radius_m: max2.sqrt(),
     }
-    c.centroid = sum / c.len as f64;
-    for i in c.indices(n) {
-        c.radius_m = c.radius_m.max((points[i] - c.centroid).norm());
-    }
-    c
 }
 
 #[cfg(test)]

@@ -41,7 +41,7 @@
 //!
 //! A circular footprint is rotation-invariant: pure rotation keeps h.
 
-use super::geometry::{Twist, Vec2};
+use super::geometry::{min_distance_squared, Twist, Vec2};
 use super::params::{Params, PredictionModel};
 
 /// Numerical tolerance on the condition (m).
@@ -134,32 +134,7 @@ pub fn predicted_displacement(model: PredictionModel, cmd: Twist, dt: f64) -> Ve
 /// min_i ‖P_i − disp‖ (m); +inf for no points.
 #[inline]
 pub fn min_distance(points: &[Vec2], disp: Vec2) -> f64 {
-    // Four running minima, one per lane of four consecutive points: a single one
-    // makes every comparison wait for the previous one. The minimum of a set does
-    // not depend on the order it is taken in, so the result is the same.
-    let mut m2 = [f64::INFINITY; 4];
-    let chunks = points.chunks_exact(4);
-    let rest = chunks.remainder();
-    for chunk in chunks {
-        for (m, p) in m2.iter_mut().zip(chunk) {
-            *m = lesser(*m, (p - disp).norm_squared());
-        }
-    }
-    for p in rest {
-        m2[0] = lesser(m2[0], (p - disp).norm_squared());
-    }
-    lesser(lesser(m2[0], m2[1]), lesser(m2[2], m2[3])).sqrt()
-}
-
-/// The smaller of `acc` and `x`, `acc` when `x` is NaN: `f64::min` for a
-/// running minimum that starts at +inf, as one compare-and-select.
-#[inline]
-fn lesser(acc: f64, x: f64) -> f64 {
-    if x < acc {
-        x
-    } else {
-        acc
-    }
+    min_distance_squared(points, disp).sqrt()
 }
 
 /// −1 (turn right) if the nearest point is on the left or dead ahead, else +1 (robot frame).

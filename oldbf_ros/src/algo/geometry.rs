@@ -20,6 +20,40 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
 }
 
+/// The least ‖P − c‖² over `points` (m²); +inf for none.
+#[inline]
+pub fn min_distance_squared(points: &[Vec2], c: Vec2) -> f64 {
+    reduce_distances_squared(points, c, f64::INFINITY, |acc, x| if x < acc { x } else { acc })
+}
+
+/// The greatest ‖P − c‖² over `points` (m²); 0 for none.
+#[inline]
+pub fn max_distance_squared(points: &[Vec2], c: Vec2) -> f64 {
+    reduce_distances_squared(points, c, 0.0, |acc, x| if x > acc { x } else { acc })
+}
+
+/// Folds ‖P − c‖² over `points` with `pick`, a min or a max that keeps `acc`
+/// when `x` is NaN (as `f64::min`/`max` do, in one compare-and-select).
+///
+/// Four running values, one per lane of four consecutive points: with a
+/// single one every comparison waits for the previous one. A min or max does
+/// not depend on the order it is taken in, so the result is the same.
+#[inline]
+fn reduce_distances_squared(points: &[Vec2], c: Vec2, init: f64, pick: impl Fn(f64, f64) -> f64) -> f64 {
+    let mut acc = [init; 4];
+    let chunks = points.chunks_exact(4);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (a, p) in acc.iter_mut().zip(chunk) {
+            *a = pick(*a, (p - c).norm_squared());
+        }
+    }
+    for p in rest {
+        acc[0] = pick(acc[0], (p - c).norm_squared());
+    }
+    pick(pick(acc[0], acc[1]), pick(acc[2], acc[3]))
+}
+
 /// Pose in the plane: position (m) and heading θ (rad, CCW from +x).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Pose2 {
@@ -43,8 +77,19 @@ impl Pose2 {
 
     /// Maps a point given in this pose's frame into the parent frame.
     pub fn transform_point(&self, p: Vec2) -> Vec2 {
+        self.frame_map().point(p)
+    }
+
+    /// The map from this pose's frame into the parent frame, with its sine and
+    /// cosine computed once: for mapping many points.
+    pub fn frame_map(&self) -> FrameMap {
         let (s, c) = self.theta.sin_cos();
-        Vec2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+        FrameMap {
+            x: self.x,
+            y: self.y,
+            s,
+            c,
+        }
     }
 
     /// Maps a point given in the parent frame into this pose's frame.
@@ -62,6 +107,26 @@ impl Pose2 {
 
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
+    }
+}
+
+/// A pose's map from its frame into the parent frame (`Pose2::frame_map`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameMap {
+    x: f64,
+    y: f64,
+    s: f64,
+    c: f64,
+}
+
+impl FrameMap {
+    /// Maps a point given in the pose's frame into the parent frame.
+    #[inline]
+    pub fn point(&self, p: Vec2) -> Vec2 {
+        Vec2::new(
+            self.x + self.c * p.x - self.s * p.y,
+            self.y + self.s * p.x + self.c * p.y,
+        )
     }
 }
 
@@ -108,6 +173,23 @@ mod tests {
         let via_iso = pose.isometry() * nalgebra::Point2::from(p);
         assert!((world - via_iso.coords).norm() < 1e-12);
         assert!((pose.inverse_transform_point(world) - p).norm() < 1e-12);
+    }
+
+    #[test]
+    fn distance_reductions_match_the_plain_fold() {
+        for n in 0..11 {
+            let pts: Vec<Vec2> = (0..n)
+                .map(|i| Vec2::new((i as f64 * 1.7).sin() * 3.0, (i as f64 * 0.9).cos() * 2.0))
+                .collect();
+            let c = Vec2::new(0.3, -0.2);
+            let d2 = pts.iter().map(|p| (p - c).norm_squared());
+            assert_eq!(min_distance_squared(&pts, c), d2.clone().fold(f64::INFINITY, f64::min));
+            assert_eq!(max_distance_squared(&pts, c), d2.fold(0.0, f64::max));
+        }
+        // NaN points are skipped, as f64::min/max skip them.
+        let pts = [Vec2::new(f64::NAN, 0.0), Vec2::new(1.0, 0.0)];
+        assert_eq!(min_distance_squared(&pts, Vec2::zeros()), 1.0);
+        assert_eq!(max_distance_squared(&pts, Vec2::zeros()), 1.0);
     }
 
     #[test]

@@ -143,6 +143,11 @@ pub struct ObstacleTracker {
     /// Per cluster of the last scan: the track it was associated with.
     cluster_track: Vec<Option<usize>>,
     track_taken: Vec<bool>,
+    /// Scratch, per cluster: its centroid in the tracking frame if it is a
+    /// candidate for tracking.
+    measured: Vec<Option<Vec2>>,
+    /// Scratch, per track: its index after the dead tracks are dropped.
+    new_index: Vec<Option<usize>>,
 }
 
 impl ObstacleTracker {
@@ -155,6 +160,8 @@ impl ObstacleTracker {
             pairs: Vec::with_capacity(8 * max_tracks),
             cluster_track: Vec::with_capacity(max_clusters),
             track_taken: Vec::with_capacity(max_tracks),
+            measured: Vec::with_capacity(max_clusters),
+            new_index: Vec::with_capacity(max_tracks),
             ..Self::default()
         }
     }
@@ -216,13 +223,21 @@ impl ObstacleTracker {
             t.fy.predict(dt, q);
         }
 
+        // The candidates' centroids in the tracking frame, mapped once.
+        let to_tracking = robot_pose.frame_map();
+        self.measured.clear();
+        self.measured.extend(
+            clusters
+                .iter()
+                .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centroid))),
+        );
+
         // Gated nearest neighbour, greedy by distance.
         self.pairs.clear();
-        for (ci, c) in clusters.iter().enumerate() {
-            if !Self::candidate(c, p) {
+        for (ci, z) in self.measured.iter().enumerate() {
+            let Some(z) = *z else {
                 continue;
-            }
-            let z = robot_pose.transform_point(c.centroid);
+            };
             for (ti, t) in self.tracks.iter().enumerate() {
                 let d = (z - t.position()).norm();
                 if d <= p.gate_m {
@@ -234,12 +249,14 @@ impl ObstacleTracker {
         self.track_taken.clear();
         self.track_taken.resize(self.tracks.len(), false);
         for &(_, ti, ci) in &self.pairs {
+            let Some(z) = self.measured[ci] else {
+                continue; // only candidates are paired
+            };
             if self.track_taken[ti] || self.cluster_track[ci].is_some() {
                 continue;
             }
             self.track_taken[ti] = true;
             self.cluster_track[ci] = Some(ti);
-            let z = robot_pose.transform_point(clusters[ci].centroid);
             let t = &mut self.tracks[ti];
             t.fx.update(z.x, r);
             t.fy.update(z.y, r);
@@ -262,6 +279,7 @@ impl ObstacleTracker {
                 }
             }
         }
+        self.new_index.clear();
         let mut kept = 0;
         for ti in 0..self.tracks.len() {
             let t = self.tracks[ti];
@@ -270,24 +288,29 @@ impl ObstacleTracker {
                 _ => t.misses > p.max_misses,
             };
             if dead {
+                self.new_index.push(None);
                 continue;
             }
-            for slot in self.cluster_track.iter_mut() {
-                if *slot == Some(ti) {
-                    *slot = Some(kept);
-                }
-            }
+            self.new_index.push(Some(kept));
             self.tracks[kept] = t;
             kept += 1;
         }
         self.tracks.truncate(kept);
+        // Associated tracks have no misses, so they all survive.
+        for slot in self.cluster_track.iter_mut() {
+            if let Some(ti) = *slot {
+                *slot = self.new_index[ti];
+            }
+        }
 
         // Births.
         for (ci, c) in clusters.iter().enumerate() {
-            if self.cluster_track[ci].is_some() || !Self::candidate(c, p) || self.tracks.len() >= p.max_tracks {
+            let Some(z) = self.measured[ci] else {
+                continue; // not a candidate
+            };
+            if self.cluster_track[ci].is_some() || self.tracks.len() >= p.max_tracks {
                 continue;
             }
-            let z = robot_pose.transform_point(c.centroid);
             self.next_id = self.next_id.wrapping_add(1);
             self.tracks.push(Track {
                 id: self.next_id,

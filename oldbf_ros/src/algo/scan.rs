@@ -144,6 +144,57 @@ pub struct ScanPoints {
     pub q: Vec<f64>,
     /// Beams in the last accepted scan.
     pub beams: usize,
+    /// Beam directions of the last scan geometry seen.
+    directions: BeamDirections,
+}
+
+/// The unit direction of every beam in the robot frame, for one scan geometry
+/// (angle_min, angle_increment, beam count, mount). A laser's geometry does not
+/// change from scan to scan, so the table is computed once and reused: the
+/// per-beam work is then a multiply-add instead of a rotation whose every step
+/// waits for the previous one.
+#[derive(Debug, Default, Clone)]
+struct BeamDirections {
+    /// (angle_min bits, angle_increment bits, beams, mount) of `dirs`.
+    geometry: Option<(u32, u32, usize, Pose2)>,
+    dirs: Vec<Vec2>,
+}
+
+impl BeamDirections {
+    /// The directions for `scan` seen through `mount`, recomputed only when the
+    /// geometry differs from the last call's.
+    fn get(&mut self, scan: &LaserScan<'_>, mount: &LaserMount) -> &[Vec2] {
+        let n = scan.ranges_m.len();
+        let geometry = (
+            scan.angle_min_rad.to_bits(),
+            scan.angle_increment_rad.to_bits(),
+            n,
+            mount.pose,
+        );
+        if self.geometry != Some(geometry) {
+            self.dirs.clear();
+            self.dirs.reserve(n);
+            // Beam angles by rotating a unit vector by the increment: one sin/cos
+            // per geometry instead of per beam; renormalised to stop drift.
+            let a0 = scan.angle_min_rad as f64 + mount.pose.theta;
+            let (s0, c0) = a0.sin_cos();
+            let (si, ci) = (scan.angle_increment_rad as f64).sin_cos();
+            let (mut dx, mut dy) = (c0, s0);
+            for i in 0..n {
+                self.dirs.push(Vec2::new(dx, dy));
+                let nx = dx * ci - dy * si;
+                dy = dx * si + dy * ci;
+                dx = nx;
+                if i % 64 == 63 {
+                    let norm = (dx * dx + dy * dy).sqrt();
+                    dx /= norm;
+                    dy /= norm;
+                }
+            }
+            self.geometry = Some(geometry);
+        }
+        &self.dirs
+    }
 }
 
 impl ScanPoints {
@@ -153,6 +204,10 @@ impl ScanPoints {
             beam_index: Vec::with_capacity(beams),
             q: Vec::with_capacity(beams),
             beams: 0,
+            directions: BeamDirections {
+                geometry: None,
+                dirs: Vec::with_capacity(beams),
+            },
         }
     }
 
@@ -253,29 +308,20 @@ pub fn sanitize_scan(
     out.beams = scan.ranges_m.len();
     // Grows only when a scan has more beams than any before: no allocation in steady state.
     out.reserve(out.beams);
-    // Beam angles by rotating a unit vector by the increment: one sin/cos per
-    // scan instead of per beam; renormalised to stop drift.
-    let a0 = scan.angle_min_rad as f64 + mount.pose.theta;
-    let (s0, c0) = a0.sin_cos();
-    let (si, ci) = (scan.angle_increment_rad as f64).sin_cos();
-    let (mut dx, mut dy) = (c0, s0);
-    let origin = mount.pose.position();
-    for (i, &p) in scan.ranges_m.iter().enumerate() {
-        if is_valid_range(p, scan.range_min_m, scan.range_max_m) {
-            let p = p as f64;
-            out.q.push(1.0 / p);
-            out.points.push(Vec2::new(origin.x + p * dx, origin.y + p * dy));
-            out.beam_index.push(i as u32);
+    let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
+    out.q.extend(scan.ranges_m.iter().map(|&p| {
+        if is_valid_range(p, rmin, rmax) {
+            1.0 / p as f64
         } else {
-            out.q.push(0.0);
+            0.0
         }
-        let nx = dx * ci - dy * si;
-        dy = dx * si + dy * ci;
-        dx = nx;
-        if i % 64 == 63 {
-            let norm = (dx * dx + dy * dy).sqrt();
-            dx /= norm;
-            dy /= norm;
+    }));
+    let origin = mount.pose.position();
+    let dirs = out.directions.get(scan, mount);
+    for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
+        if is_valid_range(p, rmin, rmax) {
+            out.points.push(origin + dir * p as f64);
+            out.beam_index.push(i as u32);
         }
     }
     Ok(())
