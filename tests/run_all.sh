@@ -6,7 +6,7 @@
 # makes the script exit non-zero: nothing is skipped silently.
 #
 #   tests/run_all.sh            all groups
-#   tests/run_all.sh GROUP...   some of: lint rust run ros can e2e
+#   tests/run_all.sh GROUP...   some of: lint rust run soak fuzz ros can e2e faults
 #
 # Groups
 #   lint  cargo fmt --check; cargo clippy --all-targets -D warnings (with and without the
@@ -23,6 +23,13 @@
 #         (tests/can_group.sh; installs can-utils, cantools, the guest kernel)
 #   e2e   one guest boot: roscore + simulator + filter + CAN bridge + virtual
 #         drive on vcan0, the loop closed through CAN (tests/e2e_group.sh)
+#   soak  the short soak: random worlds with moving obstacles for a stretch of
+#         simulated time; no panic, no NaN, resident memory flat
+#         (tests/soak_group.sh; the full hour is `oldbf soak`, see README)
+#   fuzz  every fuzz target's committed corpus replayed, then a time-boxed
+#         coverage-guided run of each (tests/fuzz_group.sh; installs cargo-fuzz)
+#   faults  one guest boot: faults injected into the running ROS + CAN system,
+#         each timed from fault to zero setpoints on vcan0 (tests/faults_group.sh)
 #
 # Needs: a Rust toolchain >= 1.85 (rustup) and, for `vcan`, root for apt.
 set -Eeuo pipefail
@@ -32,7 +39,7 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
 export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
 
-ALL_GROUPS=(lint rust run ros can e2e)
+ALL_GROUPS=(lint rust run soak fuzz ros can e2e faults)
 GROUPS_TO_RUN=("$@")
 [ ${#GROUPS_TO_RUN[@]} -gt 0 ] || GROUPS_TO_RUN=("${ALL_GROUPS[@]}")
 
@@ -89,6 +96,21 @@ group_can() {
 group_e2e() {
   need_cargo
   "$ROOT/tests/e2e_group.sh"
+}
+
+group_soak() {
+  need_cargo
+  "$ROOT/tests/soak_group.sh"
+}
+
+group_fuzz() {
+  need_cargo
+  "$ROOT/tests/fuzz_group.sh"
+}
+
+group_faults() {
+  need_cargo
+  "$ROOT/tests/faults_group.sh"
 }
 
 declare -A TOOK
