@@ -10,6 +10,9 @@
 //!
 //! Each variant is a parameter change only; add one to [`VARIANTS`].
 //!
+//! Group `baseline_per_step` times the DCBF-QP and VO baselines' own work
+//! per step on the same inputs, for the ratio.
+//!
 //! Run: `cargo bench -p oldbf_ros --bench pipeline`.
 
 mod common;
@@ -17,8 +20,9 @@ mod common;
 use common::{robot_speed_mps, ScanCycle, FRAMES, SCAN_PERIOD_S};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use oldbf_ros::algo::{DoaaState, LaserScan, Params, SafetyPipeline, Twist};
+use oldbf_ros::baselines::{vo_command, DcbfFilter, VoScene};
 use std::hint::black_box;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Beam counts measured.
 const BEAMS: [usize; 4] = [360, 720, 1440, 2048];
@@ -119,12 +123,64 @@ fn bench_pipeline(c: &mut Criterion) {
     group.finish();
 }
 
+/// The baselines' own work per step, on the inputs the pipeline perceives
+/// (same scans, same points, prediction and tracks, same nominal command):
+/// the DCBF-QP solve (constraints built and solved by clarabel) and one ORCA
+/// step (dodgy_2d). The pipeline step that produces their inputs runs
+/// outside the timed region. For the ratio with `pipeline/tracking_10_people`.
+fn bench_baselines(c: &mut Criterion) {
+    let mut group = c.benchmark_group("baseline_per_step");
+    group.throughput(Throughput::Elements(1));
+    let beams = 360;
+    let cycle = ScanCycle::generate(beams);
+    let params = Params::default();
+    let mut pipe = SafetyPipeline::new(params.clone());
+    for k in 0..FRAMES {
+        step(&mut pipe, &cycle, k);
+    }
+    let mut k = FRAMES;
+    let mut dcbf = DcbfFilter::new();
+    group.bench_function(BenchmarkId::new("dcbf_qp", beams), |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            for _ in 0..iters {
+                step(&mut pipe, &cycle, k);
+                k += 1;
+                let t0 = Instant::now();
+                black_box(dcbf.filter(pipe.points(), pipe.points_next(), black_box(nominal()), &params));
+                total += t0.elapsed();
+            }
+            total
+        })
+    });
+    group.bench_function(BenchmarkId::new("vo_orca", beams), |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            for _ in 0..iters {
+                step(&mut pipe, &cycle, k);
+                k += 1;
+                let scene = VoScene {
+                    points: pipe.points(),
+                    clusters: pipe.clusters(),
+                    tracker: pipe.tracker(),
+                    v_now_mps: robot_speed_mps(),
+                };
+                let t0 = Instant::now();
+                black_box(vo_command(&scene, black_box(nominal()), &params));
+                total += t0.elapsed();
+            }
+            total
+        })
+    });
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
         .sample_size(50)
         .warm_up_time(Duration::from_secs(2))
         .measurement_time(Duration::from_secs(4));
-    targets = bench_pipeline
+    targets = bench_pipeline, bench_baselines
 }
 criterion_main!(benches);
