@@ -39,7 +39,9 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
 export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
 
-ALL_GROUPS=(lint rust run soak fuzz ros can e2e faults)
+ALL_GROUPS=(lint rust run ros can e2e)
+# Groups that can be named but are not yet in the default run (issue 6 in progress).
+EXTRA_GROUPS=(soak fuzz faults)
 GROUPS_TO_RUN=("$@")
 [ ${#GROUPS_TO_RUN[@]} -gt 0 ] || GROUPS_TO_RUN=("${ALL_GROUPS[@]}")
 
@@ -116,7 +118,7 @@ group_faults() {
 declare -A TOOK
 FAILED=()
 for g in "${GROUPS_TO_RUN[@]}"; do
-  case " ${ALL_GROUPS[*]} " in *" $g "*) ;; *) die "unknown group '$g' (groups: ${ALL_GROUPS[*]})" ;; esac
+  case " ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]} " in *" $g "*) ;; *) die "unknown group '$g' (groups: ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]})" ;; esac
   say "group $g"
   t0=$(now)
   # Not `if ( … )`: errexit is ignored in a condition, even inside the function.
