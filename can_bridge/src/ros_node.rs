@@ -15,6 +15,11 @@
 //! file (a bad or unknown key: exit status 2 naming it). SIGINT/SIGTERM: a
 //! zero setpoint, then the drive disabled, then exit 0. The bridge's own
 //! watchdog zeroes the wheels if `cmd_vel` stops, whatever this node does.
+//! The master lost: logged, the node runs on (cmd_vel flows peer to peer,
+//! and its timeout still holds). The master back as a new run: logged, the
+//! same shutdown, exit status 1 (rosrust cannot register again).
+//! Odometry and diagnostics are scheduled on the monotonic clock, so a
+//! wall-clock step back does not silence them.
 
 use crate::bridge::Bridge;
 use crate::config::{default_config, load_config_str, BridgeConfig};
@@ -23,7 +28,7 @@ use crate::kinematics::Twist;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
 use oldbf_ros::ros::convert::{quaternion_from_yaw, time_from_s};
-use oldbf_ros::ros::lifecycle::{self, now_s};
+use oldbf_ros::ros::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use oldbf_ros::ros::msg::{
     diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue},
     geometry_msgs, nav_msgs, std_msgs, std_srvs, tf2_msgs,
@@ -171,7 +176,8 @@ pub fn run() -> i32 {
         }
     };
     match run_connected(cfg, settings, &stop) {
-        Ok(()) => 0,
+        Ok(true) => 0,
+        Ok(false) => 1,
         Err(e) => {
             log::error!("{}: {e}", rosrust::name());
             std::thread::sleep(Duration::from_millis(200));
@@ -181,7 +187,8 @@ pub fn run() -> i32 {
     }
 }
 
-fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::StopFlag) -> Result<(), String> {
+/// Ok(true): stopped by a signal; Ok(false): the master restarted.
+fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::StopFlag) -> Result<bool, String> {
     let interface = cfg.interface.clone();
     let bus = SocketCanBus::open(&interface).map_err(|e| format!("opening CAN interface {interface}: {e}"))?;
     let clock = MonotonicClock::new();
@@ -227,12 +234,13 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     let (mut next_odom, mut next_diag) = (0.0f64, 0.0f64);
     let mut e_stop_input = false;
     let mut last_cmd_s = f64::NEG_INFINITY;
-    while rosrust::is_ok() && !stop.is_set() {
+    let watch = MasterWatch::start(&node);
+    while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
         while let Ok(input) = rx.try_recv() {
             let now = clock.now();
             match input {
                 Input::Cmd(twist) => {
-                    last_cmd_s = now_s();
+                    last_cmd_s = now.as_secs_f64();
                     if let Err(e) = bridge.command(twist, now) {
                         log::warn!("command rejected: {e}");
                     }
@@ -261,11 +269,11 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         for ev in bridge.drain_events() {
             log::info!("{}", serde_json::to_string(&ev).unwrap_or_default());
         }
-        let now = now_s();
+        let now = clock.now().as_secs_f64();
         if now >= next_odom {
             next_odom = now + odom_period;
             let o = bridge.odometry();
-            let stamp = time_from_s(now);
+            let stamp = time_from_s(now_s());
             let mut m = nav_msgs::Odometry::default();
             m.header.stamp = stamp;
             m.header.frame_id = settings.odom_frame.clone();
@@ -292,7 +300,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
             let status = bridge.status(clock.now());
             let _ = diag_pub.send(diagnostics(
                 &node,
-                time_from_s(now),
+                time_from_s(now_s()),
                 &status,
                 &interface,
                 now - last_cmd_s,
@@ -302,7 +310,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     let sent = bridge.shutdown(clock.now());
     log::info!("{node}: shut down: zero setpoint and drive disable sent ({sent} frames)");
     rosrust::shutdown();
-    Ok(())
+    Ok(watch.health() != MasterHealth::Restarted)
 }
 
 #[cfg(test)]

@@ -11,12 +11,20 @@
 //! 2. The configured reference trajectory, tracked with odometry (stop
 //!    without fresh odometry).
 //! 3. Straight ahead at `control.v_nom_mps` (the paper's line test).
+//!
+//! Scan order (ours, beyond the pipeline's per-scan checks): a scan whose
+//! stamp is not newer than the newest one already taken (the same stamp
+//! again: a frozen driver; an older one: out of order) is treated as stale.
+//! The node stops, reports [`ScanFault`], and resumes on the next scan newer
+//! than every one before. The node's clock going backwards drops the scan
+//! in hand and the stamp history (scans from before the jump cannot be
+//! aged), stops and reports, and resumes on the first scan after the jump.
 
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
-use crate::algo::scan::LaserScan;
+use crate::algo::scan::{LaserScan, ScanRejection};
 use crate::algo::tracking::{track, TrackingError};
 use crate::algo::Params;
 use serde::{Deserialize, Serialize};
@@ -119,6 +127,48 @@ pub struct ScanMeta {
     pub range_max_m: f32,
 }
 
+/// Why the node stops on a scan that the pipeline alone would accept: the
+/// stamp sequence says the data is not new.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ScanFault {
+    /// The newest stamp arrived again (`repeats` times): a frozen sensor or driver.
+    Repeated { stamp_s: f64, repeats: u32 },
+    /// A scan older than one already taken.
+    OutOfOrder { stamp_s: f64, newest_s: f64 },
+    /// The node's clock went back by `by_s` seconds; no scan from after the jump yet.
+    ClockJumpedBack { by_s: f64 },
+}
+
+impl ScanFault {
+    /// Short machine-readable name (diagnostics, logs).
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::Repeated { .. } => "frozen_stamp",
+            Self::OutOfOrder { .. } => "out_of_order",
+            Self::ClockJumpedBack { .. } => "clock_jumped_back",
+        }
+    }
+}
+
+impl fmt::Display for ScanFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::Repeated { stamp_s, repeats } => write!(
+                f,
+                "scan stamp {stamp_s:.3} s repeated {repeats} time(s): frozen sensor, treated as stale"
+            ),
+            Self::OutOfOrder { stamp_s, newest_s } => write!(
+                f,
+                "scan stamped {stamp_s:.3} s arrived after one stamped {newest_s:.3} s: out of order, treated as stale"
+            ),
+            Self::ClockJumpedBack { by_s } => write!(
+                f,
+                "clock jumped back {by_s:.3} s: scans from before the jump dropped, waiting for a new one"
+            ),
+        }
+    }
+}
+
 /// Which nominal source produced this tick's nominal command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NominalUsed {
@@ -153,6 +203,8 @@ pub struct Tick {
     pub e_stop: bool,
     /// Stamp of the scan used (NaN if none).
     pub scan_stamp_s: f64,
+    /// Set when the stamp sequence stopped the robot (reported with the stop).
+    pub scan_fault: Option<ScanFault>,
 }
 
 /// The node's state between ticks.
@@ -172,6 +224,9 @@ pub struct NodeCore {
     /// The constant nominal command (default: v_nom straight ahead).
     constant: Twist,
     last_tick_s: Option<f64>,
+    /// Newest scan stamp taken (s): later scans must be newer.
+    newest_stamp_s: Option<f64>,
+    scan_fault: Option<ScanFault>,
 }
 
 impl NodeCore {
@@ -196,6 +251,8 @@ impl NodeCore {
             enabled: true,
             reference: reference.map(|r| (r, ReferenceProgress::default())),
             last_tick_s: None,
+            newest_stamp_s: None,
+            scan_fault: None,
         }
     }
 
@@ -227,8 +284,40 @@ impl NodeCore {
         self.reference.as_ref().is_some_and(|(r, p)| p.finished(r))
     }
 
-    /// Stores a scan (copied into reused buffers).
+    /// Stores a scan (copied into reused buffers), unless its stamp is not
+    /// newer than the newest taken: then the scan in hand stays, and the
+    /// next tick stops with a [`ScanFault`]. A non-finite stamp is stored
+    /// for the pipeline to reject.
     pub fn on_scan(&mut self, meta: ScanMeta, ranges_m: &[f32], intensities: &[f32]) {
+        if let Some(newest_s) = self.newest_stamp_s.filter(|_| meta.stamp_s.is_finite()) {
+            if meta.stamp_s <= newest_s {
+                let fault = match self.scan_fault {
+                    Some(ScanFault::Repeated { stamp_s, repeats }) if stamp_s == meta.stamp_s => ScanFault::Repeated {
+                        stamp_s,
+                        repeats: repeats.saturating_add(1),
+                    },
+                    _ if meta.stamp_s == newest_s => ScanFault::Repeated {
+                        stamp_s: newest_s,
+                        repeats: 1,
+                    },
+                    _ => ScanFault::OutOfOrder {
+                        stamp_s: meta.stamp_s,
+                        newest_s,
+                    },
+                };
+                if self.scan_fault.map(|f| f.code()) != Some(fault.code()) {
+                    log::warn!("{fault}");
+                }
+                self.scan_fault = Some(fault);
+                return;
+            }
+        }
+        if let Some(f) = self.scan_fault.take() {
+            log::info!("scans in order again after: {f}");
+        }
+        if meta.stamp_s.is_finite() {
+            self.newest_stamp_s = Some(meta.stamp_s);
+        }
         let s = &mut self.scan;
         s.stamp_s = meta.stamp_s;
         s.angle_min_rad = meta.angle_min_rad;
@@ -240,6 +329,20 @@ impl NodeCore {
         s.intensities.clear();
         s.intensities.extend_from_slice(intensities);
         self.have_scan = true;
+    }
+
+    /// The clock went back: nothing stamped before the jump can be aged
+    /// against the new clock, so the scan in hand and the stamp history go.
+    fn clock_jumped_back(&mut self, by_s: f64) {
+        let fault = ScanFault::ClockJumpedBack { by_s };
+        log::warn!("{fault}");
+        self.scan_fault = Some(fault);
+        self.newest_stamp_s = None;
+        self.have_scan = false;
+        self.pipeline.reset();
+        // Their receive times are on the old clock too: they would look fresh for too long.
+        self.odom = None;
+        self.cmd_in = None;
     }
 
     pub fn on_odom(&mut self, pose: Pose2, twist: Twist, now_s: f64) {
@@ -349,6 +452,15 @@ impl NodeCore {
 
     /// One control tick at time `now_s` (the node's clock, same as scan stamps).
     pub fn tick(&mut self, now_s: f64) -> Tick {
+        if let Some(last_s) = self.last_tick_s.filter(|&t| now_s < t) {
+            self.clock_jumped_back(last_s - now_s);
+        }
+        // A stamp far in the future (beyond the pipeline's tolerance) must
+        // not hold every later scan back as "out of order".
+        let tolerance_s = self.pipeline.params().laser.scan_timeout_s;
+        if self.newest_stamp_s.is_some_and(|w| w - now_s > tolerance_s) {
+            self.newest_stamp_s = None;
+        }
         let dt = match self.last_tick_s {
             Some(t) if now_s > t => (now_s - t).min(1.0),
             _ => self.pipeline.params().control.dt_s(),
@@ -358,8 +470,15 @@ impl NodeCore {
         let odom = self.fresh_odom(now_s);
         let v_now = odom.map_or(f64::NAN, |o| o.twist.v_mps);
 
+        let scan_fault = self.scan_fault;
         let record = if !self.have_scan {
             self.pipeline.stop(now_s, nominal, StopCause::NoScan)
+        } else if let Some(newest_s) = self.newest_stamp_s.filter(|_| scan_fault.is_some()) {
+            let stale = ScanRejection::Stale {
+                age_s: now_s - newest_s,
+                timeout_s: tolerance_s,
+            };
+            self.pipeline.stop(now_s, nominal, StopCause::Rejected(stale))
         } else {
             let s = &self.scan;
             let scan = LaserScan {
@@ -398,6 +517,7 @@ impl NodeCore {
             filter_enabled: self.enabled,
             e_stop: self.e_stop_latched,
             scan_stamp_s,
+            scan_fault: record.stop_cause.and(scan_fault),
         }
     }
 }
@@ -406,7 +526,6 @@ impl NodeCore {
 mod tests {
     use super::*;
     use crate::algo::doaa::DoaaState;
-    use crate::algo::scan::ScanRejection;
     use std::f32::consts::PI;
 
     fn meta(stamp: f64) -> ScanMeta {
@@ -525,6 +644,135 @@ mod tests {
         // Odometry goes stale: zero.
         n.on_scan(meta(1.8), &open(), &[]);
         assert_eq!(n.tick(1.8).nominal_used, NominalUsed::ReferenceNoOdom);
+    }
+
+    fn stale_fault(t: &Tick) -> bool {
+        t.cmd == Twist::ZERO
+            && matches!(
+                t.record.stop_cause,
+                Some(StopCause::Rejected(ScanRejection::Stale { .. }))
+            )
+    }
+
+    #[test]
+    fn a_repeated_stamp_is_a_frozen_sensor_and_stops_at_once() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &open(), &[]);
+        assert_eq!(n.tick(1.05).cmd, Twist::new(0.15, 0.0));
+        // Well inside scan_timeout (0.5 s), but the same stamp again.
+        n.on_scan(meta(1.0), &open(), &[]);
+        n.on_scan(meta(1.0), &open(), &[]);
+        let t = n.tick(1.1);
+        assert!(stale_fault(&t), "{t:?}");
+        assert_eq!(
+            t.scan_fault,
+            Some(ScanFault::Repeated {
+                stamp_s: 1.0,
+                repeats: 2
+            })
+        );
+        assert!(t.scan_fault.unwrap().to_string().contains("frozen"));
+        // Still stopped on the next tick without a new scan.
+        assert!(stale_fault(&n.tick(1.2)));
+        // A newer stamp resumes.
+        n.on_scan(meta(1.2), &open(), &[]);
+        let t = n.tick(1.25);
+        assert_eq!((t.cmd, t.scan_fault), (Twist::new(0.15, 0.0), None));
+    }
+
+    #[test]
+    fn an_out_of_order_scan_stops_until_a_newer_one_arrives() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(2.0), &open(), &[]);
+        assert_eq!(n.tick(2.05).cmd, Twist::new(0.15, 0.0));
+        // Older than the one taken, though young enough for the pipeline.
+        n.on_scan(meta(1.9), &open(), &[]);
+        let t = n.tick(2.1);
+        assert!(stale_fault(&t), "{t:?}");
+        assert_eq!(
+            t.scan_fault,
+            Some(ScanFault::OutOfOrder {
+                stamp_s: 1.9,
+                newest_s: 2.0
+            })
+        );
+        assert_eq!(t.scan_fault.unwrap().code(), "out_of_order");
+        // Newer than 2.0 but older than the out-of-order one is irrelevant: newer than the newest resumes.
+        n.on_scan(meta(2.1), &open(), &[]);
+        assert_eq!(n.tick(2.15).cmd, Twist::new(0.15, 0.0));
+    }
+
+    #[test]
+    fn a_clock_jump_backwards_drops_old_scans_stops_and_resumes_on_a_new_one() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(100.0), &open(), &[]);
+        assert_eq!(n.tick(100.05).cmd, Twist::new(0.15, 0.0));
+        // The clock jumps back 0.3 s: the old scan would look 0.25 s in the
+        // future, inside the pipeline's tolerance, and so "fresh" for 0.8 s.
+        let t = n.tick(99.75);
+        assert_eq!(t.cmd, Twist::ZERO);
+        assert_eq!(t.record.stop_cause, Some(StopCause::NoScan));
+        assert!(matches!(t.scan_fault, Some(ScanFault::ClockJumpedBack { by_s }) if (by_s - 0.3).abs() < 1e-9));
+        // A scan stamped on the new clock is taken although older than the old one.
+        n.on_scan(meta(99.8), &open(), &[]);
+        let t = n.tick(99.85);
+        assert_eq!((t.cmd, t.scan_fault), (Twist::new(0.15, 0.0), None));
+        // A big jump: 30 s back, scans keep coming on the new clock.
+        let t = n.tick(69.85);
+        assert_eq!(t.cmd, Twist::ZERO);
+        n.on_scan(meta(69.9), &open(), &[]);
+        assert_eq!(n.tick(69.95).cmd, Twist::new(0.15, 0.0));
+    }
+
+    #[test]
+    fn upstream_commands_from_before_a_clock_jump_are_dropped() {
+        let mut n = node(NominalSource::CmdVelIn);
+        n.on_scan(meta(10.0), &open(), &[]);
+        n.on_cmd_in(Twist::new(0.1, 0.0), 10.0);
+        assert_eq!(n.tick(10.05).cmd, Twist::new(0.1, 0.0));
+        n.tick(5.0);
+        n.on_scan(meta(5.05), &open(), &[]);
+        let t = n.tick(5.1);
+        assert_eq!((t.cmd, t.nominal_used), (Twist::ZERO, NominalUsed::CmdVelInStale));
+    }
+
+    #[test]
+    fn a_scan_stamped_far_in_the_future_does_not_block_later_ones() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1000.0), &open(), &[]);
+        let t = n.tick(1.0);
+        assert!(matches!(
+            t.record.stop_cause,
+            Some(StopCause::Rejected(ScanRejection::FromFuture { .. }))
+        ));
+        n.on_scan(meta(1.05), &open(), &[]);
+        assert_eq!(n.tick(1.1).cmd, Twist::new(0.15, 0.0));
+    }
+
+    #[test]
+    fn non_finite_stamps_are_rejected_by_the_pipeline_and_do_not_poison_the_order() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &open(), &[]);
+        n.on_scan(meta(f64::NAN), &open(), &[]);
+        let t = n.tick(1.05);
+        assert_eq!(t.record.stop_cause, Some(StopCause::Rejected(ScanRejection::BadStamp)));
+        n.on_scan(meta(1.1), &open(), &[]);
+        assert_eq!(n.tick(1.15).cmd, Twist::new(0.15, 0.0));
+    }
+
+    /// The definition (algo/scan.rs): NaN, ±inf, 0 and anything outside
+    /// [range_min, range_max) is "no return", i.e. free space. A scan with no
+    /// valid beam is an empty world: the nominal passes, finite.
+    #[test]
+    fn all_nan_all_inf_all_zero_scans_are_free_space_by_the_definition() {
+        for fill in [f32::NAN, f32::INFINITY, 0.0, f32::NEG_INFINITY] {
+            let mut n = node(NominalSource::Constant);
+            n.on_scan(meta(1.0), &vec![fill; 360], &[]);
+            let t = n.tick(1.05);
+            assert_eq!(t.cmd, Twist::new(0.15, 0.0), "fill {fill}");
+            assert_eq!(t.record.valid_beams, 0);
+            assert!(t.cmd.is_finite() && t.record.stop_cause.is_none());
+        }
     }
 
     #[test]

@@ -61,6 +61,8 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
             DiagnosticStatus::WARN,
             "e-stop latched: stopped until reset".to_string(),
         )
+    } else if let (Some(_), Some(fault)) = (rec.stop_cause, tick.scan_fault) {
+        (DiagnosticStatus::ERROR, format!("stopped: {fault}"))
     } else if let (Some(cause), false) = (rec.stop_cause, rec.measured()) {
         (DiagnosticStatus::ERROR, format!("stopped: {cause}"))
     } else if !tick.filter_enabled {
@@ -100,6 +102,7 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
             kv("h_m", format!("{:.3}", rec.h_m)),
             kv("e_stop", tick.e_stop),
             kv("stop_reason", rec.stop_cause.map(|c| c.to_string()).unwrap_or_default()),
+            kv("scan_fault", tick.scan_fault.map(|f| f.code()).unwrap_or_default()),
             kv("nominal_source", tick.nominal_used),
             kv("valid_beams", rec.valid_beams),
         ],

@@ -68,3 +68,75 @@ pub fn connect(name: &str, stop: &StopFlag) -> bool {
 pub fn now_s() -> f64 {
     rosrust::now().seconds()
 }
+
+/// What [`MasterWatch`] saw of the ROS master.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MasterHealth {
+    Up,
+    /// Not answering: topics already connected keep flowing peer to peer.
+    Lost,
+    /// Answering as a new run (its `/run_id` changed): this node's
+    /// registrations are gone and rosrust cannot renew them.
+    Restarted,
+}
+
+/// Watches the master once a second from a thread of its own: reports its
+/// loss and return in the log, and flags a restart so the node can leave
+/// cleanly (stopping the robot) instead of running on unregistered.
+#[derive(Clone)]
+pub struct MasterWatch(Arc<std::sync::atomic::AtomicU8>);
+
+impl MasterWatch {
+    /// Starts the watch (the node must be connected).
+    pub fn start(node: &str) -> Self {
+        let flag = Arc::new(std::sync::atomic::AtomicU8::new(0));
+        let f = flag.clone();
+        let node = node.to_string();
+        let read_run_id = || rosrust::param("/run_id").and_then(|p| p.get::<String>().ok());
+        let first = read_run_id();
+        std::thread::spawn(move || {
+            let master = std::env::var("ROS_MASTER_URI").unwrap_or_default();
+            let mut lost_since: Option<std::time::Instant> = None;
+            loop {
+                std::thread::sleep(Duration::from_secs(1));
+                let now = read_run_id();
+                match (&first, &now) {
+                    (_, None) => {
+                        if lost_since.is_none() {
+                            log::error!(
+                                "{node}: lost the ROS master at {master}; connected topics keep flowing, new ones cannot connect; waiting for it"
+                            );
+                            lost_since = Some(std::time::Instant::now());
+                            f.store(1, Ordering::SeqCst);
+                        }
+                    }
+                    (Some(a), Some(b)) if a != b => {
+                        log::error!(
+                            "{node}: the ROS master at {master} restarted (run_id {a} -> {b}): this node's registrations are gone and cannot be renewed; shutting down (start the nodes again)"
+                        );
+                        f.store(2, Ordering::SeqCst);
+                        return;
+                    }
+                    _ => {
+                        if let Some(t) = lost_since.take() {
+                            log::info!(
+                                "{node}: the ROS master at {master} is back (same run) after {:.1} s",
+                                t.elapsed().as_secs_f64()
+                            );
+                            f.store(0, Ordering::SeqCst);
+                        }
+                    }
+                }
+            }
+        });
+        Self(flag)
+    }
+
+    pub fn health(&self) -> MasterHealth {
+        match self.0.load(Ordering::SeqCst) {
+            0 => MasterHealth::Up,
+            1 => MasterHealth::Lost,
+            _ => MasterHealth::Restarted,
+        }
+    }
+}

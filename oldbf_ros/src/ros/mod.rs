@@ -9,6 +9,7 @@ pub mod lifecycle;
 pub mod logging;
 pub mod markers;
 pub mod msg;
+pub mod pacer;
 pub mod params;
 pub mod safety_node;
 pub mod sim_node;

@@ -12,16 +12,21 @@
 //!
 //! The decisions are all in [`crate::node_core`]; this file converts and
 //! publishes. A bad parameter: a message naming it, exit status 2.
-//! SIGINT/SIGTERM: a last zero command, then exit 0.
+//! SIGINT/SIGTERM: a last zero command, then exit 0. The master lost: logged,
+//! the node runs on (connected topics flow peer to peer). The master back as
+//! a new run (restarted): logged, a last zero command, exit status 1, as
+//! rosrust cannot register again. The loop is paced on the monotonic clock
+//! (see [`super::pacer`]), so a wall-clock step cannot silence it.
 
 use super::convert::{odom_from_msg, scan_meta, time_from_s, twist_from_msg, twist_to_msg};
 use super::diagnostics::{diagnostics, Activity};
-use super::lifecycle::{self, now_s};
+use super::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use super::markers::markers;
 use super::msg::{
     diagnostic_msgs::DiagnosticArray, geometry_msgs, nav_msgs, oldbf_ros::BarrierState, sensor_msgs, std_msgs,
     std_srvs, visualization_msgs::MarkerArray,
 };
+use super::pacer::Pacer;
 use super::params::private_namespace;
 use crate::node_config::{node_config_from_params, NodeConfig};
 use crate::node_core::{NodeCore, Tick};
@@ -47,7 +52,7 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
         filter_active: r.filter_changed,
         condition_held: r.condition_held,
         e_stop: tick.e_stop,
-        stop_reason: r.stop_cause.map(|c| c.to_string()).unwrap_or_default(),
+        stop_reason: stop_reason(tick),
         nominal: twist_to_msg(r.nominal),
         cmd: twist_to_msg(tick.cmd),
         beams: r.beams as u32,
@@ -57,6 +62,15 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
     m.header.frame_id = frame.into();
     m.header.stamp = time_from_s(now);
     m
+}
+
+/// Why the robot is stopped, with the scan-order fault when that is the cause.
+pub fn stop_reason(tick: &Tick) -> String {
+    match (tick.record.stop_cause, tick.scan_fault) {
+        (Some(_), Some(f)) => f.to_string(),
+        (Some(c), None) => c.to_string(),
+        (None, _) => String::new(),
+    }
 }
 
 fn load_config() -> Result<NodeConfig, String> {
@@ -84,7 +98,8 @@ pub fn run() -> i32 {
         }
     };
     match run_connected(config, &stop) {
-        Ok(()) => 0,
+        Ok(true) => 0,
+        Ok(false) => 1,
         Err(e) => {
             log::error!("{}: {e}", rosrust::name());
             rosrust::shutdown();
@@ -93,7 +108,8 @@ pub fn run() -> i32 {
     }
 }
 
-fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<(), String> {
+/// Ok(true): stopped by a signal; Ok(false): the master restarted.
+fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool, String> {
     let params = config.params.clone();
     let settings = config.settings.clone();
     let mut core = NodeCore::new(config.params, config.settings, config.reference);
@@ -178,10 +194,11 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<(), S
         settings.nominal_source
     );
     let node = rosrust::name();
-    let rate = rosrust::rate(params.control.rate_hz);
+    let mut pacer = Pacer::new(params.control.rate_hz);
+    let watch = MasterWatch::start(&node);
     let mut last_diag = f64::NEG_INFINITY;
     let mut last_status: Option<&'static str> = None;
-    while rosrust::is_ok() && !stop.is_set() {
+    while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
         let now = now_s();
         let (tick, threats) = {
             let mut core = core.lock().expect("node state lock");
@@ -203,21 +220,25 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<(), S
         }
         let mut act = activity.lock().expect("activity lock");
         act.ticked(now, &tick);
-        if now - last_diag >= 1.0 {
+        // |Δ| so that a clock stepped back does not silence the diagnostics.
+        if (now - last_diag).abs() >= 1.0 {
             let _ = diag_pub.send(diagnostics(&node, time_from_s(now), now, &tick, &act));
             last_diag = now;
         }
         drop(act);
         // Log changes of stop status once (by kind: the details change every tick).
-        let status = tick.record.stop_cause.map(|c| c.code());
+        let status = tick
+            .scan_fault
+            .map(|f| f.code())
+            .or(tick.record.stop_cause.map(|c| c.code()));
         if status != last_status {
             match tick.record.stop_cause {
-                Some(why) => log::warn!("commanding a stop: {why}"),
+                Some(_) => log::warn!("commanding a stop: {}", stop_reason(&tick)),
                 None => log::info!("filtering ({})", tick.nominal_used),
             }
             last_status = status;
         }
-        rate.sleep();
+        pacer.sleep();
     }
     // Leave the robot stopped: a last zero command, sent a few times.
     log::info!("{node}: shutting down; sending a zero command");
@@ -226,5 +247,5 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<(), S
         std::thread::sleep(Duration::from_millis(30));
     }
     rosrust::shutdown();
-    Ok(())
+    Ok(watch.health() != MasterHealth::Restarted)
 }
