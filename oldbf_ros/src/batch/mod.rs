@@ -14,6 +14,7 @@
 
 pub mod output;
 pub mod runner;
+pub mod soak;
 pub mod stats;
 pub mod table;
 pub mod template;

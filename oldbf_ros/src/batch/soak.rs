@@ -1,0 +1,406 @@
+//! The soak (`oldbf soak`): random worlds run back to back until a target of
+//! simulated time is reached, counting what must never happen.
+//!
+//! Why: a batch answers "how safe", the soak answers "does it stay sound over
+//! hours": no panic, no non-finite command, no collision or CBF violation the
+//! gates do not allow, and resident memory flat once warm (a leak in a
+//! per-scan buffer shows as growth over thousands of worlds).
+//!
+//! Worlds run in chunks of [`CHUNK_WORLDS`] in parallel; a chunk's outcomes
+//! are taken in world order and the soak stops at the first world that brings
+//! the simulated time to the target, so every figure except wall time and
+//! memory depends only on (template, seed, target), not on the thread count.
+//! A world that panics is caught (`catch_unwind`), counted and reported with
+//! its message; the soak goes on.
+
+use super::template::Template;
+use crate::sim::run::{run_scenario, Controller, RunResult};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
+
+/// Worlds per parallel chunk: fixed, so the set of worlds run does not depend
+/// on the thread count.
+pub const CHUNK_WORLDS: usize = 16;
+
+/// The shipped soak template (`config/batch/soak.yaml`), so `oldbf soak` runs
+/// from any directory.
+pub const DEFAULT_SOAK_TEMPLATE_YAML: &str = include_str!("../../../config/batch/soak.yaml");
+/// How the embedded template is named in messages.
+pub const DEFAULT_SOAK_TEMPLATE_NAME: &str = "config/batch/soak.yaml (built-in)";
+
+/// What to run and what to allow.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SoakOptions {
+    /// Simulated time to reach, summed over worlds (s).
+    pub sim_time_s: f64,
+    /// Seed of the world generator (world i is drawn from (seed, i)).
+    pub seed: u64,
+    /// Worker threads (≥ 1).
+    pub threads: usize,
+    /// Largest allowed growth of resident memory from warm to the end (KiB).
+    pub max_rss_growth_kib: u64,
+    /// Largest allowed number of collisions (contacts begun), summed over worlds.
+    pub max_collisions: usize,
+    /// Largest allowed number of CBF violations (steps), logged and exact geometry each.
+    pub max_cbf_violations: usize,
+}
+
+/// A world that panicked.
+#[derive(Debug, Clone, Serialize)]
+pub struct SoakPanic {
+    pub world: usize,
+    pub message: String,
+}
+
+/// Resident memory at one point of the soak.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RssSample {
+    /// Worlds finished when sampled.
+    pub worlds: usize,
+    /// Simulated time finished when sampled (s).
+    pub sim_time_s: f64,
+    /// VmRSS (KiB).
+    pub rss_kib: u64,
+}
+
+/// Everything the soak measured; `--json` prints this.
+#[derive(Debug, Clone, Serialize)]
+pub struct SoakReport {
+    pub template: String,
+    pub name: String,
+    pub seed: u64,
+    pub threads: usize,
+    /// Target simulated time (s).
+    pub target_sim_time_s: f64,
+    /// Simulated time run, summed over worlds (s).
+    pub sim_time_s: f64,
+    pub wall_time_s: f64,
+    pub worlds: usize,
+    /// Control steps, summed over worlds.
+    pub steps: usize,
+    pub panics: Vec<SoakPanic>,
+    /// Control steps whose command (v or ω) was NaN or infinite.
+    pub non_finite_commands: usize,
+    pub collisions: usize,
+    pub worlds_with_collision: usize,
+    /// Steps where the logged DTCBF condition failed for the sent command.
+    pub cbf_violations: usize,
+    /// Steps where it failed on the exact geometry.
+    pub true_cbf_violations: usize,
+    /// Worlds with any violation, logged or exact.
+    pub worlds_with_violation: usize,
+    /// Least body-to-obstacle distance over all worlds (m; negative = penetration).
+    pub min_clearance_m: f64,
+    pub worlds_reached_goal: usize,
+    /// Resident memory once warm (after the first chunk that reached 10 % of
+    /// the target), at the end, and the largest sample (KiB).
+    pub rss_warm_kib: u64,
+    pub rss_end_kib: u64,
+    pub rss_max_kib: u64,
+    /// rss_end − rss_warm (KiB; negative = shrank).
+    pub rss_growth_kib: i64,
+    pub max_rss_growth_kib: u64,
+    /// After every chunk.
+    pub rss_samples: Vec<RssSample>,
+    /// Every gate that failed, in words; empty = pass.
+    pub failures: Vec<String>,
+}
+
+/// Resident set size of this process (KiB), from `/proc/self/status`.
+pub fn resident_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    parse_vm_rss_kib(&status)
+}
+
+/// The `VmRSS:` line of a `/proc/<pid>/status` text (KiB).
+pub fn parse_vm_rss_kib(status: &str) -> Option<u64> {
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let mut words = line["VmRSS:".len()..].split_whitespace();
+    let kib: u64 = words.next()?.parse().ok()?;
+    (words.next() == Some("kB")).then_some(kib)
+}
+
+/// The message of a caught panic.
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "(non-string panic payload)".to_string()
+    }
+}
+
+/// One world's figures (the step rows are dropped at once).
+#[derive(Debug, Clone)]
+struct WorldFigures {
+    sim_time_s: f64,
+    steps: usize,
+    non_finite_commands: usize,
+    collisions: usize,
+    cbf_violations: usize,
+    true_cbf_violations: usize,
+    min_clearance_m: f64,
+    reached_goal: bool,
+}
+
+impl WorldFigures {
+    fn of(result: &RunResult) -> WorldFigures {
+        let s = &result.summary;
+        WorldFigures {
+            sim_time_s: s.sim_time_s,
+            steps: s.steps,
+            non_finite_commands: result
+                .robots
+                .iter()
+                .flat_map(|r| &r.rows)
+                .filter(|row| !(row.v_cmd_mps.is_finite() && row.omega_cmd_radps.is_finite()))
+                .count(),
+            collisions: s.collisions,
+            cbf_violations: s.cbf_violations,
+            true_cbf_violations: s.true_cbf_violations,
+            min_clearance_m: s.min_clearance_m,
+            reached_goal: s.reached_goal,
+        }
+    }
+}
+
+/// A world's outcome: its figures, a panic message, or a generation error.
+enum Outcome {
+    Ran(WorldFigures),
+    Panicked(String),
+}
+
+/// Draws and runs world `index`, catching a panic anywhere in it.
+fn run_one(template: &Template, seed: u64, index: usize) -> anyhow::Result<Outcome> {
+    let caught = catch_unwind(AssertUnwindSafe(|| -> anyhow::Result<WorldFigures> {
+        let w = template.world(seed, index)?;
+        let result = run_scenario(&w.scenario, Controller::Oldbf, w.sensor_seed)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", w.scenario.file))?;
+        Ok(WorldFigures::of(&result))
+    }));
+    match caught {
+        Ok(r) => r.map(Outcome::Ran),
+        Err(payload) => Ok(Outcome::Panicked(panic_message(payload.as_ref()))),
+    }
+}
+
+/// Runs the soak, setting `progress` to the simulated seconds done.
+pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressBar) -> anyhow::Result<SoakReport> {
+    if !(options.sim_time_s.is_finite() && options.sim_time_s > 0.0) {
+        anyhow::bail!("simulated time {} s is out of range; allowed: > 0", options.sim_time_s);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads.max(1))
+        .thread_name(|i| format!("soak-{i}"))
+        .build()
+        .map_err(|e| anyhow::anyhow!("cannot start {} worker threads: {e}", options.threads))?;
+    let started = Instant::now();
+    let mut r = SoakReport {
+        template: template.file.clone(),
+        name: template.spec.name.clone(),
+        seed: options.seed,
+        threads: options.threads,
+        target_sim_time_s: options.sim_time_s,
+        sim_time_s: 0.0,
+        wall_time_s: 0.0,
+        worlds: 0,
+        steps: 0,
+        panics: Vec::new(),
+        non_finite_commands: 0,
+        collisions: 0,
+        worlds_with_collision: 0,
+        cbf_violations: 0,
+        true_cbf_violations: 0,
+        worlds_with_violation: 0,
+        min_clearance_m: f64::INFINITY,
+        worlds_reached_goal: 0,
+        rss_warm_kib: 0,
+        rss_end_kib: 0,
+        rss_max_kib: 0,
+        rss_growth_kib: 0,
+        max_rss_growth_kib: options.max_rss_growth_kib,
+        rss_samples: Vec::new(),
+        failures: Vec::new(),
+    };
+    let mut warm: Option<u64> = None;
+    let mut next = 0usize;
+    'chunks: while r.sim_time_s < options.sim_time_s {
+        let indices: Vec<usize> = (next..next + CHUNK_WORLDS).collect();
+        next += CHUNK_WORLDS;
+        let outcomes: Vec<anyhow::Result<Outcome>> = pool.install(|| {
+            indices
+                .par_iter()
+                .map(|&i| run_one(template, options.seed, i))
+                .collect()
+        });
+        for (i, outcome) in indices.into_iter().zip(outcomes) {
+            if r.sim_time_s >= options.sim_time_s {
+                break 'chunks;
+            }
+            r.worlds += 1;
+            match outcome? {
+                Outcome::Panicked(message) => {
+                    r.panics.push(SoakPanic { world: i, message });
+                    // A panicked world still counts its nominal duration, so
+                    // a template that always panics cannot loop for ever.
+                    r.sim_time_s += template.spec.duration_s;
+                }
+                Outcome::Ran(f) => {
+                    r.sim_time_s += f.sim_time_s;
+                    r.steps += f.steps;
+                    r.non_finite_commands += f.non_finite_commands;
+                    r.collisions += f.collisions;
+                    r.worlds_with_collision += usize::from(f.collisions > 0);
+                    r.cbf_violations += f.cbf_violations;
+                    r.true_cbf_violations += f.true_cbf_violations;
+                    r.worlds_with_violation += usize::from(f.cbf_violations + f.true_cbf_violations > 0);
+                    r.min_clearance_m = r.min_clearance_m.min(f.min_clearance_m);
+                    r.worlds_reached_goal += usize::from(f.reached_goal);
+                }
+            }
+        }
+        progress.set_position(r.sim_time_s.min(options.sim_time_s) as u64);
+        let rss = resident_kib().unwrap_or(0);
+        r.rss_samples.push(RssSample {
+            worlds: r.worlds,
+            sim_time_s: r.sim_time_s,
+            rss_kib: rss,
+        });
+        if warm.is_none() && r.sim_time_s >= 0.1 * options.sim_time_s {
+            warm = Some(rss);
+        }
+    }
+    r.wall_time_s = started.elapsed().as_secs_f64();
+    r.rss_end_kib = resident_kib().unwrap_or(0);
+    r.rss_warm_kib = warm.unwrap_or(r.rss_end_kib);
+    r.rss_max_kib = r
+        .rss_samples
+        .iter()
+        .map(|s| s.rss_kib)
+        .max()
+        .unwrap_or(0)
+        .max(r.rss_end_kib);
+    r.rss_growth_kib = r.rss_end_kib as i64 - r.rss_warm_kib as i64;
+    r.failures = gates(&r, options);
+    Ok(r)
+}
+
+/// The gates, each failure in words.
+fn gates(r: &SoakReport, o: &SoakOptions) -> Vec<String> {
+    let mut f = Vec::new();
+    if !r.panics.is_empty() {
+        f.push(format!("{} world(s) panicked", r.panics.len()));
+    }
+    if r.non_finite_commands > 0 {
+        f.push(format!("{} non-finite command(s)", r.non_finite_commands));
+    }
+    if r.collisions > o.max_collisions {
+        f.push(format!("{} collision(s), allowed {}", r.collisions, o.max_collisions));
+    }
+    if r.cbf_violations > o.max_cbf_violations {
+        f.push(format!(
+            "{} logged CBF violation(s), allowed {}",
+            r.cbf_violations, o.max_cbf_violations
+        ));
+    }
+    if r.true_cbf_violations > o.max_cbf_violations {
+        f.push(format!(
+            "{} exact-geometry CBF violation(s), allowed {}",
+            r.true_cbf_violations, o.max_cbf_violations
+        ));
+    }
+    if r.rss_warm_kib == 0 || r.rss_end_kib == 0 {
+        f.push("resident memory could not be read from /proc/self/status".to_string());
+    } else if r.rss_growth_kib > o.max_rss_growth_kib as i64 {
+        f.push(format!(
+            "resident memory grew {} KiB from warm to the end, allowed {} KiB",
+            r.rss_growth_kib, o.max_rss_growth_kib
+        ));
+    }
+    f
+}
+
+fn mib(kib: u64) -> f64 {
+    kib as f64 / 1024.0
+}
+
+/// The readable report.
+pub fn text(r: &SoakReport) -> String {
+    let mut s = String::new();
+    let speedup = if r.wall_time_s > 0.0 {
+        r.sim_time_s / r.wall_time_s
+    } else {
+        f64::INFINITY
+    };
+    s.push_str(&format!(
+        "soak {} ({}) | seed {} | {} threads\n",
+        r.name, r.template, r.seed, r.threads
+    ));
+    s.push_str(&format!(
+        "  simulated {:.1} s ({:.2} h) in {} worlds, {} control steps | wall {:.1} s ({:.0}x real time)\n",
+        r.sim_time_s,
+        r.sim_time_s / 3600.0,
+        r.worlds,
+        r.steps,
+        r.wall_time_s,
+        speedup
+    ));
+    s.push_str(&format!(
+        "  panics {} | non-finite commands {}\n",
+        r.panics.len(),
+        r.non_finite_commands
+    ));
+    for p in &r.panics {
+        s.push_str(&format!("    world {} panicked: {}\n", p.world, p.message));
+    }
+    s.push_str(&format!(
+        "  collisions {} (worlds {}) | CBF violations {} (logged), {} (exact geometry), worlds {} | min clearance {:.3} m\n",
+        r.collisions, r.worlds_with_collision, r.cbf_violations, r.true_cbf_violations, r.worlds_with_violation, r.min_clearance_m
+    ));
+    s.push_str(&format!(
+        "  goal reached in {}/{} worlds\n",
+        r.worlds_reached_goal, r.worlds
+    ));
+    s.push_str(&format!(
+        "  resident memory: warm {:.1} MiB, end {:.1} MiB, max {:.1} MiB, growth {:+.1} MiB (allowed {:.1} MiB)\n",
+        mib(r.rss_warm_kib),
+        mib(r.rss_end_kib),
+        mib(r.rss_max_kib),
+        r.rss_growth_kib as f64 / 1024.0,
+        mib(r.max_rss_growth_kib)
+    ));
+    if r.failures.is_empty() {
+        s.push_str("  PASS\n");
+    } else {
+        for f in &r.failures {
+            s.push_str(&format!("  FAIL: {f}\n"));
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vm_rss_is_parsed_in_kib() {
+        let status = "Name:\toldbf\nVmPeak:\t  9000 kB\nVmRSS:\t   12345 kB\nThreads:\t3\n";
+        assert_eq!(parse_vm_rss_kib(status), Some(12345));
+        assert_eq!(parse_vm_rss_kib("VmRSS:\t12 MB\n"), None, "unit must be kB");
+        assert_eq!(parse_vm_rss_kib("Name:\tx\n"), None);
+        assert!(resident_kib().is_some_and(|k| k > 0), "Linux /proc/self/status");
+    }
+
+    #[test]
+    fn panic_messages_are_recovered() {
+        let e = catch_unwind(|| panic!("boom {}", 7)).unwrap_err();
+        assert_eq!(panic_message(e.as_ref()), "boom 7");
+        let e = catch_unwind(|| std::panic::panic_any(42u8)).unwrap_err();
+        assert_eq!(panic_message(e.as_ref()), "(non-string panic payload)");
+    }
+}

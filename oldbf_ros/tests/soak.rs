@@ -1,0 +1,140 @@
+//! `oldbf soak` as a user runs it: gates, determinism, report, bad options.
+
+mod common;
+
+use std::process::{Command, Output};
+
+fn oldbf() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_oldbf"));
+    c.current_dir(common::repo_root()).env("RUST_LOG", "warn");
+    c
+}
+
+fn json_of(out: &Output) -> serde_json::Value {
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last = text.lines().last().unwrap_or_default();
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("no JSON last line ({e}):\n{text}"))
+}
+
+fn soak(args: &[&str]) -> Output {
+    oldbf().arg("soak").args(args).arg("--json").output().unwrap()
+}
+
+#[test]
+fn static_soak_passes_every_gate_and_reports_memory() {
+    let out = soak(&["--sim-hours", "0.3", "--template", "config/batch/soak_static.yaml"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("PASS"), "{text}");
+    let v = json_of(&out);
+    assert!(v["sim_time_s"].as_f64().unwrap() >= 0.3 * 3600.0, "{v}");
+    assert!(v["worlds"].as_u64().unwrap() >= 5, "{v}");
+    for key in [
+        "collisions",
+        "cbf_violations",
+        "true_cbf_violations",
+        "non_finite_commands",
+    ] {
+        assert_eq!(v[key], 0, "{key}: {v}");
+    }
+    assert_eq!(v["panics"].as_array().unwrap().len(), 0);
+    assert!(v["rss_warm_kib"].as_u64().unwrap() > 1024, "VmRSS read: {v}");
+    assert!(v["rss_end_kib"].as_u64().unwrap() > 1024, "VmRSS read: {v}");
+    assert!(!v["rss_samples"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn figures_do_not_depend_on_the_thread_count() {
+    let a = json_of(&soak(&["--sim-hours", "0.5", "--threads", "1", "--seed", "3"]));
+    let b = json_of(&soak(&["--sim-hours", "0.5", "--threads", "2", "--seed", "3"]));
+    for key in [
+        "worlds",
+        "steps",
+        "sim_time_s",
+        "collisions",
+        "cbf_violations",
+        "true_cbf_violations",
+        "min_clearance_m",
+        "worlds_reached_goal",
+    ] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+}
+
+#[test]
+fn violations_and_collisions_fail_the_gates_unless_allowed() {
+    // Moving obstacles at seed 1: the first hour has CBF violations (blind
+    // movers walk into the robot; README "Soak"), so the strict default fails.
+    let out = soak(&["--sim-hours", "1", "--seed", "1"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    let v = json_of(&out);
+    let logged = v["cbf_violations"].as_u64().unwrap();
+    assert!(logged > 0, "{v}");
+    assert!(
+        text.contains(&format!("FAIL: {logged} logged CBF violation(s), allowed 0")),
+        "{text}"
+    );
+    // Allowing them (and whatever collisions there are) passes.
+    let out = soak(&[
+        "--sim-hours",
+        "1",
+        "--seed",
+        "1",
+        "--max-cbf-violations",
+        "1000000",
+        "--max-collisions",
+        "1000000",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
+}
+
+#[test]
+fn bad_options_and_templates_exit_2_naming_the_problem() {
+    for h in ["0", "-1", "nan", "inf", "20000", "x"] {
+        let out = oldbf().arg("soak").arg(format!("--sim-hours={h}")).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "--sim-hours {h}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--sim-hours"), "{h}");
+    }
+    let dir = std::env::temp_dir().join(format!("oldbf-soak-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad_soak.yaml");
+    let text = std::fs::read_to_string(common::repo_root().join("config/batch/soak.yaml"))
+        .unwrap()
+        .replace("duration_s: 120", "duration_s: -4");
+    std::fs::write(&bad, text).unwrap();
+    let out = oldbf().args(["soak", "--template"]).arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("bad_soak.yaml: key `duration_s`"), "{e}");
+    let out = oldbf()
+        .args(["soak", "--template", "/no/such/soak.yaml"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/soak.yaml: cannot read"));
+}
+
+#[test]
+fn help_explains_the_gates_and_units() {
+    let out = oldbf().args(["soak", "--help"]).output().unwrap();
+    assert!(out.status.success());
+    let h = String::from_utf8_lossy(&out.stdout);
+    for s in [
+        "--sim-hours",
+        "VmRSS",
+        "catch_unwind",
+        "non-finite",
+        "--max-rss-growth-mib",
+        "--max-collisions",
+        "--max-cbf-violations",
+        "config/batch/soak.yaml",
+    ] {
+        assert!(h.contains(s), "oldbf soak --help lacks `{s}`:\n{h}");
+    }
+}

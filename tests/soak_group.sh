@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# tests/soak_group.sh: the short soak of the README test command.
+#
+#   tests/soak_group.sh
+#
+# Two runs of `oldbf soak`, 10 simulated hours each (about 10 s of wall time
+# each on 2 cores; the soak runs ~4000x faster than real time):
+#
+# 1. config/batch/soak_static.yaml: static obstacles, ideal LiDAR, the case
+#    OLDBF's guarantee covers in full. Every gate strict: 0 panics, 0
+#    non-finite commands, 0 collisions, 0 CBF violations (logged and exact
+#    geometry), resident memory growth from warm to the end <= 4 MiB.
+# 2. config/batch/soak.yaml: blind moving obstacles at 0.1-0.3 of the
+#    robot's speed, noisy LiDAR with dropouts. 0 panics, 0 non-finite
+#    commands and flat memory are strict. Movers that walk into a
+#    forward-only robot do cause collisions and CBF violations (README,
+#    "Soak"); at seed 1 they are 27 collisions, 16890 logged and 15993 exact
+#    violation steps over these 10 h, and the bounds below (about twice those)
+#    catch a regression, not the known limitation.
+#
+# The full hour of the README is `oldbf soak --sim-hours 1`. Exits non-zero on
+# any failed gate.
+set -Eeuo pipefail
+trap 'echo "soak_group: ERROR at line $LINENO: $BASH_COMMAND" >&2' ERR
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
+cd "$ROOT"
+export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
+die() { echo "soak_group: $*" >&2; exit 1; }
+
+command -v cargo >/dev/null || die "cargo not found (install Rust >= 1.85 with rustup)"
+cargo build --release --locked --bin oldbf
+TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
+OLDBF="$TARGET/release/oldbf"
+[ -x "$OLDBF" ] || die "$OLDBF was not built"
+export RUST_LOG=${RUST_LOG:-warn}
+
+echo "--- soak 1/2: static obstacles, ideal LiDAR, every gate strict"
+"$OLDBF" soak --sim-hours 10 --seed 1 --template config/batch/soak_static.yaml \
+  --max-rss-growth-mib 4 --max-collisions 0 --max-cbf-violations 0 \
+  || die "the static soak failed a gate (see above)"
+
+echo "--- soak 2/2: moving obstacles, noisy LiDAR"
+"$OLDBF" soak --sim-hours 10 --seed 1 --template config/batch/soak.yaml \
+  --max-rss-growth-mib 4 --max-collisions 60 --max-cbf-violations 35000 \
+  || die "the moving-obstacle soak failed a gate (see above)"
+echo "soak_group: both soaks passed"
