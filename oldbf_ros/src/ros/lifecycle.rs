@@ -87,21 +87,26 @@ pub enum MasterHealth {
 pub struct MasterWatch(Arc<std::sync::atomic::AtomicU8>);
 
 impl MasterWatch {
-    /// Starts the watch (the node must be connected).
+    /// Starts the watch (the node must be connected). A master that answers
+    /// but lists none of this node's publications, subscriptions or services
+    /// is a new one: registrations live only in the master that took them.
     pub fn start(node: &str) -> Self {
         let flag = Arc::new(std::sync::atomic::AtomicU8::new(0));
         let f = flag.clone();
         let node = node.to_string();
-        let read_run_id = || rosrust::param("/run_id").and_then(|p| p.get::<String>().ok());
-        let first = read_run_id();
         std::thread::spawn(move || {
             let master = std::env::var("ROS_MASTER_URI").unwrap_or_default();
             let mut lost_since: Option<std::time::Instant> = None;
             loop {
                 std::thread::sleep(Duration::from_secs(1));
-                let now = read_run_id();
-                match (&first, &now) {
-                    (_, None) => {
+                let state = rosrust::state();
+                let known = state.as_ref().ok().map(|s| {
+                    [&s.publishers, &s.subscribers, &s.services]
+                        .iter()
+                        .any(|list| list.iter().any(|t| t.connections.iter().any(|c| c == &node)))
+                });
+                match known {
+                    None => {
                         if lost_since.is_none() {
                             log::error!(
                                 "{node}: lost the ROS master at {master}; connected topics keep flowing, new ones cannot connect; waiting for it"
@@ -110,14 +115,14 @@ impl MasterWatch {
                             f.store(1, Ordering::SeqCst);
                         }
                     }
-                    (Some(a), Some(b)) if a != b => {
+                    Some(false) => {
                         log::error!(
-                            "{node}: the ROS master at {master} restarted (run_id {a} -> {b}): this node's registrations are gone and cannot be renewed; shutting down (start the nodes again)"
+                            "{node}: the ROS master at {master} restarted (run_id changed: it no longer knows this node): registrations are gone and cannot be renewed; shutting down (start the nodes again)"
                         );
                         f.store(2, Ordering::SeqCst);
                         return;
                     }
-                    _ => {
+                    Some(true) => {
                         if let Some(t) = lost_since.take() {
                             log::info!(
                                 "{node}: the ROS master at {master} is back (same run) after {:.1} s",
