@@ -25,8 +25,13 @@ pub enum ConfigError {
     Io { file: String, error: std::io::Error },
     /// Not YAML, a wrong type, an unknown or a missing key.
     Parse { file: String, key: String, message: String },
-    /// Values outside their allowed ranges.
-    Range { file: String, errors: Vec<ParamError> },
+    /// Values outside their allowed ranges; `prefix` is prepended to their
+    /// keys (`oldbf.` for a scenario's overrides).
+    Range {
+        file: String,
+        prefix: String,
+        errors: Vec<ParamError>,
+    },
 }
 
 impl fmt::Display for ConfigError {
@@ -37,12 +42,16 @@ impl fmt::Display for ConfigError {
                 write!(f, "{file}: {message}")
             }
             Self::Parse { file, key, message } => write!(f, "{file}: key `{key}`: {message}"),
-            Self::Range { file, errors } => {
+            Self::Range { file, prefix, errors } => {
                 for (i, e) in errors.iter().enumerate() {
                     if i > 0 {
                         writeln!(f)?;
                     }
-                    write!(f, "{file}: {e}")?;
+                    write!(
+                        f,
+                        "{file}: key `{prefix}{}` = {} is out of range; allowed: {}",
+                        e.key, e.value, e.allowed
+                    )?;
                 }
                 Ok(())
             }
@@ -58,7 +67,7 @@ impl ConfigError {
         match self {
             Self::Io { .. } => vec![],
             Self::Parse { key, .. } => vec![key.clone()],
-            Self::Range { errors, .. } => errors.iter().map(|e| e.key.to_string()).collect(),
+            Self::Range { prefix, errors, .. } => errors.iter().map(|e| format!("{prefix}{}", e.key)).collect(),
         }
     }
 }
@@ -91,6 +100,41 @@ pub fn from_value<T: DeserializeOwned>(value: Value, file: &str, prefix: &str) -
     })
 }
 
+/// An error from a section's own check (`lidar`, `robot`, `world`), whose
+/// message starts with the dotted key it is about (`lidar.beams must be in
+/// [1, 16384] (got 0)`, `world.moving[1]: radius_m must be > 0 ...`): the key
+/// is lifted out of the message so the error names it like any other;
+/// `section` when the message names none.
+pub fn section_error(file: &str, section: &str, message: &str) -> ConfigError {
+    let is_key = |t: &str| {
+        !t.is_empty()
+            && t.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '.' | '[' | ']'))
+    };
+    let mut key = section.to_string();
+    let mut rest = message;
+    let first = message.split([' ', ':']).next().unwrap_or("");
+    if is_key(first) && first.starts_with(&format!("{section}.")) {
+        key = first.to_string();
+        rest = message[first.len()..].trim_start_matches(':').trim_start();
+        // `world.moving[1]: radius_m must be ...`: the field follows the item
+        // (a key: it has a unit or a section in its name; `coordinates must
+        // be finite` is about the item itself).
+        if let Some((field, _)) = rest.split_once(" must ") {
+            if is_key(field) && !field.contains('[') && field.contains(['_', '.']) {
+                key = format!("{key}.{field}");
+                rest = &rest[field.len()..];
+                rest = rest.trim_start();
+            }
+        }
+    }
+    ConfigError::Parse {
+        file: file.to_string(),
+        key,
+        message: rest.to_string(),
+    }
+}
+
 /// Recursively merges `over` into `base`: mappings merge key by key, anything
 /// else replaces.
 pub fn merge(base: &mut Value, over: &Value) {
@@ -114,6 +158,7 @@ pub fn params_from_value(value: Value, file: &str, prefix: &str) -> Result<Param
     let params: Params = from_value(value, file, prefix)?;
     params.validate().map_err(|errors| ConfigError::Range {
         file: file.to_string(),
+        prefix: prefix.to_string(),
         errors,
     })?;
     Ok(params)
@@ -230,6 +275,27 @@ mod tests {
     }
 
     #[test]
+    fn section_errors_name_the_key_in_their_message() {
+        let e = section_error("s.yaml", "lidar", "lidar.beams must be in [1, 16384] (got 0)");
+        assert_eq!(
+            e.to_string(),
+            "s.yaml: key `lidar.beams`: must be in [1, 16384] (got 0)"
+        );
+        let e = section_error(
+            "s.yaml",
+            "world",
+            "world.moving[1]: radius_m must be > 0 and finite (got 0)",
+        );
+        assert_eq!(e.keys(), ["world.moving[1].radius_m"], "{e}");
+        let e = section_error("s.yaml", "world", "world.walls[2]: zero length");
+        assert_eq!(e.to_string(), "s.yaml: key `world.walls[2]`: zero length");
+        let e = section_error("s.yaml", "world", "world.boxes[0]: coordinates must be finite");
+        assert_eq!(e.keys(), ["world.boxes[0]"], "{e}");
+        let e = section_error("s.yaml", "robot", "unknown preset `x`");
+        assert_eq!(e.to_string(), "s.yaml: key `robot`: unknown preset `x`");
+    }
+
+    #[test]
     fn merge_overrides_nested_keys_only() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         let over = parse_yaml("barrier: {d_safe_m: 0.3}\ncontrol: {allow_reverse: true}", "o").unwrap();
@@ -246,5 +312,12 @@ mod tests {
         merge(&mut base, &parse_yaml("barrier: {d_sfe_m: 0.3}", "o").unwrap());
         let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.barrier.d_sfe_m"], "{e}");
+        let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
+        merge(&mut base, &parse_yaml("dtcbf: {gamma: 0}", "o").unwrap());
+        let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "scn.yaml: key `oldbf.dtcbf.gamma` = 0 is out of range; allowed: (0, 1]"
+        );
     }
 }

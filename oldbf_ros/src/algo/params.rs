@@ -531,6 +531,8 @@ impl Params {
             d.front_nearest_tolerance_m,
             "[0, 10] m",
         );
+        // Divides the nominal speed: 0 would make the gain weight NaN at a standstill.
+        c.range("doaa.full_gain_speed_mps", d.full_gain_speed_mps, "(0, 5] m/s");
 
         let f = &self.dtcbf;
         c.range("dtcbf.gamma", f.gamma, "(0, 1]");

@@ -333,8 +333,12 @@ impl Template {
         )?;
         c.value("goal_tolerance_m", s.goal_tolerance_m, 0.0, 10.0, true, " m")?;
         c.value("start_clearance_m", s.start_clearance_m, 0.0, 10.0, false, " m")?;
-        s.robot.resolve().map_err(|m| invalid(&self.file, "robot", m))?;
-        s.lidar.validate().map_err(|m| invalid(&self.file, "lidar", m))?;
+        s.robot
+            .resolve()
+            .map_err(|m| config::section_error(&self.file, "robot", &m))?;
+        s.lidar
+            .validate()
+            .map_err(|m| config::section_error(&self.file, "lidar", &m))?;
 
         let v_max = self.params.control.v_max_mps;
         if s.nominal.v_mps > v_max {
@@ -1036,7 +1040,7 @@ mod tests {
         let (keys, _) = error_keys(&SLOW.replace("kinds: [crossing,", "kinds: [teleport,"));
         assert_eq!(keys, ["moving_obstacles.kinds[0]"]);
         let (keys, _) = error_keys(&format!("{SLOW}\noldbf: {{dtcbf: {{gamma: 2}}}}\n"));
-        assert_eq!(keys, ["dtcbf.gamma"]);
+        assert_eq!(keys, ["oldbf.dtcbf.gamma"], "the override, under its section");
         let (keys, _) = error_keys(&SLOW.replace("dropout: mixed", "dropout: sometimes"));
         assert_eq!(keys, ["lidar.dropout"]);
     }

@@ -192,9 +192,14 @@ impl Scenario {
         check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
         check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;
         check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
-        spec.lidar.validate().map_err(|m| invalid(file, "lidar", m))?;
-        let robot = spec.robot.resolve().map_err(|m| invalid(file, "robot", m))?;
-        World::new(&spec.world).map_err(|m| invalid(file, "world", m))?;
+        spec.lidar
+            .validate()
+            .map_err(|m| config::section_error(file, "lidar", &m))?;
+        let robot = spec
+            .robot
+            .resolve()
+            .map_err(|m| config::section_error(file, "robot", &m))?;
+        World::new(&spec.world).map_err(|m| config::section_error(file, "world", &m))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),
@@ -395,8 +400,8 @@ nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
         assert_eq!(s.params.barrier.d_safe_m, 0.3);
         let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gamma: 2}}}}\n");
         let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
-        assert_eq!(e.keys(), ["dtcbf.gamma"], "{e}");
-        assert!(e.to_string().starts_with("t.yaml: key `dtcbf.gamma`"), "{e}");
+        assert_eq!(e.keys(), ["oldbf.dtcbf.gamma"], "{e}");
+        assert!(e.to_string().starts_with("t.yaml: key `oldbf.dtcbf.gamma`"), "{e}");
         let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gama: 0.5}}}}\n");
         let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
         assert_eq!(e.keys(), ["oldbf.dtcbf.gama"], "{e}");
