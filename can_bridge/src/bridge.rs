@@ -17,12 +17,16 @@
 //! * The drive is started (protocol start-up sequence) only once every
 //!   drive sends fresh heartbeats; commands are followed only once it
 //!   reports running. Heartbeat or feedback older than their timeouts stop
-//!   the robot. A drive error latches a fault until reset. A drive that
-//!   stops running without an error is restarted. After a communication
-//!   loss, a drive that now reports an error is latched, unless the error
-//!   only says that its own command watchdog expired (the consequence of the
-//!   loss): the restart clears that one. Other errors are cleared only by
-//!   the start-up after boot or an explicit reset.
+//!   the robot. A drive error latches a fault until reset. A heartbeat that
+//!   was fresh and times out while the bus is healthy (no bus fault, tx not
+//!   blocked) latches too (`HeartbeatLost`): a drive that went silent is
+//!   not trusted again until an explicit reset, and then a fresh command.
+//!   A drive that stops running without an error is restarted. After a
+//!   communication loss explained by the bus (bus error, blocked tx), a
+//!   drive that now reports an error is latched, unless the error only says
+//!   that its own command watchdog expired (the consequence of the loss):
+//!   the restart clears that one. Other errors are cleared only by the
+//!   start-up after boot or an explicit reset.
 //! * Error frames: fatal ones (bus-off, no ACK, TX timeout, error passive)
 //!   and I/O errors stop the robot until the bus is back (restart/active
 //!   error frame, drive frames, or a send that works) and quiet for
@@ -146,6 +150,11 @@ pub struct Bridge<B: CanBus> {
 
     estop: bool,
     latched_fault: Option<LatchedFault>,
+    /// A drive's heartbeat timed out on a healthy bus (latched until reset).
+    latched_silence: Option<Wheel>,
+    /// Per wheel: the heartbeat was fresh at the last check (a timeout from
+    /// there is a loss; never having had one is a start-up).
+    heartbeat_was_fresh: [bool; 2],
     /// The next start-up may clear drive errors (true at boot and after reset).
     may_clear_drive_errors: bool,
     /// A communication loss (bus error, blocked tx, lost heartbeat) since the
@@ -193,6 +202,8 @@ impl<B: CanBus> Bridge<B> {
             resume_after: None,
             estop: false,
             latched_fault: None,
+            latched_silence: None,
+            heartbeat_was_fresh: [false; 2],
             may_clear_drive_errors: true,
             comm_lost: false,
             phase: Phase::Down,
@@ -283,12 +294,13 @@ impl<B: CanBus> Bridge<B> {
         }
     }
 
-    /// Clears the e-stop latch and latched drive faults. The drive is
-    /// started again (clearing its errors) and a command received after
-    /// this call is needed to move.
+    /// Clears the e-stop latch and latched drive faults (errors, lost
+    /// heartbeats). The drive is started again (clearing its errors) and a
+    /// command received after this call is needed to move.
     pub fn reset(&mut self, now: Timestamp) {
         self.estop = false;
         self.latched_fault = None;
+        self.latched_silence = None;
         self.may_clear_drive_errors = true;
         self.command = None;
         self.last_command_invalid = false;
@@ -474,6 +486,7 @@ impl<B: CanBus> Bridge<B> {
             }
             BridgeEvent::CommandRejected { .. }
             | BridgeEvent::DriveFaultLatched { .. }
+            | BridgeEvent::HeartbeatLostLatched { .. }
             | BridgeEvent::BusError { .. }
             | BridgeEvent::EstopLatched
             | BridgeEvent::TxQueueFull => log::warn!("{event:?}"),
@@ -647,9 +660,31 @@ impl<B: CanBus> Bridge<B> {
         );
     }
 
+    /// Latches a heartbeat that was fresh and timed out, unless the bus
+    /// explains it (a bus fault or blocked tx: recovery is then automatic).
+    fn watch_heartbeats(&mut self, now: Timestamp) {
+        let explained = self.bus_fault.is_some() || self.tx_blocked;
+        for w in Wheel::BOTH {
+            let i = w.index();
+            let fresh = self.heartbeat_fresh(w, now);
+            let lost = self.heartbeat_was_fresh[i] && !fresh;
+            self.heartbeat_was_fresh[i] = fresh;
+            if lost && !explained && self.latched_silence.is_none() {
+                self.latched_silence = Some(w);
+                self.phase = Phase::Down;
+                self.push_event(now, BridgeEvent::HeartbeatLostLatched { wheel: w });
+            }
+        }
+    }
+
     fn update_phase(&mut self, now: Timestamp) {
+        self.watch_heartbeats(now);
         let all_fresh = Wheel::BOTH.iter().all(|w| self.heartbeat_fresh(*w, now));
-        let blocked = self.estop || self.latched_fault.is_some() || self.bus_fault.is_some() || self.tx_blocked;
+        let blocked = self.estop
+            || self.latched_fault.is_some()
+            || self.latched_silence.is_some()
+            || self.bus_fault.is_some()
+            || self.tx_blocked;
         match self.phase {
             Phase::Down => {
                 if blocked || !all_fresh {
@@ -726,6 +761,9 @@ impl<B: CanBus> Bridge<B> {
                 drive_estopped: f.drive_estopped,
             });
         }
+        if let Some(w) = self.latched_silence {
+            r.push(StopReason::HeartbeatLost { wheel: w });
+        }
         if let Some(bf) = &self.bus_fault {
             r.push(StopReason::BusError {
                 description: bf.description.clone(),
@@ -750,7 +788,9 @@ impl<B: CanBus> Bridge<B> {
                     }
                 }
             }
-            _ if !self.estop && self.latched_fault.is_none() => r.push(StopReason::DriveStarting),
+            _ if !self.estop && self.latched_fault.is_none() && self.latched_silence.is_none() => {
+                r.push(StopReason::DriveStarting)
+            }
             _ => {}
         }
         if r.iter().any(|x| !x.is_command_reason()) {

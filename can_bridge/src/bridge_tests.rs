@@ -359,13 +359,14 @@ fn a_command_received_before_a_fault_is_not_resumed_after_it() {
     r.cmd(0.2, 0.0).unwrap();
     r.run_s(0.2);
     assert_eq!(r.bridge.state(), BridgeState::Running);
-    // Heartbeat lost for 1 s; the command (5 s timeout) is still "young".
-    r.heartbeat = false;
+    // Feedback lost for 1 s; the command (5 s timeout) is still "young".
+    // (A lost heartbeat latches until reset: heartbeat_silence_latches_...)
+    r.feedback = false;
     r.run_s(1.0);
-    assert!(r.has_reason("no_heartbeat"));
+    assert!(r.has_reason("feedback_lost"));
     assert_eq!(r.bridge.state(), BridgeState::Stopped);
     assert_eq!(r.last_pair().left, 0.0);
-    r.heartbeat = true;
+    r.feedback = true;
     r.run_s(0.5);
     assert_eq!(r.bridge.reasons(), [StopReason::AwaitingFreshCommand]);
     let t = r.t;
@@ -628,18 +629,29 @@ fn axis_error_latches_until_reset() {
     assert_eq!(r.bridge.state(), BridgeState::Idle);
 }
 
+/// A communication loss the bus explains (bus-off: nothing in or out) and
+/// recovers from by itself, as in `bus_off_stops_until_the_bus_is_back_and_quiet`.
+fn bus_off_for_a_while(r: &mut Rig) {
+    r.heartbeat = false;
+    r.feedback = false;
+    r.bus.inject_error(CanErrorFrame::bus_off());
+    r.run_s(0.6);
+    r.bus.inject_error(CanErrorFrame::restarted());
+}
+
 #[test]
 fn a_drive_error_after_communication_loss_is_latched_not_cleared() {
     let mut r = Rig::odrive();
     r.ready();
-    r.heartbeat = false;
-    r.run_s(0.6);
+    bus_off_for_a_while(&mut r);
     // Something else went wrong meanwhile: it comes back reporting an error.
     r.drive_error = 0x20;
     r.heartbeat = true;
+    r.feedback = true;
     let t = r.t;
-    r.run_s(0.5);
+    r.run_s(1.0);
     assert!(r.has_reason("drive_fault"), "{:?}", r.bridge.reasons());
+    assert!(!r.has_reason("heartbeat_lost"), "the bus explained the silence");
     assert!(!r
         .sent
         .iter()
@@ -651,8 +663,7 @@ fn a_watchdog_error_caused_by_a_communication_loss_is_cleared_by_the_restart() {
     for rig in [Rig::odrive as fn() -> Rig, Rig::new] {
         let mut r = rig();
         r.ready();
-        r.heartbeat = false;
-        r.run_s(0.6);
+        bus_off_for_a_while(&mut r);
         // The drive's own watchdog tripped during the loss: expected, cleared by the restart.
         r.drive_error = match r.protocol {
             ProtocolKind::Odrive => odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED,
@@ -660,12 +671,72 @@ fn a_watchdog_error_caused_by_a_communication_loss_is_cleared_by_the_restart() {
         };
         r.started = false;
         r.heartbeat = true;
-        r.run_s(0.02);
+        r.feedback = true;
+        // bus_recovery_s (0.5 s) of quiet, then the restart.
+        r.run_s(0.55);
         assert!(!r.has_reason("drive_fault"), "{:?}", r.bridge.reasons());
         r.drive_error = 0; // the start-up's clear did its job
         r.run_s(0.1);
         assert_eq!(r.bridge.state(), BridgeState::Idle, "{:?}", r.bridge.reasons());
     }
+}
+
+#[test]
+fn heartbeat_silence_latches_until_reset_and_a_fresh_command() {
+    // Was: the bridge restarted the drive by itself when heartbeats came back.
+    for rig in [Rig::odrive as fn() -> Rig, Rig::new] {
+        let mut r = rig();
+        r.ready();
+        r.cmd(0.2, 0.0).unwrap();
+        r.run_s(0.1);
+        r.heartbeat = false;
+        r.run_s(0.6);
+        assert!(r.has_reason("heartbeat_lost"), "{:?}", r.bridge.reasons());
+        assert_eq!(r.bridge.state(), BridgeState::Stopped);
+        assert!(r
+            .events()
+            .iter()
+            .any(|e| matches!(e, BridgeEvent::HeartbeatLostLatched { .. })));
+        // The drive is back and commands are fresh: still zero, no restart.
+        r.heartbeat = true;
+        let t = r.t;
+        for _ in 0..20 {
+            r.cmd(0.2, 0.0).unwrap();
+            r.run_s(0.05);
+        }
+        assert_eq!(r.bridge.state(), BridgeState::Stopped, "{:?}", r.bridge.reasons());
+        assert!(r.has_reason("heartbeat_lost"));
+        assert!(!r.has_reason("no_heartbeat"));
+        let moving = r.sent.iter().filter(|(s, _)| *s > t).any(|(_, f)| match r.protocol {
+            ProtocolKind::Odrive => f.id & 0x1F == odrive::cmd::SET_INPUT_VEL && f.data[..4] != [0; 4],
+            ProtocolKind::Generic => generic::decode_setpoint(IDS, f)
+                .ok()
+                .flatten()
+                .is_some_and(|(_, sp)| sp.vel_radps != 0.0),
+        });
+        assert!(!moving, "no motion before the reset");
+        // Reset: restart, then the old command is not followed...
+        r.bridge.reset(r.t);
+        r.started = false;
+        r.run_s(0.2);
+        assert_eq!(r.bridge.reasons(), [StopReason::NoCommand], "{:?}", r.bridge.reasons());
+        // ...a fresh one is.
+        r.cmd(0.2, 0.0).unwrap();
+        r.run(PERIOD * 2);
+        assert_eq!(r.bridge.state(), BridgeState::Running, "{:?}", r.bridge.reasons());
+    }
+}
+
+#[test]
+fn a_drive_never_seen_yet_is_a_start_up_not_a_lost_heartbeat() {
+    let mut r = Rig::odrive();
+    r.heartbeat = false;
+    r.run_s(1.0);
+    assert!(!r.has_reason("heartbeat_lost"));
+    assert_eq!(r.bridge.state(), BridgeState::Starting);
+    r.heartbeat = true;
+    r.run_s(0.2);
+    assert_eq!(r.bridge.state(), BridgeState::Idle, "{:?}", r.bridge.reasons());
 }
 
 #[test]

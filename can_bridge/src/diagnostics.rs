@@ -40,6 +40,9 @@ pub enum StopReason {
     TxBlocked,
     /// No fresh heartbeat/status from this wheel's drive.
     NoHeartbeat { wheel: Wheel, ever_seen: bool },
+    /// This wheel's drive went silent on a working bus; latched until
+    /// `reset` (a drive that vanished is not trusted to be the same after).
+    HeartbeatLost { wheel: Wheel },
     /// Start-up sequence sent, waiting for the drive to report running.
     DriveStarting,
     /// No fresh wheel feedback from this wheel.
@@ -82,6 +85,7 @@ impl StopReason {
             StopReason::BusError { .. } => "bus_error",
             StopReason::TxBlocked => "tx_blocked",
             StopReason::NoHeartbeat { .. } => "no_heartbeat",
+            StopReason::HeartbeatLost { .. } => "heartbeat_lost",
             StopReason::DriveStarting => "drive_starting",
             StopReason::FeedbackLost { .. } => "feedback_lost",
             StopReason::InvalidCommand => "invalid_command",
@@ -125,6 +129,10 @@ pub enum BridgeEvent {
         wheel: Wheel,
         error_code: u32,
         drive_estopped: bool,
+    },
+    /// A drive's heartbeat timed out on a working bus: latched until reset.
+    HeartbeatLostLatched {
+        wheel: Wheel,
     },
     /// The drive left the running state without an error; restarting it.
     DriveStoppedRunning {

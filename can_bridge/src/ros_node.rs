@@ -8,7 +8,8 @@
 //! (`node/publish_tf`), and `/diagnostics` (1 Hz: bus state, drive state,
 //! stop reasons, last command age, frames sent, tx drops, error counters).
 //! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
-//! faults once the `e_stop` input is false; motion then needs a fresh command.
+//! faults (a drive error, a drive whose heartbeat was lost on a working bus)
+//! once the `e_stop` input is false; motion then needs a fresh command.
 //!
 //! Parameters: the keys of `config/can_bridge.yaml` in the node's private
 //! namespace plus `node/...` (config/can_bridge_node.yaml), checked like the
