@@ -124,8 +124,66 @@ impl Clock for ManualClock {
     }
 }
 
+/// Longest duration a command-line flag may ask for (s): about 11.6 days.
+pub const MAX_CLI_SECONDS: f64 = 1e6;
+
+/// `s` seconds as a [`Duration`], clamped to [0, 1e9] s; NaN gives zero.
+/// `Duration::from_secs_f64` panics on NaN, negative or huge values.
+pub fn saturating_duration(s: f64) -> Duration {
+    if s.is_nan() {
+        return Duration::ZERO;
+    }
+    Duration::from_secs_f64(s.clamp(0.0, 1e9))
+}
+
+/// Parses a command-line duration (s): a finite number in [0, [`MAX_CLI_SECONDS`]].
+pub fn parse_cli_seconds(text: &str) -> Result<f64, String> {
+    let s: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of seconds"))?;
+    if s.is_finite() && (0.0..=MAX_CLI_SECONDS).contains(&s) {
+        Ok(s)
+    } else {
+        Err(format!("{s} s is out of range; allowed: [0, {MAX_CLI_SECONDS}] s"))
+    }
+}
+
+/// Parses a command-line rate (Hz): 0 (off) or a finite number in [0.001, 10000].
+pub fn parse_cli_rate_hz(text: &str) -> Result<f64, String> {
+    let hz: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a rate in Hz"))?;
+    if hz == 0.0 || (hz.is_finite() && (1e-3..=1e4).contains(&hz)) {
+        Ok(hz)
+    } else {
+        Err(format!(
+            "{hz} Hz is out of range; allowed: 0 (off) or [0.001, 10000] Hz"
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn command_line_durations_and_rates_are_checked_not_panicking() {
+        assert_eq!(super::parse_cli_seconds("2.5"), Ok(2.5));
+        assert_eq!(super::parse_cli_seconds("0"), Ok(0.0));
+        for bad in ["-1", "NaN", "inf", "1e300", "abc"] {
+            assert!(super::parse_cli_seconds(bad).is_err(), "{bad}");
+        }
+        assert_eq!(super::parse_cli_rate_hz("0"), Ok(0.0));
+        assert_eq!(super::parse_cli_rate_hz("10"), Ok(10.0));
+        for bad in ["1e-300", "-5", "NaN", "inf", "1e9"] {
+            assert!(super::parse_cli_rate_hz(bad).is_err(), "{bad}");
+        }
+        assert_eq!(super::saturating_duration(f64::NAN), Duration::ZERO);
+        assert_eq!(super::saturating_duration(-3.0), Duration::ZERO);
+        assert_eq!(super::saturating_duration(1e300), Duration::from_secs(1_000_000_000));
+        assert_eq!(super::saturating_duration(0.25), Duration::from_millis(250));
+    }
     use super::*;
 
     #[test]

@@ -103,3 +103,33 @@ fn a_missing_interface_is_a_clear_error() {
     let out = drive().args(["--interface", "nocan9"]).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
 }
+
+#[test]
+fn absurd_durations_and_rates_are_usage_errors_not_panics() {
+    // Duration::from_secs_f64 panics on 1e300 s or 1 / 1e-300 Hz: the flags are
+    // range-checked when parsed, before any bus is opened.
+    for args in [
+        &["--duration-s", "1e300"][..],
+        &["--linger-s", "NaN"][..],
+        &["--status-rate-hz", "1e-300"][..],
+        &["--duration-s=-1"][..],
+    ] {
+        for (name, mut cmd) in [("can_bridge_cli", cli()), ("virtual_drive", drive())] {
+            if name == "virtual_drive" && args[0] == "--linger-s" {
+                continue; // the drive has no script to linger after
+            }
+            let out = cmd.args(["--interface", "nocan9"]).args(args).output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{name} {args:?}: {err}");
+            let flag = args[0].split('=').next().unwrap();
+            assert!(
+                err.contains(flag) && err.contains("out of range"),
+                "{name} {args:?}: {err}"
+            );
+            assert!(
+                !err.contains("panicked") && !err.contains("nocan9"),
+                "{name} {args:?}: {err}"
+            );
+        }
+    }
+}

@@ -51,13 +51,13 @@ struct Args {
     #[arg(long, value_name = "FILE")]
     script: Option<PathBuf>,
     /// After the script's last step, keep running this long before shutting down (s).
-    #[arg(long, value_name = "S", default_value_t = 0.5)]
+    #[arg(long, value_name = "S", value_parser = can_bridge::time::parse_cli_seconds, default_value_t = 0.5)]
     linger_s: f64,
     /// Exit (with a clean shutdown) after this long (s). With stdin, end of input no longer exits.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", value_parser = can_bridge::time::parse_cli_seconds)]
     duration_s: Option<f64>,
     /// Status lines per second (Hz); 0 = only the final one (events are always printed).
-    #[arg(long, value_name = "HZ", default_value_t = 10.0)]
+    #[arg(long, value_name = "HZ", value_parser = can_bridge::time::parse_cli_rate_hz, default_value_t = 10.0)]
     status_rate_hz: f64,
     /// Print the effective configuration as JSON and exit.
     #[arg(long)]
@@ -120,10 +120,6 @@ fn run(args: Args) -> Result<i32> {
         println!("{}", serde_json::to_string_pretty(&cfg)?);
         return Ok(0);
     }
-    if !(args.status_rate_hz.is_finite() && args.status_rate_hz >= 0.0) {
-        eprintln!("--status-rate-hz must be ≥ 0");
-        return Ok(2);
-    }
     let script: Option<Vec<ScriptStep>> = match &args.script {
         Some(p) => {
             let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
@@ -175,13 +171,14 @@ fn run(args: Args) -> Result<i32> {
     }
 
     let start = clock.now();
-    let at = |s: f64| start + Duration::from_secs_f64(s.max(0.0));
+    let at = |s: f64| start + can_bridge::time::saturating_duration(s);
     let end: Option<Timestamp> = match (&script, args.duration_s) {
         (_, Some(d)) => Some(at(d)),
         (Some(s), None) => Some(at(s.last().map_or(0.0, |x| x.at_s) + args.linger_s)),
         (None, None) => None,
     };
-    let status_period = (args.status_rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / args.status_rate_hz));
+    let status_period =
+        (args.status_rate_hz > 0.0).then(|| can_bridge::time::saturating_duration(1.0 / args.status_rate_hz));
     let mut next_status = start;
     let mut next_step = 0usize;
     let mut quit = false;

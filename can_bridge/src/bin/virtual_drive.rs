@@ -75,10 +75,10 @@ struct Args {
     #[arg(long = "fault", value_name = "SPEC")]
     faults: Vec<FaultSpec>,
     /// Exit after this long (s).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", value_parser = can_bridge::time::parse_cli_seconds)]
     duration_s: Option<f64>,
     /// Axis state lines per second on stdout (Hz); 0 = only the final line.
-    #[arg(long, value_name = "HZ", default_value_t = 0.0)]
+    #[arg(long, value_name = "HZ", value_parser = can_bridge::time::parse_cli_rate_hz, default_value_t = 0.0)]
     status_rate_hz: f64,
 }
 
@@ -154,10 +154,6 @@ fn run(args: Args) -> Result<i32> {
         eprintln!("virtual_drive: {e}");
         return Ok(2);
     }
-    if !(args.status_rate_hz.is_finite() && args.status_rate_hz >= 0.0) {
-        eprintln!("virtual_drive: --status-rate-hz must be ≥ 0");
-        return Ok(2);
-    }
 
     let stop = Arc::new(AtomicBool::new(false));
     {
@@ -178,10 +174,11 @@ fn run(args: Args) -> Result<i32> {
     // Ends the run at --duration-s, and prints state lines.
     let reporter = {
         let (drive, stop) = (drive.clone(), stop.clone());
-        let period = (args.status_rate_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / args.status_rate_hz));
+        let period =
+            (args.status_rate_hz > 0.0).then(|| can_bridge::time::saturating_duration(1.0 / args.status_rate_hz));
         let end = args
             .duration_s
-            .map(|d| clock.now() + Duration::from_secs_f64(d.max(0.0)));
+            .map(|d| clock.now() + can_bridge::time::saturating_duration(d));
         std::thread::spawn(move || {
             let mut next = clock.now();
             while !stop.load(Ordering::Relaxed) {
