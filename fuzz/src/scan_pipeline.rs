@@ -73,7 +73,7 @@ fn ranges(u: &mut Unstructured<'_>, n: usize, out: &mut Vec<f32>) -> Result<()> 
     let sel = u.bytes(sel_len.min(u.len())).unwrap_or(&[]);
     for i in 0..n {
         let s = sel.get(i % sel.len().max(1)).copied().unwrap_or(0) as usize;
-        let v = if smooth && s % 4 != 0 {
+        let v = if smooth && !s.is_multiple_of(4) {
             base + amp * (i as f32 * k / 64.0).sin()
         } else {
             pool[s % pool_len]
