@@ -38,5 +38,13 @@ yaml.safe_dump({"can_bridge_node": bridge, "oldbf_node": node}, open(out, "w"))
 PY
 echo "faults_group: prepared in $(( $(date +%s) - t0 )) s; booting the guest"
 t1=$(date +%s)
-OLDBF_VM_TIMEOUT=${OLDBF_VM_TIMEOUT:-600} tests/vm/run-in-vm.sh "$ROOT/tests/vm/faults_guest.sh"
-echo "faults_group: guest run took $(( $(date +%s) - t1 )) s"
+guest_rc=0
+OLDBF_VM_TIMEOUT=${OLDBF_VM_TIMEOUT:-600} tests/vm/run-in-vm.sh "$ROOT/tests/vm/faults_guest.sh" || guest_rc=$?
+echo "faults_group: guest run took $(( $(date +%s) - t1 )) s (status $guest_rc)"
+# The analysis on the host: python cantools comes with tests/vm/setup-host.sh.
+python3 -c 'import cantools' 2>/dev/null || { echo "faults_group: python3 cannot import cantools: run tests/vm/setup-host.sh"; exit 1; }
+rc=0
+python3 tests/faults/analyze.py "$OUT" || rc=$?
+echo "faults_group: total $(( $(date +%s) - t0 )) s"
+[ "$guest_rc" -eq 0 ] || { echo "faults_group: the guest failed (status $guest_rc)"; exit 1; }
+exit "$rc"

@@ -348,12 +348,13 @@ if e:
     lost = log_has("oldbf_node.log", "lost the ROS master") and log_has("bridge.log", "lost the ROS master")
     restarted = log_has("oldbf_node.log", "restarted (PID") and log_has("bridge.log", "restarted (PID")
     codes = open(os.path.join(OUT, "exit_codes")).read().split() if os.path.exists(os.path.join(OUT, "exit_codes")) else []
-    up = ev("roscore_start")
+    up, upd = ev("roscore_start"), ev("roscore_up")
     tz = first_zero_pair(up["t"]) if up else None
+    t_up = None if not (up and upd) else upd["t"] - up["t"]
     ok = lost and restarted and codes == ["1", "1"] and tz is not None
     row("roscore killed, then restarted", "loss reported, nodes run on; new master: zero sent, exit 1 with a clear message",
         None, None if tz is None else tz - up["t"],
-        f"loss logged by both: {lost}; restart logged by both: {restarted}; exit codes {codes}; time = roscore started again -> zero (includes roscore's start-up)", ok)
+        f"loss logged by both: {lost}; restart logged by both: {restarted}; exit codes {codes}; time = roscore started again -> zero (includes the master's start-up, {fmt(t_up)} s until rostopic could list topics, and the nodes' 1 s probe)", ok)
 
 check(not nonfinite, f"no NaN or infinite value in any of {len(frames)} frames on vcan0" + (f": {nonfinite[:3]}" if nonfinite else ""))
 check(undecodable == 0, f"every frame decodes with ODrive's DBC (Estop, Clear_Errors by id and length; {undecodable} did not: {unknown_ids})")
