@@ -142,7 +142,7 @@ fn axis_error_in_a_heartbeat_stops_and_latches() {
 }
 
 #[test]
-fn heartbeat_silence_stops_then_a_fresh_command_resumes() {
+fn heartbeat_silence_stops_latched_until_reset_then_a_fresh_command_resumes() {
     for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
@@ -153,7 +153,17 @@ fn heartbeat_silence_stops_then_a_fresh_command_resumes() {
         sim.drive.inject(FaultKind::HeartbeatSilence, Some(1.0), t);
         sim.stream(Twist::new(0.1, 0.0), 0.8);
         assert!(sim.has_reason("no_heartbeat"));
-        // The drive itself kept running (it kept receiving zero setpoints).
+        // Heartbeats are back and commands fresh: still stopped (latched).
+        sim.stream(Twist::new(0.1, 0.0), 1.0);
+        assert!(
+            sim.has_reason("heartbeat_lost"),
+            "{protocol:?}: {:?}",
+            sim.bridge.reasons()
+        );
+        assert_eq!(sim.bridge.state(), BridgeState::Stopped);
+        // Reset, then fresh commands: running again.
+        let now = sim.t;
+        sim.bridge.reset(now);
         sim.stream(Twist::new(0.1, 0.0), 1.0);
         assert_eq!(
             sim.bridge.state(),

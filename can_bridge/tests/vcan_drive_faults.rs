@@ -91,8 +91,12 @@ fn silent(protocol: ProtocolKind) {
     assert_eq!(b.state(), BridgeState::Stopped, "{:?}", b.reasons());
     assert!(has_reason(&b, "no_heartbeat") || has_reason(&b, "feedback_lost"));
     assert_eq!(b.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
-    // The silence ends; the drive was kept at zero (not idle: it kept receiving
-    // setpoints). The stream resumes only with fresh commands, which it has.
+    // The silence ends: the lost heartbeat is latched, fresh commands alone
+    // do not resume; a reset and fresh commands do.
+    teleop(&mut b, &clock, Twist::new(0.2, 0.0), 1.0);
+    assert_eq!(b.state(), BridgeState::Stopped, "{:?}", b.reasons());
+    assert!(has_reason(&b, "heartbeat_lost"), "{:?}", b.reasons());
+    b.reset(clock.now());
     let t = teleop(&mut b, &clock, Twist::new(0.2, 0.0), 1.5);
     assert_eq!(b.state(), BridgeState::Running, "{:?}", b.reasons());
     println!("{protocol:?}: silent drive stopped and resumed ({:.2} s)", secs(t0, t));
