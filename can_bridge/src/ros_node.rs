@@ -334,5 +334,11 @@ mod tests {
         assert!(config_from_params(unknown, "P").unwrap_err().contains("timing.tx_rate"));
         let node: Value = serde_yaml::from_str("node: {odom_rate_hz: 0}").unwrap();
         assert!(config_from_params(node, "P").unwrap_err().contains("node.odom_rate_hz"));
+        let node_unknown: Value = serde_yaml::from_str("node: {publish_tf_typo: true}").unwrap();
+        let e = config_from_params(node_unknown, "P").unwrap_err();
+        assert!(e.contains("P") && e.contains("publish_tf_typo"), "{e}");
+        let node_type: Value = serde_yaml::from_str("node: {publish_tf: [1]}").unwrap();
+        let e = config_from_params(node_type, "P").unwrap_err();
+        assert!(e.contains("node.publish_tf"), "{e}");
     }
 }
