@@ -74,7 +74,8 @@ for t in "${TARGETS[@]}"; do
     tail -40 "$log"
     die "$t: a committed corpus input fails (log above)"
   fi
-  grep -q "INITED\|Done 0 runs\|Running" "$log" || { tail -20 "$log"; die "$t: replay did not run"; }
+  done_runs=$(sed -n 's/^Done \([0-9]*\) runs.*/\1/p' "$log")
+  [ "${done_runs:-0}" -ge "$n_corpus" ] || { tail -20 "$log"; die "$t: replayed ${done_runs:-0} of $n_corpus corpus inputs"; }
   if [ ${#regress[@]} -gt 0 ]; then
     if ! "$BIN/$t" -timeout=20 "${regress[@]}" > "$log.regress" 2>&1; then
       tail -40 "$log.regress"

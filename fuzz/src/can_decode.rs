@@ -6,7 +6,8 @@
 //! Asserts: no panic; every frame the bridge puts on the bus is a valid
 //! frame that the drive side decodes, with a finite speed within the
 //! configured wheel-speed limit (times the gear ratio), zero while the
-//! e-stop is latched; the reported wheel setpoint is finite and in limits.
+//! e-stop is latched; the reported wheel setpoint is finite and in limits;
+//! the odometry is finite.
 
 use crate::input::f64_of;
 use arbitrary::{Result, Unstructured};
@@ -241,6 +242,19 @@ fn check_sent(bus: &FakeBus, cfg: &BridgeConfig, bridge: &Bridge<FakeBus>) {
             }
         }
     }
+    // Odometry goes to ROS: never a NaN or an infinity there either.
+    let o = bridge.odometry();
+    let odom = [
+        o.pose.x_m,
+        o.pose.y_m,
+        o.pose.theta_rad,
+        o.twist.linear_mps,
+        o.twist.angular_radps,
+    ];
+    assert!(
+        odom.iter().all(|x| x.is_finite()) && o.wheels.is_finite(),
+        "odometry {o:?}"
+    );
     let w = bridge.last_setpoint();
     assert!(w.is_finite(), "setpoint {w:?}");
     assert!(
