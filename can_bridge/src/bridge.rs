@@ -166,6 +166,10 @@ pub struct Bridge<B: CanBus> {
     last_tx_ok: Timestamp,
     tx_blocked: bool,
     tx_full_episode: bool,
+    /// Last tick with a bus fault or a full tx queue: a heartbeat lost within
+    /// one heartbeat timeout of it is the bus's doing (the drive's frames were
+    /// blocked too), not a drive fault, and is not latched.
+    last_bus_trouble: Option<Timestamp>,
     last_warning_report: Option<Timestamp>,
 
     state: BridgeState,
@@ -212,6 +216,7 @@ impl<B: CanBus> Bridge<B> {
             last_tx_ok: now,
             tx_blocked: false,
             tx_full_episode: false,
+            last_bus_trouble: None,
             last_warning_report: None,
             state: BridgeState::Starting,
             reasons: Vec::new(),
@@ -661,9 +666,16 @@ impl<B: CanBus> Bridge<B> {
     }
 
     /// Latches a heartbeat that was fresh and timed out, unless the bus
-    /// explains it (a bus fault or blocked tx: recovery is then automatic).
+    /// explains it (a bus fault or a full tx queue now or within the last
+    /// heartbeat timeout: recovery is then automatic). The window matters at
+    /// the end of a blocked episode: the bus is free again, but the drive's
+    /// next heartbeat is still on its way.
     fn watch_heartbeats(&mut self, now: Timestamp) {
-        let explained = self.bus_fault.is_some() || self.tx_blocked;
+        if self.bus_fault.is_some() || self.tx_blocked || self.tx_full_episode {
+            self.last_bus_trouble = Some(now);
+        }
+        let window = Duration::from_secs_f64(self.cfg.timing.heartbeat_timeout_s) + self.period;
+        let explained = self.last_bus_trouble.is_some_and(|t| now - t <= window);
         for w in Wheel::BOTH {
             let i = w.index();
             let fresh = self.heartbeat_fresh(w, now);

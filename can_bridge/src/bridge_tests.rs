@@ -728,6 +728,41 @@ fn heartbeat_silence_latches_until_reset_and_a_fresh_command() {
 }
 
 #[test]
+fn a_heartbeat_lost_while_the_bus_was_blocked_is_not_latched() {
+    // ENOBUFS blocks every sender on the interface, the drive's heartbeats
+    // too. A heartbeat that times out within one heartbeat timeout of the
+    // block's end is the bus's doing: not latched, recovery is automatic.
+    let mut r = Rig::new();
+    r.ready();
+    r.cmd(0.2, 0.0).unwrap();
+    r.run_s(0.1);
+    r.bus.set_send_error(Some(SendError::QueueFull));
+    r.heartbeat = false;
+    for _ in 0..15 {
+        r.cmd(0.2, 0.0).unwrap();
+        r.run(PERIOD);
+    }
+    assert!(r.has_reason("tx_blocked"), "{:?}", r.bridge.reasons());
+    // The bus is free after 0.3 s; the drive is heard again 0.3 s later,
+    // after its heartbeat has timed out (0.5 s) on a bus that works.
+    r.bus.set_send_error(None);
+    for _ in 0..15 {
+        r.cmd(0.2, 0.0).unwrap();
+        r.run(PERIOD);
+    }
+    r.heartbeat = true;
+    for _ in 0..40 {
+        r.cmd(0.2, 0.0).unwrap();
+        r.run(PERIOD);
+    }
+    assert!(!r
+        .events()
+        .iter()
+        .any(|e| matches!(e, BridgeEvent::HeartbeatLostLatched { .. })));
+    assert_eq!(r.bridge.state(), BridgeState::Running, "{:?}", r.bridge.reasons());
+}
+
+#[test]
 fn a_drive_never_seen_yet_is_a_start_up_not_a_lost_heartbeat() {
     let mut r = Rig::odrive();
     r.heartbeat = false;

@@ -464,7 +464,7 @@ def check_stdin(bins, tmp):
     cli = subprocess.Popen([os.path.join(bins, "can_bridge_cli"), "--config", cfg, "--status-rate-hz", "0"],
                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        time.sleep(1.0)
+        time.sleep(3.0)  # the drive and the bridge start up (slow under TCG and load)
         for _ in range(20):
             cli.stdin.write("0.2 0.1\n")
             cli.stdin.flush()
