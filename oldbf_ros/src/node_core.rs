@@ -18,7 +18,10 @@
 //! The node stops, reports [`ScanFault`], and resumes on the next scan newer
 //! than every one before. The node's clock going backwards drops the scan
 //! in hand and the stamp history (scans from before the jump cannot be
-//! aged), stops and reports, and resumes on the first scan after the jump.
+//! aged), stops and reports, and holds the stop for `scan_timeout_s` on the
+//! new clock before it takes scans again: the tracker's and odometry's
+//! velocities re-acquire, and a LiDAR that keeps publishing cannot turn the
+//! stop into a single tick that never shows on the wheels.
 
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::pipeline::SafetyPipeline;
@@ -227,6 +230,9 @@ pub struct NodeCore {
     /// Newest scan stamp taken (s): later scans must be newer.
     newest_stamp_s: Option<f64>,
     scan_fault: Option<ScanFault>,
+    /// After a clock jump backwards: (stopped until this time on the new
+    /// clock (s), the jump (s)).
+    settle_after_jump: Option<(f64, f64)>,
 }
 
 impl NodeCore {
@@ -253,6 +259,7 @@ impl NodeCore {
             last_tick_s: None,
             newest_stamp_s: None,
             scan_fault: None,
+            settle_after_jump: None,
         }
     }
 
@@ -454,6 +461,12 @@ impl NodeCore {
     pub fn tick(&mut self, now_s: f64) -> Tick {
         if let Some(last_s) = self.last_tick_s.filter(|&t| now_s < t) {
             self.clock_jumped_back(last_s - now_s);
+            let hold_s = self.pipeline.params().laser.scan_timeout_s;
+            self.settle_after_jump = Some((now_s + hold_s, last_s - now_s));
+        }
+        let settling = self.settle_after_jump.filter(|&(until_s, _)| now_s < until_s);
+        if settling.is_none() {
+            self.settle_after_jump = None;
         }
         // A stamp far in the future (beyond the pipeline's tolerance) must
         // not hold every later scan back as "out of order".
@@ -470,8 +483,11 @@ impl NodeCore {
         let odom = self.fresh_odom(now_s);
         let v_now = odom.map_or(f64::NAN, |o| o.twist.v_mps);
 
-        let scan_fault = self.scan_fault;
-        let record = if !self.have_scan {
+        let scan_fault = match settling {
+            Some((_, by_s)) => Some(ScanFault::ClockJumpedBack { by_s }),
+            None => self.scan_fault,
+        };
+        let record = if !self.have_scan || settling.is_some() {
             self.pipeline.stop(now_s, nominal, StopCause::NoScan)
         } else if let Some(newest_s) = self.newest_stamp_s.filter(|_| scan_fault.is_some()) {
             let stale = ScanRejection::Stale {
@@ -713,15 +729,24 @@ mod tests {
         assert_eq!(t.cmd, Twist::ZERO);
         assert_eq!(t.record.stop_cause, Some(StopCause::NoScan));
         assert!(matches!(t.scan_fault, Some(ScanFault::ClockJumpedBack { by_s }) if (by_s - 0.3).abs() < 1e-9));
-        // A scan stamped on the new clock is taken although older than the old one.
+        // Scans on the new clock keep coming, but the stop holds for
+        // scan_timeout_s (0.5 s) after the jump, still reported...
         n.on_scan(meta(99.8), &open(), &[]);
         let t = n.tick(99.85);
+        assert_eq!(t.cmd, Twist::ZERO);
+        assert!(matches!(t.scan_fault, Some(ScanFault::ClockJumpedBack { .. })));
+        n.on_scan(meta(100.2), &open(), &[]);
+        assert_eq!(n.tick(100.24).cmd, Twist::ZERO);
+        // ...then a scan stamped on the new clock is taken although older than the old one.
+        let t = n.tick(100.25);
         assert_eq!((t.cmd, t.scan_fault), (Twist::new(0.15, 0.0), None));
         // A big jump: 30 s back, scans keep coming on the new clock.
-        let t = n.tick(69.85);
+        let t = n.tick(70.25);
         assert_eq!(t.cmd, Twist::ZERO);
-        n.on_scan(meta(69.9), &open(), &[]);
-        assert_eq!(n.tick(69.95).cmd, Twist::new(0.15, 0.0));
+        n.on_scan(meta(70.3), &open(), &[]);
+        assert_eq!(n.tick(70.35).cmd, Twist::ZERO);
+        n.on_scan(meta(70.7), &open(), &[]);
+        assert_eq!(n.tick(70.75).cmd, Twist::new(0.15, 0.0));
     }
 
     #[test]

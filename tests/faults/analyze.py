@@ -248,7 +248,7 @@ if e:
     e2 = ev("clock_jump_end")
     tm = first_moving(e["t"] + (tz - e["t"] if tz else 0))
     ok = tz is not None and tz - e["t"] <= limit and rep and tm is not None
-    row(f"clock stepped back {J:.1f} s (date -s)", "scans from before the step dropped: stop, resume on a new scan", limit,
+    row(f"clock stepped back {J:.1f} s (date -s)", "scans from before the step dropped: stop, held for scan_timeout_s, then resume on a new scan", limit,
         None if tz is None else tz - e["t"], "oldbf_node log 'clock jumped back'" + ("" if rep else " (NOT reported)")
         + f"; moving again {fmt(None if (tm is None or tz is None) else tm - tz)} s after the stop", ok)
 else:
