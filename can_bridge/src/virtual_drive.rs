@@ -95,9 +95,18 @@ impl VirtualDriveConfig {
         };
         pos("max speed", self.max_speed_radps)?;
         pos("max accel", self.max_accel_radps2)?;
-        pos("watchdog", self.watchdog_s)?;
-        pos("heartbeat rate", self.heartbeat_rate_hz)?;
-        pos("feedback rate", self.feedback_rate_hz)?;
+        // Bounded as well as positive: a period of 1 / 1e-300 s or a watchdog of
+        // 1e300 s cannot be a std Duration.
+        let within = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v} is out of range; allowed: [{lo}, {hi}] {unit}"))
+            }
+        };
+        within("watchdog", self.watchdog_s, 1e-3, 3600.0, "s")?;
+        within("heartbeat rate", self.heartbeat_rate_hz, 0.01, 10000.0, "Hz")?;
+        within("feedback rate", self.feedback_rate_hz, 0.01, 10000.0, "Hz")?;
         if !(self.time_constant_s.is_finite() && self.time_constant_s >= 0.0) {
             return Err(format!("time constant = {} must be ≥ 0", self.time_constant_s));
         }
@@ -622,7 +631,7 @@ impl VirtualDrive {
     }
 
     fn watchdog(&mut self, now: Timestamp) {
-        let wd = Duration::from_secs_f64(self.cfg.watchdog_s);
+        let wd = crate::time::saturating_duration(self.cfg.watchdog_s);
         match self.cfg.protocol {
             ProtocolKind::Generic => {
                 if self.generic_state == generic::STATE_ENABLED
@@ -682,7 +691,7 @@ impl VirtualDrive {
                 self.push_feedback(&mut fb);
                 match delay {
                     Some(d) if d > 0.0 => {
-                        let due = now + Duration::from_secs_f64(d);
+                        let due = now + crate::time::saturating_duration(d);
                         self.delayed.extend(fb.into_iter().map(|f| (due, f)));
                     }
                     _ => out.extend(fb),
@@ -760,9 +769,9 @@ impl VirtualDrive {
 }
 
 fn next_grid(prev: Timestamp, now: Timestamp, rate_hz: f64) -> Timestamp {
-    let period = Duration::from_secs_f64(1.0 / rate_hz);
+    let period = crate::time::saturating_duration(1.0 / rate_hz).max(Duration::from_micros(1));
     let late = now - prev;
-    let skip = (late.as_nanos() / period.as_nanos().max(1)) as u32;
+    let skip = u32::try_from(late.as_nanos() / period.as_nanos().max(1)).unwrap_or(u32::MAX - 1);
     prev + period * (skip + 1)
 }
 

@@ -331,4 +331,14 @@ fn config_validation_names_the_option() {
         ..Default::default()
     };
     assert!(c.validate().is_err());
+    // Values a std Duration cannot hold are rejected, not a panic later.
+    for (watchdog_s, rate_hz) in [(1e300, 10.0), (0.5, 1e-300), (f64::NAN, 10.0), (0.5, f64::INFINITY)] {
+        let c = VirtualDriveConfig {
+            watchdog_s,
+            heartbeat_rate_hz: rate_hz,
+            ..Default::default()
+        };
+        let e = c.validate().unwrap_err();
+        assert!(e.contains("out of range"), "{e}");
+    }
 }
