@@ -23,6 +23,8 @@ setsid rosmaster --core -p 11311 > "$OUT/roscore.log" 2>&1 &
 core=$!
 for _ in $(seq 300); do rostopic list > /dev/null 2>&1 && break; sleep 0.2; done
 rostopic list > /dev/null 2>&1 || fail "roscore did not come up"
+# roscore's roslaunch would set /run_id; `roslaunch --wait` waits for it forever.
+rosparam set /run_id "$(cat /proc/sys/kernel/random/uuid)"
 echo "e2e: roscore up after $(( $(date +%s) - t0 )) s"
 
 candump -t a -n 200000 vcan0 > "$OUT/candump.log" 2>&1 &
