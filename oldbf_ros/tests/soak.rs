@@ -92,6 +92,22 @@ fn violations_and_collisions_fail_the_gates_unless_allowed() {
         "1000000",
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
+    // Two hours at seed 1 include contacts (3 when measured): with violations
+    // allowed, the collision gate alone fails the run, and allowing exactly
+    // that many passes it.
+    let hours_with_contacts = ["--sim-hours", "2", "--seed", "1", "--max-cbf-violations", "100000000"];
+    let out = soak(&hours_with_contacts);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    let collisions = json_of(&out)["collisions"].as_u64().unwrap();
+    assert!(collisions > 0, "{text}");
+    assert!(
+        text.contains(&format!("FAIL: {collisions} collision(s), allowed 0")),
+        "{text}"
+    );
+    let allowed = collisions.to_string();
+    let out = soak(&[&hours_with_contacts[..], &["--max-collisions", &allowed]].concat());
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
 }
 
 #[test]
