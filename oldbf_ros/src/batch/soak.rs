@@ -397,6 +397,67 @@ mod tests {
     }
 
     #[test]
+    fn each_gate_fails_on_its_own_figure() {
+        let o = SoakOptions {
+            sim_time_s: 3600.0,
+            seed: 1,
+            threads: 1,
+            max_rss_growth_kib: 4096,
+            max_collisions: 2,
+            max_cbf_violations: 10,
+        };
+        let clean = SoakReport {
+            template: String::new(),
+            name: String::new(),
+            seed: 1,
+            threads: 1,
+            target_sim_time_s: 3600.0,
+            sim_time_s: 3600.0,
+            wall_time_s: 1.0,
+            worlds: 10,
+            steps: 36000,
+            panics: Vec::new(),
+            non_finite_commands: 0,
+            collisions: 2,
+            worlds_with_collision: 2,
+            cbf_violations: 10,
+            true_cbf_violations: 10,
+            worlds_with_violation: 1,
+            min_clearance_m: 0.1,
+            worlds_reached_goal: 10,
+            rss_warm_kib: 7000,
+            rss_end_kib: 7000 + 4096,
+            rss_max_kib: 7000 + 4096,
+            rss_growth_kib: 4096,
+            max_rss_growth_kib: 4096,
+            rss_samples: Vec::new(),
+            failures: Vec::new(),
+        };
+        assert!(gates(&clean, &o).is_empty(), "at every bound: pass");
+        let trip = |change: fn(&mut SoakReport), word: &str| {
+            let mut r = clean.clone();
+            change(&mut r);
+            let f = gates(&r, &o);
+            assert!(f.len() == 1 && f[0].contains(word), "{word}: {f:?}");
+        };
+        trip(
+            |r| {
+                r.panics.push(SoakPanic {
+                    world: 3,
+                    message: "boom".into(),
+                })
+            },
+            "panicked",
+        );
+        trip(|r| r.non_finite_commands = 1, "non-finite");
+        trip(|r| r.collisions = 3, "collision");
+        trip(|r| r.cbf_violations = 11, "logged CBF");
+        trip(|r| r.true_cbf_violations = 11, "exact-geometry CBF");
+        trip(|r| r.rss_growth_kib = 4097, "resident memory grew");
+        trip(|r| r.rss_end_kib = 0, "could not be read");
+    }
+
+    #[test]
     fn panic_messages_are_recovered() {
         let e = catch_unwind(|| panic!("boom {}", 7)).unwrap_err();
         assert_eq!(panic_message(e.as_ref()), "boom 7");
