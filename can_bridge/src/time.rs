@@ -20,8 +20,9 @@ impl Timestamp {
 
     /// `s` seconds after the epoch; negative or non-finite values give the epoch.
     pub fn from_secs_f64(s: f64) -> Self {
-        if s.is_finite() && s > 0.0 {
-            Timestamp(Duration::from_secs_f64(s.min(1e9)))
+        // +inf is not a time: the epoch, where `saturating_duration` would give 1e9 s.
+        if s.is_finite() {
+            Timestamp(saturating_duration(s))
         } else {
             Timestamp::ZERO
         }

@@ -111,9 +111,6 @@ if jump:
             e["t_before_fix"] = e["t"]
             e["t"] = e["t_before"]  # the moment of the step, on the old time line
 diag = [json.loads(l) for l in open(os.path.join(OUT, "diag.jsonl")) if l.strip()] if os.path.exists(os.path.join(OUT, "diag.jsonl")) else []
-for d in diag:  # the recorder's clock stepped too
-    if jump and d["t"] < jump["t_before"] - 5.0 and d.get("_seen_jump") is None:
-        pass
 # Diagnostics: the recorder writes in arrival order; undo the step the same way.
 if jump:
     idx = next((i for i in range(1, len(diag)) if diag[i]["t"] < diag[i - 1]["t"] - 5.0), None)
