@@ -212,7 +212,7 @@ pub fn write_comparison(dir: &Path, scenario: &Scenario, seed: u64, runs: &[Comp
     let circles: Vec<_> = first.world.circles().iter().map(|c| (c.center, c.radius_m)).collect();
     let collisions: Vec<_> = runs
         .iter()
-        .flat_map(|r| r.result.robots[0].collision_points.iter().copied())
+        .flat_map(|r| r.result.robots[0].contacts.iter().map(|c| c.position))
         .collect();
     let labels: Vec<String> = runs.iter().map(|r| name(r.controller)).collect();
     let title = format!("{}: {} (seed {seed})", scenario.spec.name, labels.join(" vs "));

@@ -785,19 +785,55 @@ mod tests {
         assert_eq!(n.tick(1.15).cmd, Twist::new(0.15, 0.0));
     }
 
-    /// The definition (algo/scan.rs): NaN, ±inf, 0 and anything outside
-    /// [range_min, range_max) is "no return", i.e. free space. A scan with no
-    /// valid beam is an empty world: the nominal passes, finite.
+    /// REP 117 (ALGORITHM.md §1): +inf is "nothing in range", free space, so
+    /// the nominal passes. NaN and 0.0 (below range_min, under the default
+    /// laser convention) are unknown: a scan of nothing else is a blinded
+    /// sensor, which stops the robot once it has lasted `laser.blind_timeout_s`
+    /// (0.3 s) and lets it go on the first good scan. A driver that declares
+    /// `zero_is_no_return` makes all-zero free again. −inf everywhere is an
+    /// obstacle at range_min all round: no translation.
     #[test]
-    fn all_nan_all_inf_all_zero_scans_are_free_space_by_the_definition() {
-        for fill in [f32::NAN, f32::INFINITY, 0.0, f32::NEG_INFINITY] {
+    fn all_inf_is_free_space_but_all_nan_or_all_zero_is_a_blind_sensor() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &vec![f32::INFINITY; 360], &[]);
+        let t = n.tick(1.05);
+        assert_eq!((t.cmd, t.record.stop_cause), (Twist::new(0.15, 0.0), None));
+        for fill in [f32::NAN, 0.0] {
             let mut n = node(NominalSource::Constant);
-            n.on_scan(meta(1.0), &vec![fill; 360], &[]);
-            let t = n.tick(1.05);
-            assert_eq!(t.cmd, Twist::new(0.15, 0.0), "fill {fill}");
-            assert_eq!(t.record.valid_beams, 0);
-            assert!(t.cmd.is_finite() && t.record.stop_cause.is_none());
+            for k in 0..3 {
+                let stamp = 1.0 + 0.1 * k as f64;
+                n.on_scan(meta(stamp), &vec![fill; 360], &[]);
+                let t = n.tick(stamp + 0.05);
+                assert!(t.cmd.is_finite() && t.record.stop_cause.is_none(), "fill {fill}, {t:?}");
+                assert_eq!((t.record.unknown_beams, t.record.valid_beams), (360, 0));
+            }
+            n.on_scan(meta(1.3), &vec![fill; 360], &[]);
+            let t = n.tick(1.35);
+            assert_eq!(
+                (t.cmd, t.record.stop_cause),
+                (Twist::ZERO, Some(StopCause::SensorBlind)),
+                "fill {fill}"
+            );
+            assert_eq!(t.record.stop_cause.unwrap().code(), "sensor_blind");
+            n.on_scan(meta(1.4), &open(), &[]);
+            assert_eq!(n.tick(1.45).cmd, Twist::new(0.15, 0.0), "fill {fill}: resumes");
         }
+        let mut p = Params::default();
+        p.laser.zero_is_no_return = true;
+        let settings = NodeSettings {
+            nominal_source: NominalSource::Constant,
+            ..NodeSettings::default()
+        };
+        let mut n = NodeCore::new(p, settings, None);
+        for k in 0..5 {
+            let stamp = 1.0 + 0.1 * k as f64;
+            n.on_scan(meta(stamp), &vec![0.0; 360], &[]);
+            assert_eq!(n.tick(stamp + 0.05).cmd, Twist::new(0.15, 0.0));
+        }
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &vec![f32::NEG_INFINITY; 360], &[]);
+        let t = n.tick(1.05);
+        assert!(t.cmd.v_mps == 0.0 && t.record.h_m < 0.0, "{t:?}");
     }
 
     #[test]

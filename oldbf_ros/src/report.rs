@@ -174,7 +174,7 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
     let collisions: Vec<_> = result
         .robots
         .iter()
-        .flat_map(|r| r.collision_points.iter().copied())
+        .flat_map(|r| r.contacts.iter().map(|c| c.position))
         .collect();
     let title = if result.robots.len() == 1 {
         format!("{} ({:?})", scenario.spec.name, result.summary.controller)

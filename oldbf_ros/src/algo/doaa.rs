@@ -57,6 +57,9 @@ pub enum DoaaState {
     Stop,
     /// Inside the unsafe set (h < 0): only commands that increase h are allowed.
     Escape,
+    /// A mover closes on a robot that cannot go forward: the admissible
+    /// command with the latest predicted contact (§5b).
+    Evade,
 }
 
 impl DoaaState {
@@ -67,10 +70,11 @@ impl DoaaState {
             Self::BothSides => "both_sides",
             Self::Stop => "stop",
             Self::Escape => "escape",
+            Self::Evade => "evade",
         }
     }
 
-    /// Stable small integer for messages (forward 0 … escape 4).
+    /// Stable small integer for messages (forward 0 … escape 4, evade 5).
     pub fn code(&self) -> u8 {
         *self as u8
     }

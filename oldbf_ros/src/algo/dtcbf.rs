@@ -80,6 +80,7 @@ pub struct InputBox {
 }
 
 impl InputBox {
+    /// The box of the parameters: reverse when `control.allow_reverse`.
     pub fn from_params(p: &Params) -> Self {
         Self {
             v_lo: if p.control.allow_reverse {
@@ -90,6 +91,16 @@ impl InputBox {
             v_hi: p.control.v_max_mps,
             omega_max: p.control.omega_max_radps,
         }
+    }
+
+    /// The box for one scan: reverse only when allowed *and* `rear_seen`,
+    /// i.e. the scan covers the robot's rear (ALGORITHM.md §5b).
+    pub fn for_scan(p: &Params, rear_seen: bool) -> Self {
+        let mut b = Self::from_params(p);
+        if !rear_seen {
+            b.v_lo = 0.0;
+        }
+        b
     }
 
     /// Clamps a command into the box; non-finite components become 0.
@@ -225,13 +236,33 @@ impl DtcbfFilter {
         }
     }
 
-    /// Filters `desired`.
+    /// Filters `desired` within the input box of the parameters.
+    pub fn filter(&mut self, points: &[Vec2], points_next: &[Vec2], desired: Twist, p: &Params) -> DtcbfOutcome {
+        self.filter_in(points, points_next, desired, p, &InputBox::from_params(p))
+    }
+
+    /// Predicted h(k+1) (m) for `cmd` over `points_next`, as the last
+    /// [`Self::filter_in`] call computes it (same near-point selection, so the
+    /// same value bit for bit); the box must be the one of that call.
+    pub fn h_next(&self, points_next: &[Vec2], cmd: Twist, p: &Params) -> f64 {
+        let disp = predicted_displacement(p.dtcbf.prediction, cmd, p.control.dt_s());
+        self.near.min_distance(points_next, disp) - p.robot_radius_m() - p.barrier.d_safe_m
+    }
+
+    /// Filters `desired` within `bx`.
     ///
     /// `points` are the valid obstacle points now (robot frame, m);
     /// `points_next` where they will be after one step (the same slice for a
     /// static world; tracked moving obstacles advanced by v_o Δt).
-    pub fn filter(&mut self, points: &[Vec2], points_next: &[Vec2], desired: Twist, p: &Params) -> DtcbfOutcome {
-        let bx = InputBox::from_params(p);
+    pub fn filter_in(
+        &mut self,
+        points: &[Vec2],
+        points_next: &[Vec2],
+        desired: Twist,
+        p: &Params,
+        bx: &InputBox,
+    ) -> DtcbfOutcome {
+        let bx = *bx;
         let desired = bx.clamp(desired);
         let r = p.robot_radius_m();
         let d_safe = p.barrier.d_safe_m;
@@ -247,6 +278,8 @@ impl DtcbfFilter {
         let h = min_distance(points, Vec2::zeros()) - r - d_safe;
         if !h.is_finite() || points_next.is_empty() {
             // Nothing visible: nothing to keep away from.
+            self.near.points.clear();
+            self.near.max_step_m = f64::INFINITY;
             let h_next = min_distance(points_next, predicted_displacement(model, desired, dt)) - r - d_safe;
             return DtcbfOutcome {
                 cmd: desired,
@@ -499,9 +532,11 @@ mod tests {
     use super::*;
 
     fn params() -> Params {
-        // r = 0.178, d_safe = 0.2, γ = 0.2, Δt = 0.1, v_max 0.22; δ = 0: the plain definition.
+        // r = 0.178, d_safe = 0.2, γ = 0.2, Δt = 0.1, v_max 0.22; δ = 0: the plain definition;
+        // forward only unless a test allows reverse.
         let mut p = Params::default();
         p.dtcbf.noise_margin_m = 0.0;
+        p.control.allow_reverse = false;
         p
     }
 

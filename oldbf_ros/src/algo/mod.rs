@@ -6,6 +6,8 @@
 //! and where it departs from the paper.
 
 pub mod barrier;
+pub mod beam_memory;
+pub mod blind;
 pub mod clearance;
 pub mod clusters;
 pub mod collision_cone;
@@ -14,6 +16,7 @@ pub mod dtcbf;
 pub mod geometry;
 pub mod obstacle_tracker;
 pub mod params;
+pub mod passive;
 pub mod pipeline;
 pub mod record;
 pub mod reference;

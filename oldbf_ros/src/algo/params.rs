@@ -21,6 +21,7 @@ pub struct Params {
     pub dtcbf: DtcbfParams,
     pub tracking: TrackingParams,
     pub obstacles: ObstacleParams,
+    pub passive: PassiveParams,
     pub baselines: BaselineParams,
 }
 
@@ -36,7 +37,9 @@ pub struct ControlParams {
     pub v_max_mps: f64,
     /// Largest yaw rate ever commanded (rad/s); the paper's hardware limit is 0.3.
     pub omega_max_radps: f64,
-    /// Whether the filter may command negative linear speed (backing up).
+    /// Whether the filter may command negative linear speed (backing up). It
+    /// does so only on scans that cover the robot's rear (a 360° LiDAR): a
+    /// robot never backs into what it cannot see.
     pub allow_reverse: bool,
     /// Largest reverse speed when `allow_reverse` (m/s, given as a positive number).
     pub v_reverse_max_mps: f64,
@@ -49,7 +52,7 @@ impl Default for ControlParams {
             v_nom_mps: 0.15,
             v_max_mps: 0.22,
             omega_max_radps: 0.3,
-            allow_reverse: false,
+            allow_reverse: true,
             v_reverse_max_mps: 0.05,
         }
     }
@@ -112,6 +115,33 @@ pub struct LaserParams {
     pub scan_timeout_s: f64,
     /// Scans with more beams than this are rejected (bounds memory and time).
     pub max_beams: usize,
+    /// How invalid readings are read (ALGORITHM.md §1): REP 117 (unknown is
+    /// not free), or the paper method's "every invalid reading is free".
+    pub range_semantics: RangeSemantics,
+    /// The driver writes 0.0 for "no return" (TurtleBot3's LDS): 0.0 then
+    /// means free. Off by default: 0.0 is below range_min, i.e. unknown.
+    pub zero_is_no_return: bool,
+    /// An unknown beam keeps its last valid reading this long (s); 0 = no hold.
+    pub unknown_hold_s: f64,
+    /// Full angle of the front sector watched for a blinded sensor (deg).
+    pub blind_sector_deg: f64,
+    /// The sensor is blind when more than this fraction of that sector's beams
+    /// read unknown…
+    pub blind_fraction: f64,
+    /// …for longer than this (s): stop and report `sensor_blind`.
+    pub blind_timeout_s: f64,
+}
+
+/// How a scan's invalid readings are interpreted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RangeSemantics {
+    /// ROS REP 117: +inf / ≥ range_max free, −inf an obstacle at range_min,
+    /// NaN and below range_min unknown (held, and blindness detected).
+    Rep117,
+    /// The paper method (and this project before REP 117 semantics): every
+    /// invalid reading is free space.
+    AllInvalidFree,
 }
 
 impl Default for LaserParams {
@@ -122,6 +152,12 @@ impl Default for LaserParams {
             mount_yaw_deg: 0.0,
             scan_timeout_s: 0.5,
             max_beams: 16384,
+            range_semantics: RangeSemantics::Rep117,
+            zero_is_no_return: false,
+            unknown_hold_s: 2.0,
+            blind_sector_deg: 180.0,
+            blind_fraction: 0.5,
+            blind_timeout_s: 0.3,
         }
     }
 }
@@ -337,6 +373,43 @@ impl Default for ObstacleParams {
 
 /// The comparison controllers (ALGORITHM.md §8; `--controller dcbf|vo`).
 /// Not used by the OLDBF filter or the ROS node.
+/// Passive motion safety and evasion (ALGORITHM.md §5b).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PassiveParams {
+    /// The braking check and evasion; false = the paper's one-step condition only.
+    pub enabled: bool,
+    /// Deceleration the robot can always achieve when braking to rest (m/s²).
+    pub brake_decel_mps2: f64,
+    /// A moving obstacle's predicted disc is inflated by this at once (m)…
+    pub mover_margin_m: f64,
+    /// …and grows by this per second of prediction (m/s): unmodelled turns
+    /// and accelerations of people.
+    pub mover_growth_mps: f64,
+    /// Robot speed towards an obstacle above which a contact is "closing" (m/s).
+    pub closing_speed_mps: f64,
+    /// Evasion scores a command by the predicted time to contact with the
+    /// command held this long (s).
+    pub evasion_horizon_s: f64,
+    /// Evasion replaces the filter's command only if it gains at least this
+    /// much predicted time to contact (s): no dithering between near-equals.
+    pub evasion_min_gain_s: f64,
+}
+
+impl Default for PassiveParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            brake_decel_mps2: 1.0,
+            mover_margin_m: 0.05,
+            mover_growth_mps: 0.2,
+            closing_speed_mps: 0.02,
+            evasion_horizon_s: 2.0,
+            evasion_min_gain_s: 0.2,
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BaselineParams {
@@ -460,6 +533,19 @@ impl Params {
         self.footprint.radius_m()
     }
 
+    /// The same parameters with the checks this project added beyond the
+    /// paper switched off: every invalid range is free space (no hold, no
+    /// blindness), no braking check or evasion, no reversing. This is the
+    /// filter as it was before REP 117 semantics and passive motion safety,
+    /// kept so the batch and compare tables can measure the difference on
+    /// the same worlds (`config/paper_method.yaml` says the same in YAML).
+    pub fn paper_method(mut self) -> Self {
+        self.laser.range_semantics = RangeSemantics::AllInvalidFree;
+        self.passive.enabled = false;
+        self.control.allow_reverse = false;
+        self
+    }
+
     /// Every out-of-range value, each naming its key; empty when valid.
     pub fn validate(&self) -> Result<(), Vec<ParamError>> {
         let mut c = Check { errors: Vec::new() };
@@ -490,6 +576,10 @@ impl Params {
         c.range("laser.mount_yaw_deg", l.mount_yaw_deg, "[-360, 360] deg");
         c.range("laser.scan_timeout_s", l.scan_timeout_s, "(0, 60] s");
         c.range("laser.max_beams", l.max_beams as f64, "[1, 1000000]");
+        c.range("laser.unknown_hold_s", l.unknown_hold_s, "[0, 60] s");
+        c.range("laser.blind_sector_deg", l.blind_sector_deg, "(0, 360] deg");
+        c.range("laser.blind_fraction", l.blind_fraction, "(0, 1]");
+        c.range("laser.blind_timeout_s", l.blind_timeout_s, "[0, 60] s");
 
         let b = &self.barrier;
         c.range("barrier.d_safe_m", b.d_safe_m, "[0, 10] m");
@@ -575,6 +665,14 @@ impl Params {
         c.range("obstacles.min_travel_m", o.min_travel_m, "[0, 100] m");
         c.range("obstacles.lookahead_s", o.lookahead_s, "[0, 60] s");
         c.range("obstacles.max_tracks", o.max_tracks as f64, "[1, 1000]");
+
+        let pa = &self.passive;
+        c.range("passive.brake_decel_mps2", pa.brake_decel_mps2, "(0, 100] m/s²");
+        c.range("passive.mover_margin_m", pa.mover_margin_m, "[0, 2] m");
+        c.range("passive.mover_growth_mps", pa.mover_growth_mps, "[0, 10] m/s");
+        c.range("passive.closing_speed_mps", pa.closing_speed_mps, "[0, 1] m/s");
+        c.range("passive.evasion_horizon_s", pa.evasion_horizon_s, "(0, 10] s");
+        c.range("passive.evasion_min_gain_s", pa.evasion_min_gain_s, "[0, 10] s");
 
         let (dc, vo) = (&self.baselines.dcbf, &self.baselines.vo);
         c.range("baselines.dcbf.lookahead_m", dc.lookahead_m, "(0, 1] m");

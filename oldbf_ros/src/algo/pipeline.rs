@@ -1,23 +1,50 @@
 //! The per-scan pipeline: scan → points → clearances → barriers → DOAA →
-//! DTCBF check → command (ALGORITHM.md §1-5).
+//! DTCBF check → passive-safety check → command (ALGORITHM.md §1-5b).
 //!
 //! `SafetyPipeline` owns every buffer it needs and reuses them, so after the
 //! first scan of a given size a step does not allocate. The simulator, the
 //! CLI, the ROS node and the tests all call `step`.
+//!
+//! Order of a step:
+//! 1. the scan is checked (rejected: stop), the robot's pose in the tracking
+//!    frame found (odometry, else dead-reckoned), and the scan read into
+//!    points under REP 117: unknown beams keep their last valid reading;
+//! 2. a front sector mostly unknown for longer than the timeout: stop,
+//!    `sensor_blind`;
+//! 3. clearances, clusters and tracks, barriers, DOAA, the DTCBF filter;
+//! 4. passive motion safety (§5b): if the DTCBF's command could not brake to
+//!    rest without driving into a predicted occupancy, the closest command
+//!    that meets both checks (or, when none does, the least bad one that
+//!    drives into nothing); and when a mover closes on a robot that cannot
+//!    go forward, the admissible command with the latest predicted contact.
 
 use super::barrier::compute_barriers;
+use super::beam_memory::BeamMemory;
+use super::blind::BlindDetector;
 use super::clearance::{compute_clearances, Clearances, Sector};
 use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
 use super::doaa::{Doaa, DoaaState};
-use super::dtcbf::{DtcbfFilter, InputBox};
+use super::dtcbf::{DtcbfFilter, DtcbfOutcome, InputBox};
 use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
 use super::obstacle_tracker::ObstacleTracker;
-use super::params::Params;
-use super::record::{StepRecord, StopCause};
-use super::scan::{sanitize_scan, LaserMount, LaserScan, ScanPoints};
+use super::params::{Params, RangeSemantics};
+use super::passive::{ClosingContact, EvasionScore, Mover, PassiveSafety};
+use super::record::{Infeasibility, StepRecord, StopCause};
+use super::scan::{check_scan, fill_points, LaserMount, LaserScan, ScanPoints};
 use super::unicycle::arc_step;
+
+/// Numerical tolerance on the DTCBF condition (m), as in the filter.
+const TOL_M: f64 = 1e-9;
+/// Linear speeds tried per yaw rate by the passive-safety search (plus 0).
+const PASSIVE_SPEEDS: usize = 10;
+/// Yaw rates tried by evasion.
+const EVASION_OMEGAS: usize = 9;
+/// Evasion must also gain this much least gap (m) when it cannot gain time.
+const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
+/// Half-angle of the rear sector a reversing robot must see (rad).
+const REAR_HALF_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
 /// Geometry derived from the parameters once.
 #[derive(Debug, Clone, Copy)]
@@ -26,7 +53,6 @@ struct Derived {
     mount: LaserMount,
     hemisphere: Sector,
     front: Sector,
-    input_box: InputBox,
 }
 
 impl Derived {
@@ -36,26 +62,43 @@ impl Derived {
             mount: LaserMount::from_params(&p.laser),
             hemisphere: Sector::new(p.barrier.hemisphere_fov_deg.to_radians()),
             front: Sector::new(p.barrier.front_fov_deg.to_radians()),
-            input_box: InputBox::from_params(p),
         }
     }
 }
 
-/// The whole safety filter, with its state (DOAA latch) and buffers.
+/// One command the passive-safety search weighed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Candidate {
+    cmd: Twist,
+    h_next_m: f64,
+    /// Meets the one-step condition (the logged one; inside the unsafe set,
+    /// the escape rule h(k+1) ≥ h(k) + ε).
+    condition: bool,
+    /// No predicted closing contact.
+    passive: bool,
+}
+
+/// The whole safety filter, with its state (DOAA latch, tracks, beam memory)
+/// and buffers.
 #[derive(Debug, Clone)]
 pub struct SafetyPipeline {
     params: Params,
     derived: Derived,
     points: ScanPoints,
+    memory: BeamMemory,
+    blind: BlindDetector,
     doaa: Doaa,
     filter: DtcbfFilter,
+    passive: PassiveSafety,
+    candidates: Vec<Candidate>,
     last_cmd: Twist,
     last_clearances: Clearances,
+    last_box: InputBox,
     clusters: Clusters,
     tracker: ObstacleTracker,
     /// Where the points will be after one step (moving clusters advanced).
     points_next: Vec<Vec2>,
-    /// Robot pose in the tracking frame, and whether it came from odometry.
+    /// Robot pose in the tracking frame, whether it came from odometry, and its stamp (s).
     ego: Option<(Pose2, bool, f64)>,
     threats: Vec<Threat>,
 }
@@ -78,14 +121,20 @@ impl SafetyPipeline {
         let derived = Derived::new(&params);
         let cap = 1024;
         let max_tracks = params.obstacles.max_tracks;
+        let last_box = InputBox::from_params(&params);
         Self {
             params,
             derived,
             points: ScanPoints::with_capacity(cap),
+            memory: BeamMemory::with_capacity(cap),
+            blind: BlindDetector::default(),
             doaa: Doaa::new(),
             filter: DtcbfFilter::with_capacity(cap),
+            passive: PassiveSafety::with_capacity(max_tracks, cap),
+            candidates: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
             last_cmd: Twist::ZERO,
             last_clearances: Clearances::OPEN,
+            last_box,
             clusters: Clusters::with_capacity(cap),
             tracker: ObstacleTracker::with_capacity(max_tracks, cap),
             points_next: Vec::with_capacity(cap),
@@ -104,7 +153,7 @@ impl SafetyPipeline {
         self.clusters.as_slice()
     }
 
-    /// Where the valid points will be after one step, as the filter predicted
+    /// Where the points will be after one step, as the filter predicted
     /// them (moving clusters on a collision course advanced by v_o Δt).
     pub fn points_next(&self) -> &[Vec2] {
         &self.points_next
@@ -115,13 +164,24 @@ impl SafetyPipeline {
         &self.threats
     }
 
+    /// Moving tracks at the last step, robot frame (what §5b predicts).
+    pub fn movers(&self) -> &[Mover] {
+        self.passive.movers()
+    }
+
     pub fn params(&self) -> &Params {
         &self.params
     }
 
-    /// Valid points of the last accepted scan, robot frame (m).
+    /// Points of the last accepted scan, robot frame (m): valid readings,
+    /// −inf at range_min, and held readings of unknown beams.
     pub fn points(&self) -> &[Vec2] {
         &self.points.points
+    }
+
+    /// The last accepted scan's points with each beam's status.
+    pub fn scan_points(&self) -> &ScanPoints {
+        &self.points
     }
 
     /// Clearances of the last accepted scan.
@@ -131,6 +191,11 @@ impl SafetyPipeline {
 
     pub fn last_command(&self) -> Twist {
         self.last_cmd
+    }
+
+    /// The input box of the last accepted scan (no reverse unless its rear was seen).
+    pub fn input_box(&self) -> InputBox {
+        self.last_box
     }
 
     /// Forget latched DOAA state (after an e-stop release or a filter toggle).
@@ -157,21 +222,23 @@ impl SafetyPipeline {
 
     /// The robot's pose in the tracking frame at the scan's stamp: odometry when
     /// given, else dead-reckoned from the last command since the previous scan.
+    /// When the frame changes (odometry appears or goes), the tracks and the
+    /// beam memory, which live in it, are dropped.
     fn ego_pose(&mut self, stamp_s: f64, odom: Option<Pose2>) -> Pose2 {
-        let pose = match (odom, self.ego) {
-            (Some(p), Some((_, true, _))) | (Some(p), None) => p,
-            (Some(p), Some((_, false, _))) => {
-                self.tracker.reset(); // the frame changes: old tracks are meaningless
-                p
+        let (pose, frame_changed) = match (odom, self.ego) {
+            (Some(p), Some((_, true, _))) | (Some(p), None) => (p, false),
+            (Some(p), Some((_, false, _))) => (p, true),
+            (None, Some((prev, false, t))) if stamp_s > t => {
+                (arc_step(prev, self.last_cmd, (stamp_s - t).min(1.0)), false)
             }
-            (None, Some((prev, false, t))) if stamp_s > t => arc_step(prev, self.last_cmd, (stamp_s - t).min(1.0)),
-            (None, Some((prev, false, _))) => prev,
-            (None, Some((_, true, _))) => {
-                self.tracker.reset();
-                Pose2::default()
-            }
-            (None, None) => Pose2::default(),
+            (None, Some((prev, false, _))) => (prev, false),
+            (None, Some((_, true, _))) => (Pose2::default(), true),
+            (None, None) => (Pose2::default(), false),
         };
+        if frame_changed {
+            self.tracker.reset(); // old tracks are meaningless in the new frame
+            self.memory.reset();
+        }
         self.ego = Some((pose, odom.is_some(), stamp_s));
         pose
     }
@@ -179,18 +246,13 @@ impl SafetyPipeline {
     /// Clusters, tracks, and for every moving track on a collision course with
     /// a time to collision within `lookahead_s`: its points advanced by v_o Δt
     /// in `points_next`, and its side's clearance lowered to its clearance
-    /// predicted at the time to collision.
-    fn predict_obstacles(
-        &mut self,
-        c: &mut Clearances,
-        v_now: f64,
-        stamp_s: f64,
-        odom: Option<Pose2>,
-        full_circle: bool,
-    ) {
+    /// predicted at the time to collision. Every moving track also becomes a
+    /// [`Mover`] for the passive-safety check.
+    fn predict_obstacles(&mut self, c: &mut Clearances, v_now: f64, stamp_s: f64, pose: Pose2, full_circle: bool) {
         self.points_next.clear();
         self.points_next.extend_from_slice(&self.points.points);
         self.threats.clear();
+        self.passive.set_movers(std::iter::empty());
         // Clusters always (the baselines use them), tracking only when enabled.
         self.clusters.build(
             &self.points.points,
@@ -202,11 +264,20 @@ impl SafetyPipeline {
         if !self.params.obstacles.enabled {
             return;
         }
-        let pose = self.ego_pose(stamp_s, odom);
         let p = &self.params;
         let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
         let pts = &self.points.points;
         self.tracker.update(self.clusters.as_slice(), stamp_s, pose, o);
+        let tracker = &self.tracker;
+        self.passive
+            .set_movers(tracker.tracks().iter().filter(|t| t.is_moving(o)).map(|t| {
+                let (position, velocity) = tracker.in_robot_frame(t);
+                Mover {
+                    position,
+                    velocity,
+                    radius_m: t.radius_m,
+                }
+            }));
         let n = pts.len();
         for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {
             let Some(ti) = self.tracker.cluster_track()[ci] else {
@@ -254,6 +325,22 @@ impl SafetyPipeline {
         }
     }
 
+    /// Whether the last scan lets the robot back up: its rear sector is
+    /// covered by beams and not mostly unknown.
+    fn rear_seen(&self, scan: &LaserScan<'_>) -> bool {
+        let pts = &self.points;
+        let expected = ((2.0 * REAR_HALF_ANGLE_RAD / (scan.angle_increment_rad as f64).abs()).floor() as usize)
+            .saturating_sub(1)
+            .max(1);
+        pts.rear_beams >= expected && 2 * pts.unknown_rear <= pts.rear_beams
+    }
+
+    /// The first closing contact `cmd` would make braking to rest from the
+    /// last step's points and movers (§5b); `None`: passively safe.
+    pub fn braking_check(&mut self, cmd: Twist) -> Option<ClosingContact> {
+        self.passive.closing_contact(cmd, &self.points_next, &self.params)
+    }
+
     /// As `step`, with the robot's odometry pose when there is one (tracks
     /// are then kept in the odometry frame).
     pub fn step_with_pose(
@@ -267,9 +354,40 @@ impl SafetyPipeline {
         if !nominal.is_finite() {
             return self.stop(now_s, nominal, StopCause::BadNominal);
         }
-        if let Err(reason) = sanitize_scan(scan, now_s, &self.params.laser, &self.derived.mount, &mut self.points) {
+        if let Err(reason) = check_scan(scan, now_s, &self.params.laser) {
+            self.points.clear();
             return self.stop(now_s, nominal, StopCause::Rejected(reason));
         }
+        let pose = self.ego_pose(scan.stamp_s, odom_pose);
+        self.memory.begin_scan(scan.ranges_m.len(), pose, scan.stamp_s);
+        fill_points(
+            scan,
+            &self.params.laser,
+            &self.derived.mount,
+            &mut self.points,
+            &mut self.memory,
+            REAR_HALF_ANGLE_RAD,
+        );
+        let unknown_front_fraction = if self.params.laser.range_semantics == RangeSemantics::Rep117 {
+            let verdict = self.blind.update(
+                self.points.unknown_front,
+                self.points.front_beams,
+                scan.stamp_s,
+                &self.params.laser,
+            );
+            if verdict.blind {
+                let mut rec = self.stop(now_s, nominal, StopCause::SensorBlind);
+                rec.beams = self.points.beams;
+                rec.valid_beams = self.points.valid_count();
+                rec.unknown_beams = self.points.unknown;
+                rec.held_beams = self.points.held;
+                rec.unknown_front_fraction = verdict.unknown_fraction;
+                return rec;
+            }
+            verdict.unknown_fraction
+        } else {
+            0.0
+        };
         let d = self.derived;
         let mut c = compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front);
         let v_now = if current_v_mps.is_finite() {
@@ -279,30 +397,44 @@ impl SafetyPipeline {
         };
         let span = (scan.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
-        self.predict_obstacles(&mut c, v_now, scan.stamp_s, odom_pose, full_circle);
+        self.predict_obstacles(&mut c, v_now, scan.stamp_s, pose, full_circle);
         self.last_clearances = c;
+        let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
+        self.last_box = bx;
         let p = &self.params;
         let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &p.barrier);
-        let nominal_boxed = d.input_box.clamp(nominal);
+        let nominal_boxed = bx.clamp(nominal);
         let (doaa_cmd, doaa_state) = self.doaa.command(nominal_boxed, &c, &b, p);
-        let out = self.filter.filter(&self.points.points, &self.points_next, doaa_cmd, p);
-
-        // Infeasible inside the unsafe set: the filter turns in place (escape); infeasible
-        // outside it (an approaching obstacle): the filter's command is a stop.
-        let state = match (out.infeasible, out.escape) {
-            (true, false) => DoaaState::Stop,
-            (_, true) => DoaaState::Escape,
-            (false, false) => doaa_state,
+        let out = self
+            .filter
+            .filter_in(&self.points.points, &self.points_next, doaa_cmd, p, &bx);
+        let mut infeasibility = out.infeasible.then_some(if out.escape {
+            Infeasibility::UnsafeSet
+        } else {
+            Infeasibility::Approaching
+        });
+        let (out, passive_changed, evading) = if self.params.passive.enabled {
+            self.passive_safety(out, doaa_cmd, &bx, &mut infeasibility)
+        } else {
+            (out, false, false)
         };
-        let stop_cause = out.infeasible.then_some(StopCause::Infeasible);
+        let braking_held = self.braking_check(out.cmd).is_none();
+
+        let state = if evading {
+            DoaaState::Evade
+        } else {
+            match (out.infeasible, out.escape) {
+                (true, false) => DoaaState::Stop,
+                (_, true) => DoaaState::Escape,
+                (false, false) => doaa_state,
+            }
+        };
+        let stop_cause = infeasibility.map(|_| StopCause::Infeasible);
         let cmd = out.cmd;
         // Last line of defence: nothing non-finite leaves this function.
-        let cmd = if cmd.is_finite() {
-            d.input_box.clamp(cmd)
-        } else {
-            Twist::ZERO
-        };
+        let cmd = if cmd.is_finite() { bx.clamp(cmd) } else { Twist::ZERO };
         self.last_cmd = cmd;
+        let p = &self.params;
         StepRecord {
             stamp_s: now_s,
             cmd,
@@ -313,6 +445,9 @@ impl SafetyPipeline {
             h_next_m: out.h_next_m,
             filter_changed: out.changed,
             condition_held: out.condition_held,
+            braking_held,
+            passive_changed,
+            infeasibility,
             b_left: b.b_left,
             b_right: b.b_right,
             b_velocity: b.b_velocity,
@@ -324,6 +459,9 @@ impl SafetyPipeline {
             closest_right: c.closest_right,
             beams: self.points.beams,
             valid_beams: self.points.valid_count(),
+            unknown_beams: self.points.unknown,
+            held_beams: self.points.held,
+            unknown_front_fraction,
             tracked_obstacles: self
                 .tracker
                 .tracks()
@@ -338,6 +476,161 @@ impl SafetyPipeline {
                 .fold(f64::INFINITY, f64::min),
             stop_cause,
         }
+    }
+
+    /// Weighs `cmd`: its predicted h(k+1) and both checks.
+    fn weigh(&mut self, cmd: Twist, h: f64) -> Candidate {
+        let p = &self.params;
+        let h_next = self.filter.h_next(&self.points_next, cmd, p);
+        let condition = if !h.is_finite() {
+            true
+        } else if h < 0.0 {
+            // Inside the unsafe set: the condition, or at least the escape rule.
+            h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M || h_next >= h + p.dtcbf.escape_epsilon_m - TOL_M
+        } else {
+            h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M
+        };
+        let passive = self.passive.closing_contact(cmd, &self.points_next, p).is_none();
+        Candidate {
+            cmd,
+            h_next_m: h_next,
+            condition,
+            passive,
+        }
+    }
+
+    /// Passive motion safety and evasion (§5b) on the DTCBF's outcome `out`
+    /// for the DOAA command `desired`. Returns the outcome to send, whether
+    /// this changed the command, and whether the robot is evading; updates
+    /// `infeasibility` when no command meets both checks.
+    fn passive_safety(
+        &mut self,
+        out: DtcbfOutcome,
+        desired: Twist,
+        bx: &InputBox,
+        infeasibility: &mut Option<Infeasibility>,
+    ) -> (DtcbfOutcome, bool, bool) {
+        let h = out.h_m;
+        let stall = self.params.passive.closing_speed_mps;
+        let own = self.weigh(out.cmd, h);
+        let closing_in = !self.threats.is_empty();
+        if own.passive && !(closing_in && (out.infeasible || out.cmd.v_mps.abs() < stall)) {
+            return (out, false, false);
+        }
+        let mut chosen = own;
+        if !own.passive || out.infeasible {
+            // The closest command to the DOAA's that meets both checks, over the DTCBF's
+            // ω grid and a grid of speeds; else the passively safe one keeping h(k+1) highest.
+            self.candidates.clear();
+            let n = self.params.dtcbf.omega_candidates;
+            let omegas = [out.cmd.omega_radps, desired.omega_radps]
+                .into_iter()
+                .chain((0..n).map(|k| grid(-bx.omega_max, bx.omega_max, k, n)));
+            for omega in omegas {
+                let omega = omega.clamp(-bx.omega_max, bx.omega_max);
+                for j in 0..=PASSIVE_SPEEDS + 1 {
+                    let v = if j == 0 {
+                        0.0
+                    } else {
+                        grid(bx.v_lo, bx.v_hi, j - 1, PASSIVE_SPEEDS + 1)
+                    };
+                    let c = self.weigh(Twist::new(v, omega), h);
+                    self.candidates.push(c);
+                }
+            }
+            let w = self.params.dtcbf.omega_weight_m2_per_rad2;
+            let cost = |c: &Candidate| {
+                (c.cmd.v_mps - desired.v_mps).powi(2) + w * (c.cmd.omega_radps - desired.omega_radps).powi(2)
+            };
+            let both = self
+                .candidates
+                .iter()
+                .filter(|c| c.condition && c.passive)
+                .min_by(|a, b| cost(a).total_cmp(&cost(b)));
+            let least_bad = || {
+                self.candidates
+                    .iter()
+                    .filter(|c| c.passive)
+                    .max_by(|a, b| a.h_next_m.total_cmp(&b.h_next_m).then(cost(b).total_cmp(&cost(a))))
+            };
+            chosen = match (both, own.passive) {
+                (Some(c), _) => *c,
+                // The DTCBF's own fallback (least bad, or a turn in place) drives into nothing.
+                (None, true) => own,
+                (None, false) => least_bad().copied().unwrap_or(Candidate {
+                    cmd: Twist::new(0.0, out.cmd.omega_radps),
+                    ..own
+                }),
+            };
+        }
+        // Evasion: a mover closes on a robot that cannot go forward. Among the commands
+        // as admissible as the chosen one, the latest predicted contact.
+        let mut evading = false;
+        if closing_in && (out.infeasible || chosen.cmd.v_mps.abs() < stall) {
+            let p = &self.params;
+            self.passive.select_reach(&self.points_next, p);
+            let current = self.passive.evasion_score(chosen.cmd, p);
+            let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
+            let (mut best, mut best_score) = (chosen, current);
+            let speeds = [bx.v_lo, 0.5 * bx.v_lo, 0.25 * bx.v_hi, 0.5 * bx.v_hi, bx.v_hi];
+            for k in 0..EVASION_OMEGAS {
+                let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
+                for v in speeds.into_iter().chain(std::iter::once(0.0)) {
+                    let c = self.weigh(Twist::new(v, omega), h);
+                    if !c.passive || (tier_both && !c.condition) {
+                        continue;
+                    }
+                    let score = self.passive.evasion_score(c.cmd, &self.params);
+                    if better(&score, &best_score) {
+                        (best, best_score) = (c, score);
+                    }
+                }
+            }
+            if best_score.beats(&current, min_gain_s, EVASION_MIN_GAP_GAIN_M) {
+                chosen = best;
+                evading = true;
+            }
+        }
+        if chosen.condition && chosen.passive {
+            // The DTCBF's own search knows nothing of the movers' futures and uses
+            // stricter targets than the logged condition: a command meeting both
+            // makes the step feasible after all.
+            *infeasibility = None;
+        } else if infeasibility.is_none() {
+            *infeasibility = Some(Infeasibility::NoPassiveCommand);
+        }
+        if chosen.cmd == out.cmd {
+            let out = DtcbfOutcome {
+                infeasible: infeasibility.is_some(),
+                ..out
+            };
+            return (out, false, evading);
+        }
+        let target = (1.0 - self.params.dtcbf.gamma) * h;
+        let new = DtcbfOutcome {
+            cmd: chosen.cmd,
+            h_next_m: chosen.h_next_m,
+            changed: true,
+            condition_held: !h.is_finite() || chosen.h_next_m >= target - TOL_M,
+            infeasible: infeasibility.is_some(),
+            ..out
+        };
+        (new, true, evading)
+    }
+}
+
+/// Point k of n evenly spaced over [lo, hi] (n ≥ 2).
+fn grid(lo: f64, hi: f64, k: usize, n: usize) -> f64 {
+    lo + (hi - lo) * k as f64 / (n - 1) as f64
+}
+
+/// Strictly better evasion score: later contact, or the same and more room.
+fn better(a: &EvasionScore, b: &EvasionScore) -> bool {
+    let dt = a.time_to_contact_s - b.time_to_contact_s;
+    if dt.abs() > 1e-9 {
+        dt > 0.0
+    } else {
+        a.mover_gap_m > b.mover_gap_m + 1e-9
     }
 }
 

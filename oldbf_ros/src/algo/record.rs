@@ -20,6 +20,43 @@ pub enum StopCause {
     Infeasible,
     /// An e-stop is latched.
     EStop,
+    /// The front of the scan has been mostly unknown for longer than
+    /// `laser.blind_timeout_s` (a blinded or failing sensor).
+    SensorBlind,
+}
+
+/// Why no command satisfied the checks this step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Infeasibility {
+    /// h < 0 and no command raises h: inside the unsafe set (something walked
+    /// in, or range noise near the boundary).
+    UnsafeSet,
+    /// h ≥ 0 but standing still breaks the condition too: an obstacle is
+    /// approaching faster than the robot can get away.
+    Approaching,
+    /// The one-step condition can be met, but only by commands that would
+    /// drive into a predicted occupancy (§5b).
+    NoPassiveCommand,
+}
+
+impl Infeasibility {
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::UnsafeSet => "unsafe_set",
+            Self::Approaching => "approaching",
+            Self::NoPassiveCommand => "no_passive_command",
+        }
+    }
+}
+
+impl fmt::Display for Infeasibility {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::UnsafeSet => "inside the unsafe set, no command raises h",
+            Self::Approaching => "an obstacle approaches faster than any command gets away",
+            Self::NoPassiveCommand => "every command meeting the condition drives into a predicted occupancy",
+        })
+    }
 }
 
 impl fmt::Display for StopCause {
@@ -30,6 +67,7 @@ impl fmt::Display for StopCause {
             Self::BadNominal => write!(f, "nominal command not finite"),
             Self::Infeasible => write!(f, "no admissible command (DTCBF infeasible)"),
             Self::EStop => write!(f, "e-stop latched"),
+            Self::SensorBlind => write!(f, "sensor blind: the front of the scan reads unknown"),
         }
     }
 }
@@ -42,6 +80,7 @@ impl StopCause {
             Self::BadNominal => "bad_nominal",
             Self::Infeasible => "infeasible",
             Self::EStop => "e_stop",
+            Self::SensorBlind => "sensor_blind",
         }
     }
 }
@@ -67,6 +106,14 @@ pub struct StepRecord {
     pub filter_changed: bool,
     /// Whether h(k+1) ≥ (1 − γ) h(k) holds for `cmd`.
     pub condition_held: bool,
+    /// Whether `cmd` can brake to rest without a closing contact with any
+    /// predicted occupancy (§5b), whether or not the check is enabled.
+    pub braking_held: bool,
+    /// Whether the passive-safety check or evasion changed the DTCBF's command.
+    pub passive_changed: bool,
+    /// Why no command met the checks, when none did (`cmd` is then the
+    /// fallback: a stop, a turn in place, or the evasive command).
+    pub infeasibility: Option<Infeasibility>,
     pub b_left: f64,
     pub b_right: f64,
     pub b_velocity: f64,
@@ -80,6 +127,12 @@ pub struct StepRecord {
     pub closest_right: Option<Vec2>,
     pub beams: usize,
     pub valid_beams: usize,
+    /// Beams reading unknown (NaN, below range_min), and of those the ones
+    /// whose last valid reading is held as a point.
+    pub unknown_beams: usize,
+    pub held_beams: usize,
+    /// Unknown fraction of the front sector watched for blindness.
+    pub unknown_front_fraction: f64,
     /// Confirmed moving tracks.
     pub tracked_obstacles: usize,
     /// Of those, on a collision course (their motion entered the prediction).
@@ -102,6 +155,9 @@ impl StepRecord {
             h_next_m: f64::NAN,
             filter_changed: false,
             condition_held: false,
+            braking_held: true,
+            passive_changed: false,
+            infeasibility: None,
             b_left: f64::NAN,
             b_right: f64::NAN,
             b_velocity: f64::NAN,
@@ -113,6 +169,9 @@ impl StepRecord {
             closest_right: None,
             beams: 0,
             valid_beams: 0,
+            unknown_beams: 0,
+            held_beams: 0,
+            unknown_front_fraction: f64::NAN,
             tracked_obstacles: 0,
             threats: 0,
             min_time_to_collision_s: f64::INFINITY,
@@ -124,7 +183,7 @@ impl StepRecord {
     pub fn measured(&self) -> bool {
         !matches!(
             self.stop_cause,
-            Some(StopCause::Rejected(_) | StopCause::NoScan | StopCause::BadNominal)
+            Some(StopCause::Rejected(_) | StopCause::NoScan | StopCause::BadNominal | StopCause::SensorBlind)
         )
     }
 }

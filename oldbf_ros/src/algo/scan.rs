@@ -1,13 +1,24 @@
-//! Scan → points (ALGORITHM.md §1, paper III.A).
+//! Scan → points (ALGORITHM.md §1, paper III.A, ROS REP 117).
 //!
 //! A beam is valid iff its range p is finite and range_min ≤ p < range_max;
-//! every other value (NaN, ±inf, negative, too short, at or beyond range_max)
-//! is "out of range": p = +inf and its reciprocal q = 1/p = 0. Valid beams
-//! become points in the robot frame through the laser's mount pose. Malformed
-//! scans are rejected with a reason instead of being half-used.
+//! a valid beam becomes a point in the robot frame through the laser's mount
+//! pose. The invalid readings are not all alike (REP 117), and unknown is not
+//! free:
+//! * +inf, or finite ≥ range_max: nothing in range, free;
+//! * −inf: something too close to measure: an obstacle at range_min;
+//! * NaN, and finite values below range_min (0.0 and negatives included):
+//!   unknown. An unknown beam keeps its last valid reading for a while
+//!   ([`BeamMemory`]); a sensor whose front is mostly unknown is blind
+//!   (`blind.rs`). `laser.zero_is_no_return` declares a driver that writes
+//!   0.0 for "no return" (TurtleBot3's LDS): then 0.0 is free.
+//!
+//! `laser.range_semantics: all_invalid_free` is the paper method: every
+//! invalid reading is free space (the reciprocal 1/∞ = 0), nothing is held.
+//! Malformed scans are rejected with a reason instead of being half-used.
 
+use super::beam_memory::BeamMemory;
 use super::geometry::{Pose2, Vec2};
-use super::params::LaserParams;
+use super::params::{LaserParams, RangeSemantics};
 use std::fmt;
 
 /// A borrowed view of a LaserScan (sensor_msgs/LaserScan fields, SI units).
@@ -140,10 +151,21 @@ pub struct ScanPoints {
     pub points: Vec<Vec2>,
     /// Beam index of each point.
     pub beam_index: Vec<u32>,
-    /// Reciprocal range q_i = 1/p_i for every beam (1/m); 0 for out-of-range beams.
-    pub q: Vec<f64>,
+    /// What each beam of the last accepted scan said.
+    pub status: Vec<BeamStatus>,
     /// Beams in the last accepted scan.
     pub beams: usize,
+    /// Of those: unknown (held or not), held, and unknown inside the front
+    /// sector watched for blindness, out of `front_beams` there.
+    pub unknown: usize,
+    pub held: usize,
+    /// Beams that read −inf.
+    pub too_close: usize,
+    pub unknown_front: usize,
+    pub front_beams: usize,
+    /// Beams of the rear sector a reversing robot must see, and unknown ones there.
+    pub rear_beams: usize,
+    pub unknown_rear: usize,
     /// Beam directions of the last scan geometry seen.
     directions: BeamDirections,
 }
@@ -202,8 +224,15 @@ impl ScanPoints {
         Self {
             points: Vec::with_capacity(beams),
             beam_index: Vec::with_capacity(beams),
-            q: Vec::with_capacity(beams),
+            status: Vec::with_capacity(beams),
             beams: 0,
+            unknown: 0,
+            held: 0,
+            too_close: 0,
+            unknown_front: 0,
+            front_beams: 0,
+            rear_beams: 0,
+            unknown_rear: 0,
             directions: BeamDirections {
                 geometry: None,
                 dirs: Vec::with_capacity(beams),
@@ -214,19 +243,27 @@ impl ScanPoints {
     pub fn clear(&mut self) {
         self.points.clear();
         self.beam_index.clear();
-        self.q.clear();
+        self.status.clear();
         self.beams = 0;
+        self.unknown = 0;
+        self.held = 0;
+        self.too_close = 0;
+        self.unknown_front = 0;
+        self.front_beams = 0;
+        self.rear_beams = 0;
+        self.unknown_rear = 0;
     }
 
     /// Makes room for `beams` beams (no-op once the buffers are that large).
     pub fn reserve(&mut self, beams: usize) {
         self.points.reserve(beams);
         self.beam_index.reserve(beams);
-        self.q.reserve(beams);
+        self.status.reserve(beams);
     }
 
+    /// Beams with a valid reading (the points less the −inf and held ones).
     pub fn valid_count(&self) -> usize {
-        self.points.len()
+        self.points.len() - self.held - self.too_close
     }
 }
 
@@ -234,6 +271,54 @@ impl ScanPoints {
 #[inline]
 pub fn is_valid_range(p: f32, range_min: f32, range_max: f32) -> bool {
     p.is_finite() && p >= range_min && p < range_max
+}
+
+/// What one reading says (REP 117).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RangeKind {
+    /// range_min ≤ p < range_max: an obstacle at p.
+    Valid,
+    /// +inf or ≥ range_max (or 0.0 under `zero_is_no_return`): nothing in range.
+    Free,
+    /// −inf: an obstacle too close to measure, taken at range_min.
+    TooClose,
+    /// NaN or below range_min: nothing known.
+    Unknown,
+}
+
+/// Classifies reading `p` of a scan with limits [range_min, range_max).
+#[inline]
+pub fn classify_range(p: f32, range_min: f32, range_max: f32, zero_is_no_return: bool) -> RangeKind {
+    if p == 0.0 && zero_is_no_return {
+        RangeKind::Free
+    } else if p >= range_min {
+        // Also +inf; NaN fails every comparison and falls through.
+        if p < range_max {
+            RangeKind::Valid
+        } else {
+            RangeKind::Free
+        }
+    } else if p == f32::NEG_INFINITY {
+        RangeKind::TooClose
+    } else {
+        RangeKind::Unknown
+    }
+}
+
+/// What became of one beam of an accepted scan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum BeamStatus {
+    /// A valid reading: a point.
+    Valid,
+    /// Nothing in range (or, under the paper method, any invalid reading).
+    Free,
+    /// −inf: a point at range_min.
+    TooClose,
+    /// Unknown, and its last valid reading is kept as a point.
+    Held,
+    /// Unknown with nothing recent to keep: no point.
+    Unknown,
 }
 
 /// Checks the scan's structure and timing without touching the beams.
@@ -294,37 +379,102 @@ pub fn check_scan(scan: &LaserScan<'_>, now_s: f64, params: &LaserParams) -> Res
     Ok(())
 }
 
-/// Validates `scan` and fills `out` with its valid points in the robot frame.
-/// On rejection `out` is left empty.
+/// Validates `scan` and fills `out` with its points ([`fill_points`]); on
+/// rejection `out` is left empty and `memory` untouched.
 pub fn sanitize_scan(
     scan: &LaserScan<'_>,
     now_s: f64,
     params: &LaserParams,
     mount: &LaserMount,
     out: &mut ScanPoints,
+    memory: &mut BeamMemory,
 ) -> Result<(), ScanRejection> {
     out.clear();
     check_scan(scan, now_s, params)?;
+    fill_points(scan, params, mount, out, memory, std::f64::consts::FRAC_PI_4);
+    Ok(())
+}
+
+/// Fills `out` with the points of a scan that passed [`check_scan`], robot
+/// frame, in beam order: valid readings, −inf at range_min, and (REP 117)
+/// the held last readings of unknown beams from `memory`, on which
+/// [`BeamMemory::begin_scan`] must have been called for this scan. Also
+/// counts the beams of the front sector watched for blindness and of the rear
+/// sector (`rear_half_rad` either side of straight back) and the unknown
+/// ones among them.
+pub fn fill_points(
+    scan: &LaserScan<'_>,
+    params: &LaserParams,
+    mount: &LaserMount,
+    out: &mut ScanPoints,
+    memory: &mut BeamMemory,
+    rear_half_rad: f64,
+) {
+    out.clear();
     out.beams = scan.ranges_m.len();
     // Grows only when a scan has more beams than any before: no allocation in steady state.
     out.reserve(out.beams);
     let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
-    out.q.extend(scan.ranges_m.iter().map(|&p| {
-        if is_valid_range(p, rmin, rmax) {
-            1.0 / p as f64
-        } else {
-            0.0
-        }
-    }));
     let origin = mount.pose.position();
+    let cos_rear = rear_half_rad.cos();
     let dirs = out.directions.get(scan, mount);
+    if params.range_semantics == RangeSemantics::AllInvalidFree {
+        for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
+            out.rear_beams += (dir.x <= -cos_rear) as usize;
+            if is_valid_range(p, rmin, rmax) {
+                out.points.push(origin + dir * p as f64);
+                out.beam_index.push(i as u32);
+                out.status.push(BeamStatus::Valid);
+            } else {
+                out.status.push(BeamStatus::Free);
+            }
+        }
+        return;
+    }
+    let cos_front = (params.blind_sector_deg.to_radians() / 2.0)
+        .min(std::f64::consts::PI)
+        .cos();
+    let (zero_free, hold_s) = (params.zero_is_no_return, params.unknown_hold_s);
     for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
-        if is_valid_range(p, rmin, rmax) {
-            out.points.push(origin + dir * p as f64);
+        let in_front = dir.x >= cos_front;
+        let in_rear = dir.x <= -cos_rear;
+        out.front_beams += in_front as usize;
+        out.rear_beams += in_rear as usize;
+        let status = match classify_range(p, rmin, rmax, zero_free) {
+            RangeKind::Valid => {
+                memory.remember(i, p);
+                out.points.push(origin + dir * p as f64);
+                BeamStatus::Valid
+            }
+            RangeKind::TooClose => {
+                memory.remember(i, rmin);
+                out.too_close += 1;
+                out.points.push(origin + dir * rmin as f64);
+                BeamStatus::TooClose
+            }
+            RangeKind::Free => {
+                memory.forget(i);
+                BeamStatus::Free
+            }
+            RangeKind::Unknown => {
+                out.unknown += 1;
+                out.unknown_front += in_front as usize;
+                out.unknown_rear += in_rear as usize;
+                match memory.held_point(i, hold_s, |r| origin + dir * r as f64) {
+                    Some(q) => {
+                        out.held += 1;
+                        out.points.push(q);
+                        BeamStatus::Held
+                    }
+                    None => BeamStatus::Unknown,
+                }
+            }
+        };
+        if matches!(status, BeamStatus::Valid | BeamStatus::TooClose | BeamStatus::Held) {
             out.beam_index.push(i as u32);
         }
+        out.status.push(status);
     }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -344,22 +494,114 @@ mod tests {
         }
     }
 
-    fn run(s: &LaserScan<'_>, mount: Pose2) -> Result<ScanPoints, ScanRejection> {
+    fn run_with(s: &LaserScan<'_>, mount: Pose2, p: &LaserParams) -> Result<ScanPoints, ScanRejection> {
         let mut out = ScanPoints::default();
-        sanitize_scan(s, 10.0, &LaserParams::default(), &LaserMount { pose: mount }, &mut out).map(|_| out)
+        let mut memory = BeamMemory::with_capacity(s.ranges_m.len());
+        memory.begin_scan(s.ranges_m.len(), Pose2::default(), s.stamp_s);
+        sanitize_scan(s, 10.0, p, &LaserMount { pose: mount }, &mut out, &mut memory).map(|_| out)
+    }
+
+    fn run(s: &LaserScan<'_>, mount: Pose2) -> Result<ScanPoints, ScanRejection> {
+        run_with(s, mount, &LaserParams::default())
+    }
+
+    /// NaN, +inf, −inf, negative, 0, below range_min, exactly range_max, beyond, valid.
+    const EVERY_KIND: [f32; 9] = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        -1.0,
+        0.0,
+        0.05,
+        5.0,
+        7.0,
+        2.0,
+    ];
+
+    #[test]
+    fn rep117_reads_each_kind_of_invalid_range_as_its_own_thing() {
+        use BeamStatus::*;
+        let out = run(&scan(&EVERY_KIND, 0.0, 0.1), Pose2::default()).unwrap();
+        // No history: unknown beams have nothing to hold.
+        assert_eq!(
+            out.status,
+            [Unknown, Free, TooClose, Unknown, Unknown, Unknown, Free, Free, Valid]
+        );
+        assert_eq!((out.valid_count(), out.too_close, out.unknown, out.held), (1, 1, 4, 0));
+        assert_eq!(out.beam_index, [2, 8]);
+        // −inf: an obstacle at range_min (0.1 m) on beam 2, at 0.2 rad.
+        assert!((out.points[0] - Vec2::new(0.1 * 0.2f64.cos(), 0.1 * 0.2f64.sin())).norm() < 1e-6);
+        // Beam 8 at 0.8 rad, 2 m.
+        assert!((out.points[1] - Vec2::new(2.0 * 0.8f64.cos(), 2.0 * 0.8f64.sin())).norm() < 1e-6);
     }
 
     #[test]
-    fn invalid_readings_become_infinite_with_zero_reciprocal() {
-        // NaN, +inf, -inf, negative, below range_min, exactly range_max, beyond, valid.
-        let ranges = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0, 0.05, 5.0, 7.0, 2.0];
-        let out = run(&scan(&ranges, 0.0, 0.1), Pose2::default()).unwrap();
-        assert_eq!(out.q, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]);
-        assert_eq!(out.valid_count(), 1);
-        assert_eq!(out.beam_index, [7]);
-        // Beam 7 at 0.7 rad, 2 m.
-        let p = out.points[0];
-        assert!((p.x - 2.0 * 0.7f64.cos()).abs() < 1e-6 && (p.y - 2.0 * 0.7f64.sin()).abs() < 1e-6);
+    fn a_driver_that_writes_zero_for_no_return_can_say_so() {
+        let p = LaserParams {
+            zero_is_no_return: true,
+            ..LaserParams::default()
+        };
+        let out = run_with(&scan(&EVERY_KIND, 0.0, 0.1), Pose2::default(), &p).unwrap();
+        assert_eq!(out.status[4], BeamStatus::Free);
+        // Only exactly zero: negatives and other short readings stay unknown.
+        assert_eq!(
+            (out.status[3], out.status[5]),
+            (BeamStatus::Unknown, BeamStatus::Unknown)
+        );
+        assert_eq!(classify_range(0.0, 0.0, 5.0, true), RangeKind::Free);
+        assert_eq!(classify_range(0.0, 0.0, 5.0, false), RangeKind::Valid);
+    }
+
+    #[test]
+    fn the_paper_method_reads_every_invalid_range_as_free() {
+        let p = LaserParams {
+            range_semantics: RangeSemantics::AllInvalidFree,
+            ..LaserParams::default()
+        };
+        let out = run_with(&scan(&EVERY_KIND, 0.0, 0.1), Pose2::default(), &p).unwrap();
+        assert_eq!(out.beam_index, [8]);
+        assert_eq!((out.valid_count(), out.unknown), (1, 0));
+        assert!(out.status[..8].iter().all(|&s| s == BeamStatus::Free));
+    }
+
+    #[test]
+    fn unknown_beams_keep_their_last_reading_and_blindness_is_counted_in_front() {
+        let p = LaserParams::default(); // hold 2 s, blind sector 180°
+        let mount = LaserMount { pose: Pose2::default() };
+        // Beam 0 ahead, beam 1 behind (increment π).
+        let first = [0.5f32, 0.6];
+        let mut s = scan(&first, 0.0, std::f32::consts::PI);
+        let (mut out, mut memory) = (ScanPoints::default(), BeamMemory::default());
+        memory.begin_scan(2, Pose2::default(), 10.0);
+        sanitize_scan(&s, 10.0, &p, &mount, &mut out, &mut memory).unwrap();
+        assert_eq!((out.front_beams, out.unknown_front), (1, 0));
+        // Both go unknown 0.1 s later while the robot has moved 0.1 m forward: the
+        // obstacle ahead is now 0.4 m ahead, the one behind 0.7 m behind.
+        let second = [f32::NAN, 0.01];
+        s.ranges_m = &second;
+        s.stamp_s = 10.1;
+        memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.1);
+        sanitize_scan(&s, 10.1, &p, &mount, &mut out, &mut memory).unwrap();
+        assert_eq!(out.status, [BeamStatus::Held, BeamStatus::Held]);
+        assert_eq!(
+            (out.unknown, out.held, out.unknown_front, out.valid_count()),
+            (2, 2, 1, 0)
+        );
+        assert!((out.points[0] - Vec2::new(0.4, 0.0)).norm() < 1e-6, "{:?}", out.points);
+        assert!((out.points[1] - Vec2::new(-0.7, 0.0)).norm() < 1e-6, "{:?}", out.points);
+        // +inf on beam 0: it sees through now, and forgets.
+        let third = [f32::INFINITY, f32::NAN];
+        s.ranges_m = &third;
+        s.stamp_s = 10.2;
+        memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.2);
+        sanitize_scan(&s, 10.2, &p, &mount, &mut out, &mut memory).unwrap();
+        let fourth = [f32::NAN, f32::NAN];
+        s.ranges_m = &fourth;
+        s.stamp_s = 10.3;
+        memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.3);
+        sanitize_scan(&s, 10.3, &p, &mount, &mut out, &mut memory).unwrap();
+        assert_eq!(out.status, [BeamStatus::Unknown, BeamStatus::Held]);
+        assert_eq!(out.beam_index, [1]);
     }
 
     #[test]

@@ -213,12 +213,18 @@ mod tests {
 
     #[test]
     fn heading_towards_maps_planar_velocities() {
-        let bx = InputBox::from_params(&Params::default());
+        let mut p = Params::default();
+        p.control.allow_reverse = false;
+        let bx = InputBox::from_params(&p);
         let t = heading_towards(Vec2::new(0.1, 0.1), 2.0, &bx);
         assert!((t.v_mps - 0.1).abs() < 1e-12);
         assert!((t.omega_radps - 2.0 * std::f64::consts::FRAC_PI_4).abs() < 1e-12);
         // Behind the robot, no reversing: v < 0 is clamped later; the turn is towards u.
         let t = heading_towards(Vec2::new(-0.1, 0.0001), 2.0, &bx);
         assert!(t.v_mps < 0.0 && t.omega_radps > 6.0);
+        // With reversing the robot backs towards u, turning its rear to face it.
+        p.control.allow_reverse = true;
+        let t = heading_towards(Vec2::new(-0.1, 0.0001), 2.0, &InputBox::from_params(&p));
+        assert!((t.v_mps + 0.1).abs() < 1e-6 && t.omega_radps.abs() < 1e-2, "{t:?}");
     }
 }

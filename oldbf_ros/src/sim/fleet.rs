@@ -4,7 +4,11 @@
 //! Every robot is a disc of its body radius in the other robots' LiDAR scans
 //! and collision checks, so robots in one world see and avoid each other.
 //! Collisions are checked exactly (robot circle against segments and circles)
-//! after every physics step; a contact counts once when it begins.
+//! after every physics step; a contact counts once when it begins. Each
+//! contact is classified at its onset (ALGORITHM.md §5b): *closing* when the
+//! robot's own velocity towards the touched point exceeds
+//! [`CLOSING_SPEED_MPS`] (it drove in), else *passive* (it was at rest, or
+//! turning, or moving away: the obstacle came to it).
 
 use super::lidar::{Lidar, LidarSpec};
 use super::robot::SimRobot;
@@ -12,6 +16,27 @@ use super::scenario::Scenario;
 use super::shapes::Circle;
 use super::world::World;
 use crate::algo::geometry::{Pose2, Twist, Vec2};
+
+/// A contact is closing when the robot moved towards the touched point
+/// faster than this at its onset (m/s); the figure of merit of §5b.
+pub const CLOSING_SPEED_MPS: f64 = 0.02;
+
+/// One contact, at its onset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Robot position (m, world).
+    pub position: Vec2,
+    /// Robot speed towards the touched point (m/s; negative: moving away).
+    pub closing_speed_mps: f64,
+}
+
+impl Contact {
+    pub fn closing(&self) -> bool {
+        self.closing_speed_mps > CLOSING_SPEED_MPS
+    }
+}
 
 /// One simulated robot and what happened to it.
 #[derive(Debug, Clone)]
@@ -29,8 +54,8 @@ pub struct SimAgent {
     pub min_clearance_m: f64,
     /// Distance travelled (m).
     pub path_length_m: f64,
-    /// Where each contact began.
-    pub collision_points: Vec<Vec2>,
+    /// Each contact at its onset.
+    pub contacts: Vec<Contact>,
 }
 
 /// The world and its robots.
@@ -59,7 +84,7 @@ impl Fleet {
                 in_collision: false,
                 min_clearance_m: f64::INFINITY,
                 path_length_m: 0.0,
-                collision_points: Vec::new(),
+                contacts: Vec::new(),
             });
         }
         let l = &scenario.params.laser;
@@ -134,7 +159,17 @@ impl Fleet {
             let hit = clearance < 0.0;
             if hit && !a.in_collision {
                 a.collisions += 1;
-                a.collision_points.push(a.robot.pose.position());
+                let pose = a.robot.pose;
+                let velocity = Vec2::new(pose.theta.cos(), pose.theta.sin()) * a.robot.twist.v_mps;
+                let closing_speed_mps = match self.world.nearest_surface_point(pose.position()) {
+                    Some(q) if q != pose.position() => velocity.dot(&(q - pose.position()).normalize()),
+                    _ => velocity.norm(),
+                };
+                a.contacts.push(Contact {
+                    t_s: self.world.time_s(),
+                    position: pose.position(),
+                    closing_speed_mps,
+                });
             }
             a.in_collision = hit;
         }
@@ -154,6 +189,11 @@ impl Fleet {
         self.agents[i].lidar.scan_into(&self.world, laser, ranges);
     }
 
+    /// The true ranges of robot `i`'s last scan (m; +inf: no hit).
+    pub fn scan_truth(&self, i: usize) -> &[f32] {
+        self.agents[i].lidar.truth()
+    }
+
     /// Exact distance from robot `i`'s centre to the nearest obstacle surface,
     /// other robots included (m).
     pub fn distance_from_centre(&mut self, i: usize) -> f64 {
@@ -165,6 +205,30 @@ impl Fleet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_robot_at_rest_or_backing_off_when_touched_has_a_passive_contact() {
+        // b drives into a (at rest): a's contact is passive, b's closing. Then the
+        // same with a backing away slower than b comes: still passive for a.
+        for (v_a, a_closing) in [(0.0, false), (-0.05, false), (0.05, true)] {
+            let s = Scenario::from_str(TWO, "t.yaml", None).unwrap();
+            let mut f = Fleet::new(&s, 1).unwrap();
+            f.set_cmd(0, Twist::new(v_a, 0.0));
+            f.set_cmd(1, Twist::new(0.2, 0.0));
+            for _ in 0..600 {
+                f.step(0.01);
+            }
+            let (a, b) = (&f.agents()[0], &f.agents()[1]);
+            assert_eq!((a.contacts.len(), b.contacts.len()), (1, 1), "v_a {v_a}");
+            assert_eq!(a.contacts[0].closing(), a_closing, "v_a {v_a}: {:?}", a.contacts[0]);
+            assert!(
+                (a.contacts[0].closing_speed_mps - v_a).abs() < 1e-9,
+                "{:?}",
+                a.contacts[0]
+            );
+            assert!(b.contacts[0].closing());
+        }
+    }
 
     const TWO: &str = "
 name: two
@@ -199,6 +263,10 @@ robots:
         // They meet when 1.0 − 2·0.105 = 0.79 m has been closed; both count one contact.
         assert_eq!(f.agents()[0].collisions, 1);
         assert_eq!(f.agents()[1].collisions, 1);
+        // Both drove in at 0.2 m/s: closing contacts.
+        for a in f.agents() {
+            assert!((a.contacts[0].closing_speed_mps - 0.2).abs() < 1e-9 && a.contacts[0].closing());
+        }
         assert!(f.agents()[0].min_clearance_m < 0.0);
         assert!(
             (f.agents()[0].path_length_m - 0.2 * 3.0).abs() < 0.02,

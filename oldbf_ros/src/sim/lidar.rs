@@ -166,6 +166,10 @@ pub struct Lidar {
     /// Unit beam directions in the laser frame.
     beam_dirs: Vec<Vec2>,
     scratch: ScanScratch,
+    /// The true range of each beam of the last scan, before noise and
+    /// dropouts (m; +inf: nothing within range_max): what a metric needs to
+    /// tell a reading that hid something from one that did not.
+    truth: Vec<f32>,
 }
 
 impl Lidar {
@@ -189,6 +193,7 @@ impl Lidar {
             noise,
             beam_dirs,
             scratch: ScanScratch::default(),
+            truth: Vec::new(),
         })
     }
 
@@ -208,8 +213,10 @@ impl Lidar {
     pub fn scan_into(&mut self, world: &World, laser_pose_world: Pose2, ranges_out: &mut Vec<f32>) {
         ranges_out.clear();
         ranges_out.reserve(self.beam_dirs.len());
+        self.truth.clear();
         if !laser_pose_world.is_finite() {
             ranges_out.resize(self.beam_dirs.len(), f32::NAN);
+            self.truth.resize(self.beam_dirs.len(), f32::NAN);
             return;
         }
         let origin = laser_pose_world.position();
@@ -219,7 +226,9 @@ impl Lidar {
         world.prepare_scan(origin, range_max_m, &mut self.scratch);
         for d in &self.beam_dirs {
             let dir = Vec2::new(c * d.x - s * d.y, s * d.x + c * d.y);
-            let mut r = match self.scratch.ray_cast(origin, dir, range_max_m) {
+            let hit = self.scratch.ray_cast(origin, dir, range_max_m);
+            self.truth.push(hit.map_or(f32::INFINITY, |t| t as f32));
+            let mut r = match hit {
                 Some(t) => {
                     let noisy = match &self.noise {
                         Some(n) => t + n.sample(&mut self.rng),
@@ -248,6 +257,12 @@ impl Lidar {
             }
             ranges_out.push(r);
         }
+    }
+
+    /// The true range of each beam of the last scan (m; +inf: no hit within
+    /// range_max), before noise and dropouts.
+    pub fn truth(&self) -> &[f32] {
+        &self.truth
     }
 
     /// Allocating convenience wrapper around [`Lidar::scan_into`].

@@ -17,16 +17,16 @@
 //! simulator's exact geometry after the step: it also sees sensor noise,
 //! actuator lag and obstacle motion that a static one-step prediction cannot.
 
-use super::fleet::Fleet;
+use super::fleet::{Contact, Fleet, CLOSING_SPEED_MPS};
 use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
 use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 use crate::algo::pipeline::SafetyPipeline;
-use crate::algo::record::StepRecord;
+use crate::algo::record::{Infeasibility, StepRecord, StopCause};
 use crate::algo::reference::ReferenceProgress;
-use crate::algo::scan::LaserScan;
+use crate::algo::scan::{classify_range, BeamStatus, LaserScan, RangeKind};
 use crate::algo::tracking::{track, TrackingError};
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
 use serde::Serialize;
@@ -36,8 +36,13 @@ use std::time::Instant;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Controller {
-    /// OLDBF barriers + DOAA steering + exact DTCBF filter.
+    /// OLDBF barriers + DOAA steering + exact DTCBF filter, with REP 117
+    /// range semantics and passive motion safety (ALGORITHM.md §1, §5b).
     Oldbf,
+    /// The same with this project's checks beyond the paper off
+    /// (`Params::paper_method`: every invalid range free, no braking check,
+    /// no evasion, no reverse): the filter as the paper defines it.
+    OldbfPaper,
     /// The standard DCBF-QP safety filter (clarabel) on the same points.
     Dcbf,
     /// ORCA velocity obstacles (dodgy_2d) on the tracked obstacles and the scan outline.
@@ -76,6 +81,16 @@ pub struct StepRow {
     pub state: DoaaState,
     pub filter_changed: bool,
     pub condition_held: bool,
+    /// The sent command could brake to rest without a predicted closing contact (§5b).
+    pub braking_held: bool,
+    /// Why no command met the checks (empty when one did).
+    pub infeasible: &'static str,
+    /// Beams reading unknown, and held of those.
+    pub unknown_beams: usize,
+    pub held_beams: usize,
+    /// Driving (|v| > 0.02 m/s) while a beam whose true range was near read
+    /// unknown and was taken as free.
+    pub driven_blind: bool,
     pub in_collision: bool,
     /// Tracks the pipeline considers moving, and those on a collision course
     /// within the look-ahead; least time to collision among them (s, inf if none).
@@ -92,12 +107,35 @@ pub struct RobotSummary {
     pub name: String,
     /// Distinct contacts between the robot circle and any obstacle (other robots included).
     pub collisions: usize,
+    /// Of those, contacts the robot drove into (its speed towards the touched
+    /// point above 0.02 m/s at the onset), and the others (at rest, turning
+    /// or moving away: the obstacle came to it).
+    pub closing_contacts: usize,
+    pub passive_contacts: usize,
     /// Least distance between the robot's body and any obstacle over the run (m; < 0 = penetration).
     pub min_clearance_m: f64,
     /// Steps where the logged DTCBF condition was false for the sent command.
     pub cbf_violations: usize,
     /// Steps where the condition failed on the exact geometry after the step.
     pub true_cbf_violations: usize,
+    /// Logged violations on steps the filter did not mark infeasible (must be 0).
+    pub cbf_violations_feasible: usize,
+    /// Steps whose sent command could not brake to rest without a predicted
+    /// closing contact (§5b), and those of them not marked infeasible.
+    pub braking_violations: usize,
+    pub braking_violations_feasible: usize,
+    /// Steps the filter marked infeasible, by reason.
+    pub infeasible_steps: InfeasibleCounts,
+    /// Steps stopped because the sensor was blind.
+    pub blind_steps: usize,
+    /// Steps driven while an unknown beam whose true range was within
+    /// r + d_act was taken as free.
+    pub driven_blind_steps: usize,
+    /// Steps whose yaw-rate command differs from the previous step's by more
+    /// than ω_max (steering flips).
+    pub steering_flips: usize,
+    /// Time with |v| < 0.02 m/s while the goal was not reached (s).
+    pub stalled_s: f64,
     pub reached_goal: bool,
     pub time_to_goal_s: Option<f64>,
     pub path_length_m: f64,
@@ -123,9 +161,19 @@ pub struct RunSummary {
     pub steps: usize,
     pub sim_time_s: f64,
     pub collisions: usize,
+    pub closing_contacts: usize,
+    pub passive_contacts: usize,
     pub min_clearance_m: f64,
     pub cbf_violations: usize,
     pub true_cbf_violations: usize,
+    pub cbf_violations_feasible: usize,
+    pub braking_violations: usize,
+    pub braking_violations_feasible: usize,
+    pub infeasible_steps: InfeasibleCounts,
+    pub blind_steps: usize,
+    pub driven_blind_steps: usize,
+    pub steering_flips: usize,
+    pub stalled_s: f64,
     pub reached_goal: bool,
     pub time_to_goal_s: Option<f64>,
     pub path_length_m: f64,
@@ -150,6 +198,37 @@ pub struct StateCounts {
     pub both_sides: usize,
     pub stop: usize,
     pub escape: usize,
+    pub evade: usize,
+}
+
+/// Steps marked infeasible, by reason (`Infeasibility`).
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
+pub struct InfeasibleCounts {
+    pub unsafe_set: usize,
+    pub approaching: usize,
+    pub no_passive_command: usize,
+}
+
+impl InfeasibleCounts {
+    fn add(&mut self, r: Infeasibility) {
+        match r {
+            Infeasibility::UnsafeSet => self.unsafe_set += 1,
+            Infeasibility::Approaching => self.approaching += 1,
+            Infeasibility::NoPassiveCommand => self.no_passive_command += 1,
+        }
+    }
+
+    pub fn total(&self) -> usize {
+        self.unsafe_set + self.approaching + self.no_passive_command
+    }
+
+    fn sum(&self, o: &InfeasibleCounts) -> InfeasibleCounts {
+        InfeasibleCounts {
+            unsafe_set: self.unsafe_set + o.unsafe_set,
+            approaching: self.approaching + o.approaching,
+            no_passive_command: self.no_passive_command + o.no_passive_command,
+        }
+    }
 }
 
 impl StateCounts {
@@ -160,6 +239,7 @@ impl StateCounts {
             DoaaState::BothSides => self.both_sides += 1,
             DoaaState::Stop => self.stop += 1,
             DoaaState::Escape => self.escape += 1,
+            DoaaState::Evade => self.evade += 1,
         }
     }
 
@@ -170,6 +250,7 @@ impl StateCounts {
             both_sides: self.both_sides + o.both_sides,
             stop: self.stop + o.stop,
             escape: self.escape + o.escape,
+            evade: self.evade + o.evade,
         }
     }
 }
@@ -181,8 +262,8 @@ pub struct RobotRun {
     pub summary: RobotSummary,
     /// One row per control step until the robot reached its goal.
     pub rows: Vec<StepRow>,
-    /// Robot positions where a collision began.
-    pub collision_points: Vec<Vec2>,
+    /// Every contact at its onset.
+    pub contacts: Vec<Contact>,
     /// The reference's end, if any.
     pub goal: Option<Vec2>,
 }
@@ -205,11 +286,22 @@ struct AgentLoop {
     dcbf: DcbfFilter,
     progress: ReferenceProgress,
     ranges: Vec<f32>,
+    /// The true range of each beam of the scan in hand (m; +inf: no hit).
+    truth: Vec<f32>,
     scan_stamp: f64,
     rows: Vec<StepRow>,
     counts: StateCounts,
     cbf_violations: usize,
     true_violations: usize,
+    cbf_violations_feasible: usize,
+    braking_violations: usize,
+    braking_violations_feasible: usize,
+    infeasible: InfeasibleCounts,
+    blind_steps: usize,
+    driven_blind_steps: usize,
+    steering_flips: usize,
+    stalled_steps: usize,
+    last_omega: Option<f64>,
     changed_steps: usize,
     max_err: f64,
     sum_err: f64,
@@ -224,7 +316,13 @@ struct AgentLoop {
 /// Runs `scenario` in closed loop with `controller`.
 pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> Result<RunResult, String> {
     let spec = &scenario.spec;
-    let params = &scenario.params;
+    let paper_params;
+    let params = if controller == Controller::OldbfPaper {
+        paper_params = scenario.params.clone().paper_method();
+        &paper_params
+    } else {
+        &scenario.params
+    };
     let mut fleet = Fleet::new(scenario, seed)?;
     let world_at_start = fleet.world().clone();
 
@@ -250,11 +348,21 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             dcbf: DcbfFilter::new(),
             progress: ReferenceProgress::default(),
             ranges: Vec::with_capacity(lidar.beams),
+            truth: Vec::with_capacity(lidar.beams),
             scan_stamp: f64::NEG_INFINITY,
             rows: Vec::with_capacity(steps_max),
             counts: StateCounts::default(),
             cbf_violations: 0,
             true_violations: 0,
+            cbf_violations_feasible: 0,
+            braking_violations: 0,
+            braking_violations_feasible: 0,
+            infeasible: InfeasibleCounts::default(),
+            blind_steps: 0,
+            driven_blind_steps: 0,
+            steering_flips: 0,
+            stalled_steps: 0,
+            last_omega: None,
             changed_steps: 0,
             max_err: 0.0,
             sum_err: 0.0,
@@ -289,6 +397,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             }
             if scan_due {
                 fleet.scan(i, &mut a.ranges);
+                a.truth.clear();
+                a.truth.extend_from_slice(fleet.scan_truth(i));
                 a.scan_stamp = t;
             }
             let scan = LaserScan {
@@ -322,7 +432,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             // The baselines share the pipeline's perception (points, prediction, tracks)
             // and its rule that no usable scan means a stop; their time includes it.
             let cmd = match controller {
-                Controller::Oldbf => rec.cmd,
+                Controller::Oldbf | Controller::OldbfPaper => rec.cmd,
                 Controller::Dcbf if rec.measured() => {
                     let pl = &a.pipeline;
                     a.dcbf.filter(pl.points(), pl.points_next(), nominal, params).cmd
@@ -358,7 +468,35 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             };
             if rec.measured() && !held {
                 a.cbf_violations += 1;
+                if rec.infeasibility.is_none() {
+                    a.cbf_violations_feasible += 1;
+                }
             }
+            // The braking condition (§5b) for the command actually sent, from the same
+            // prediction, whether or not the controller checks it.
+            let braking_held = !rec.measured() || a.pipeline.braking_check(cmd).is_none();
+            if !braking_held {
+                a.braking_violations += 1;
+                if rec.infeasibility.is_none() {
+                    a.braking_violations_feasible += 1;
+                }
+            }
+            if let Some(r) = rec.infeasibility {
+                a.infeasible.add(r);
+            }
+            if rec.stop_cause == Some(StopCause::SensorBlind) {
+                a.blind_steps += 1;
+            }
+            let driven_blind = rec.measured()
+                && cmd.v_mps.abs() > CLOSING_SPEED_MPS
+                && driven_blind(&scan, &a.truth, a.pipeline.scan_points().status.as_slice(), params);
+            a.driven_blind_steps += usize::from(driven_blind);
+            if let Some(w) = a.last_omega {
+                if (cmd.omega_radps - w).abs() > params.control.omega_max_radps + 1e-9 {
+                    a.steering_flips += 1;
+                }
+            }
+            a.last_omega = Some(cmd.omega_radps);
             if rec.measured() {
                 a.min_h = a.min_h.min(rec.h_m);
             }
@@ -396,6 +534,11 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 state: rec.state,
                 filter_changed: rec.filter_changed,
                 condition_held: held,
+                braking_held,
+                infeasible: rec.infeasibility.map_or("", |r| r.code()),
+                unknown_beams: rec.unknown_beams,
+                held_beams: rec.held_beams,
+                driven_blind,
                 in_collision: false,
                 moving_tracks: rec.tracked_obstacles,
                 threats: rec.threats,
@@ -422,6 +565,9 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             row.omega_actual_radps = sim.robot.twist.omega_radps;
             row.clearance_true_m = sim.robot.clearance_m(fleet.world());
             row.in_collision = sim.in_collision;
+            if sim.robot.twist.v_mps.abs() < CLOSING_SPEED_MPS {
+                a.stalled_steps += 1;
+            }
             a.rows.push(row);
             // The goal counts once the (governed) reference has run to its end.
             if let Some(reference) = &a.plan.reference {
@@ -450,9 +596,19 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 summary: RobotSummary {
                     name: a.plan.name.clone(),
                     collisions: sim.collisions,
+                    closing_contacts: sim.contacts.iter().filter(|c| c.closing()).count(),
+                    passive_contacts: sim.contacts.iter().filter(|c| !c.closing()).count(),
                     min_clearance_m: sim.min_clearance_m,
                     cbf_violations: a.cbf_violations,
                     true_cbf_violations: a.true_violations,
+                    cbf_violations_feasible: a.cbf_violations_feasible,
+                    braking_violations: a.braking_violations,
+                    braking_violations_feasible: a.braking_violations_feasible,
+                    infeasible_steps: a.infeasible,
+                    blind_steps: a.blind_steps,
+                    driven_blind_steps: a.driven_blind_steps,
+                    steering_flips: a.steering_flips,
+                    stalled_s: a.stalled_steps as f64 * dt,
                     reached_goal: a.time_to_goal.is_some(),
                     time_to_goal_s: a.time_to_goal,
                     path_length_m: sim.path_length_m,
@@ -464,7 +620,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     final_pose: sim.robot.pose,
                 },
                 rows: a.rows,
-                collision_points: sim.collision_points.clone(),
+                contacts: sim.contacts.clone(),
                 goal: a.plan.reference.map(|r| r.goal().position()),
             }
         })
@@ -479,9 +635,19 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         steps,
         sim_time_s: steps as f64 * dt,
         collisions: each().map(|s| s.collisions).sum(),
+        closing_contacts: each().map(|s| s.closing_contacts).sum(),
+        passive_contacts: each().map(|s| s.passive_contacts).sum(),
         min_clearance_m: each().map(|s| s.min_clearance_m).fold(f64::INFINITY, f64::min),
         cbf_violations: each().map(|s| s.cbf_violations).sum(),
         true_cbf_violations: each().map(|s| s.true_cbf_violations).sum(),
+        cbf_violations_feasible: each().map(|s| s.cbf_violations_feasible).sum(),
+        braking_violations: each().map(|s| s.braking_violations).sum(),
+        braking_violations_feasible: each().map(|s| s.braking_violations_feasible).sum(),
+        infeasible_steps: each().fold(InfeasibleCounts::default(), |acc, s| acc.sum(&s.infeasible_steps)),
+        blind_steps: each().map(|s| s.blind_steps).sum(),
+        driven_blind_steps: each().map(|s| s.driven_blind_steps).sum(),
+        steering_flips: each().map(|s| s.steering_flips).sum(),
+        stalled_s: each().map(|s| s.stalled_s).sum(),
         reached_goal: each().all(|s| s.reached_goal),
         time_to_goal_s: if each().all(|s| s.reached_goal) {
             max_opt(|s| s.time_to_goal_s)
@@ -511,5 +677,18 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         robots,
         mover_tracks,
         world: world_at_start,
+    })
+}
+
+/// Whether a beam of `scan` that read unknown (NaN, below range_min) while
+/// something was truly within r + d_act along it was taken as free: the
+/// pipeline neither held its last reading nor stopped for blindness.
+fn driven_blind(scan: &LaserScan<'_>, truth: &[f32], status: &[BeamStatus], p: &crate::algo::Params) -> bool {
+    let near = (p.robot_radius_m() + p.barrier.d_act_m()) as f32;
+    let zero_free = p.laser.zero_is_no_return;
+    scan.ranges_m.iter().zip(truth).zip(status).any(|((&r, &t), &s)| {
+        t < near
+            && matches!(s, BeamStatus::Free | BeamStatus::Unknown)
+            && classify_range(r, scan.range_min_m, scan.range_max_m, zero_free) == RangeKind::Unknown
     })
 }

@@ -262,6 +262,36 @@ impl World {
         best
     }
 
+    /// The point of the nearest obstacle surface to `p` (m), the one
+    /// [`Self::distance_to_nearest`] measures to; `None` for an empty world.
+    /// From the centre of a circle any point of it is as near: +x is taken.
+    pub fn nearest_surface_point(&self, p: Vec2) -> Option<Vec2> {
+        let mut best: Option<(f64, Vec2)> = None;
+        let mut consider = |d: f64, q: Vec2| {
+            if best.is_none_or(|(b, _)| d < b) {
+                best = Some((d, q));
+            }
+        };
+        for s in &self.segments {
+            let e = s.b - s.a;
+            let ee = e.dot(&e);
+            let t = if ee > 0.0 {
+                ((p - s.a).dot(&e) / ee).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let q = s.a + e * t;
+            consider((p - q).norm(), q);
+        }
+        for c in self.circles.iter().chain(&self.moving_now).chain(&self.agents) {
+            let d = p - c.center;
+            let n = d.norm();
+            let dir = if n > 0.0 { d / n } else { Vec2::new(1.0, 0.0) };
+            consider(c.signed_distance_to(p), c.center + dir * c.radius_m);
+        }
+        best.map(|(_, q)| q)
+    }
+
     /// Distance (m) along the ray `origin + t·dir_unit` to the nearest hit
     /// with `t < max_range_m`, `None` if nothing is hit that close. A ray
     /// starting inside a circle hits at 0.

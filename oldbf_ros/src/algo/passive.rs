@@ -1,0 +1,411 @@
+//! Passive motion safety against moving obstacles (ALGORITHM.md §5b).
+//!
+//! The one-step DTCBF condition of §5 cannot see that a robot which can only
+//! brake and turn slowly is already doomed a few steps later, nor that a
+//! mover keeps coming. The promise here (Bouraine, Fraichard & Salhi 2011,
+//! "passive motion safety"): if a collision happens, the robot was not
+//! driving into it. So a command is admissible only if the robot, applying
+//! it for one control step and then braking to rest at
+//! `passive.brake_decel_mps2` (both wheels together: the curvature is kept),
+//! makes no *closing contact* on the way:
+//! * with a static point: its body (radius r) reaches the point while moving
+//!   towards it faster than half of `passive.closing_speed_mps`;
+//! * with a tracked mover: its body reaches the mover's predicted disc (the
+//!   track advanced with its estimated velocity; radius grown by
+//!   `passive.mover_margin_m` + `passive.mover_growth_mps`·τ for the
+//!   estimate's error and the person's unmodelled turns) while moving
+//!   towards its centre that fast.
+//!
+//! Contact with a robot at rest, or moving away, is the mover's doing: it is
+//! not excluded here (nothing the robot does could), it is minimised by
+//! [`PassiveSafety::evasion_score`], the predicted time to contact of a
+//! command held for `passive.evasion_horizon_s`.
+//!
+//! Paths are sampled every centimetre of travel (at most 64 samples), so
+//! the check costs a few hundred distance computations per command. Static
+//! points are taken at the filter's r; the DTCBF already keeps d_safe from
+//! them, so for static worlds this check only bites inside the unsafe set.
+
+use super::geometry::{Pose2, Twist, Vec2};
+use super::params::Params;
+use super::unicycle::arc_step;
+
+/// Path sample spacing (m).
+const SAMPLE_SPACING_M: f64 = 0.01;
+/// Most samples per phase (step, braking).
+const MAX_STEP_SAMPLES: usize = 16;
+const MAX_BRAKE_SAMPLES: usize = 48;
+/// Time between samples of an evasion path (s).
+const EVASION_SAMPLE_S: f64 = 0.1;
+
+/// A tracked moving obstacle, robot frame, now.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mover {
+    /// Centre (m).
+    pub position: Vec2,
+    /// Estimated velocity (m/s).
+    pub velocity: Vec2,
+    /// Radius of its circle (m).
+    pub radius_m: f64,
+}
+
+/// One point of a predicted robot path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    /// Time from now (s).
+    t_s: f64,
+    /// Robot centre (m, robot frame now).
+    pos: Vec2,
+    /// Robot velocity (m/s).
+    vel: Vec2,
+}
+
+/// A predicted closing contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosingContact {
+    /// When (s from now).
+    pub t_s: f64,
+    /// Robot speed towards the obstacle then (m/s).
+    pub closing_speed_mps: f64,
+    /// With a tracked mover (else a static point).
+    pub mover: bool,
+}
+
+/// How good a command is for getting away from movers: later first contact
+/// is better, then a wider least gap to the movers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvasionScore {
+    /// Predicted time to the first contact with the command held (s);
+    /// the horizon when there is none.
+    pub time_to_contact_s: f64,
+    /// Least predicted body-to-mover distance over that time (m; movers at
+    /// their estimated radius, no margin).
+    pub mover_gap_m: f64,
+}
+
+impl EvasionScore {
+    /// Whether `self` beats `other` by at least `min_gain_s` of time to
+    /// contact, or ties on it and keeps at least `min_gap_gain_m` more room.
+    pub fn beats(&self, other: &EvasionScore, min_gain_s: f64, min_gap_gain_m: f64) -> bool {
+        let dt = self.time_to_contact_s - other.time_to_contact_s;
+        if dt.abs() <= 1e-9 {
+            // No mover at all (both gaps +inf): nothing to gain.
+            self.mover_gap_m.is_finite() && self.mover_gap_m >= other.mover_gap_m + min_gap_gain_m
+        } else {
+            dt >= min_gain_s
+        }
+    }
+}
+
+/// The movers of this step and scratch buffers; no allocation once sized.
+#[derive(Debug, Clone, Default)]
+pub struct PassiveSafety {
+    movers: Vec<Mover>,
+    path: Vec<Sample>,
+    reach: Vec<Vec2>,
+}
+
+impl PassiveSafety {
+    pub fn with_capacity(max_movers: usize, points: usize) -> Self {
+        Self {
+            movers: Vec::with_capacity(max_movers),
+            path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
+            reach: Vec::with_capacity(points),
+        }
+    }
+
+    /// This step's movers (replaced).
+    pub fn set_movers(&mut self, movers: impl Iterator<Item = Mover>) {
+        self.movers.clear();
+        self.movers.extend(movers);
+    }
+
+    pub fn movers(&self) -> &[Mover] {
+        &self.movers
+    }
+
+    /// Samples `cmd` applied for one control step, then braking to rest.
+    fn braking_path(&mut self, cmd: Twist, p: &Params) {
+        self.path.clear();
+        let v = cmd.v_mps;
+        if v == 0.0 {
+            return; // turning in place moves no part of a circular robot
+        }
+        let dt = p.control.dt_s();
+        let decel = p.passive.brake_decel_mps2;
+        let speed = v.abs();
+        let heading_at = |theta: f64| Vec2::new(theta.cos(), theta.sin()) * v;
+        let n1 = ((speed * dt / SAMPLE_SPACING_M).ceil() as usize).clamp(1, MAX_STEP_SAMPLES);
+        for k in 1..=n1 {
+            let t = dt * k as f64 / n1 as f64;
+            let pose = arc_step(Pose2::default(), cmd, t);
+            self.path.push(Sample {
+                t_s: t,
+                pos: pose.position(),
+                vel: heading_at(pose.theta),
+            });
+        }
+        // Braking: speed falls linearly to 0 over speed/decel, on the same curvature.
+        let start = arc_step(Pose2::default(), cmd, dt);
+        let curvature = cmd.omega_radps / v;
+        let t_brake = speed / decel;
+        let s_brake = 0.5 * speed * t_brake;
+        let n2 = ((s_brake / SAMPLE_SPACING_M).ceil() as usize).clamp(1, MAX_BRAKE_SAMPLES);
+        for k in 1..=n2 {
+            let tau = t_brake * k as f64 / n2 as f64;
+            let s = speed * tau - 0.5 * decel * tau * tau; // distance so far (m)
+            let signed = s * v.signum();
+            let pose = arc_step(start, Twist::new(signed, signed * curvature), 1.0);
+            let speed_now = (speed - decel * tau).max(0.0);
+            self.path.push(Sample {
+                t_s: dt + tau,
+                pos: pose.position(),
+                vel: Vec2::new(pose.theta.cos(), pose.theta.sin()) * (speed_now * v.signum()),
+            });
+        }
+    }
+
+    /// The first closing contact `cmd` would make (one step, then braking to
+    /// rest), or `None`: the command is passively safe. `points` are the
+    /// static points (robot frame, m); the movers are this step's.
+    pub fn closing_contact(&mut self, cmd: Twist, points: &[Vec2], p: &Params) -> Option<ClosingContact> {
+        self.braking_path(cmd, p);
+        let Some(last) = self.path.last() else {
+            return None;
+        };
+        let r = p.robot_radius_m();
+        let threshold = 0.5 * p.passive.closing_speed_mps;
+        // Only points the body can reach on this path matter: within r of a path
+        // no longer than the time it takes at the starting speed.
+        let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
+        let reach2 = reach * reach;
+        let r2 = r * r;
+        for s in &self.path {
+            for q in points {
+                if q.norm_squared() > reach2 {
+                    continue;
+                }
+                let d = q - s.pos;
+                let d2 = d.norm_squared();
+                if d2 < r2 {
+                    let towards = if d2 > 0.0 {
+                        s.vel.dot(&d) / d2.sqrt()
+                    } else {
+                        s.vel.norm()
+                    };
+                    if towards > threshold {
+                        return Some(ClosingContact {
+                            t_s: s.t_s,
+                            closing_speed_mps: towards,
+                            mover: false,
+                        });
+                    }
+                }
+            }
+            for m in &self.movers {
+                let c = m.position + m.velocity * s.t_s;
+                let reach_m = r + m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * s.t_s;
+                let d = c - s.pos;
+                let dist = d.norm();
+                if dist < reach_m {
+                    let towards = if dist > 0.0 { s.vel.dot(&d) / dist } else { s.vel.norm() };
+                    if towards > threshold {
+                        return Some(ClosingContact {
+                            t_s: s.t_s,
+                            closing_speed_mps: towards,
+                            mover: true,
+                        });
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// Keeps the points of `all` within reach of an evasion path (robot frame,
+    /// m), for [`Self::evasion_score`]; call once per step.
+    pub fn select_reach(&mut self, all: &[Vec2], p: &Params) {
+        let vmax = p.control.v_max_mps.max(p.control.v_reverse_max_mps);
+        let reach = p.robot_radius_m() + vmax * p.passive.evasion_horizon_s + 0.05;
+        let reach2 = reach * reach;
+        self.reach.clear();
+        self.reach.extend(all.iter().filter(|q| q.norm_squared() <= reach2));
+    }
+
+    /// Predicted time to first contact with `cmd` held for the evasion
+    /// horizon: any contact with a mover's grown disc, or a closing contact
+    /// with a static point selected by [`Self::select_reach`].
+    pub fn evasion_score(&self, cmd: Twist, p: &Params) -> EvasionScore {
+        let r = p.robot_radius_m();
+        let horizon = p.passive.evasion_horizon_s;
+        let threshold = 0.5 * p.passive.closing_speed_mps;
+        let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
+        let mut gap = f64::INFINITY;
+        for k in 0..=n {
+            let t = horizon * k as f64 / n as f64;
+            let pose = arc_step(Pose2::default(), cmd, t);
+            let pos = pose.position();
+            let vel = Vec2::new(pose.theta.cos(), pose.theta.sin()) * cmd.v_mps;
+            for m in &self.movers {
+                let c = m.position + m.velocity * t;
+                let dist = (c - pos).norm();
+                gap = gap.min(dist - r - m.radius_m);
+                let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
+                if dist < r + grown {
+                    return EvasionScore {
+                        time_to_contact_s: t,
+                        mover_gap_m: gap,
+                    };
+                }
+            }
+            if k > 0 && cmd.v_mps != 0.0 {
+                for q in &self.reach {
+                    let d = q - pos;
+                    let d2 = d.norm_squared();
+                    if d2 < r * r && vel.dot(&d) > threshold * d2.sqrt() {
+                        return EvasionScore {
+                            time_to_contact_s: t,
+                            mover_gap_m: gap,
+                        };
+                    }
+                }
+            }
+        }
+        EvasionScore {
+            time_to_contact_s: horizon,
+            mover_gap_m: gap,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// r = 0.178 m, Δt = 0.1 s, decel 1 m/s², closing threshold 0.02 m/s.
+    fn params() -> Params {
+        Params::default()
+    }
+
+    #[test]
+    fn braking_distance_decides_against_a_static_point_ahead() {
+        // v = 0.2: 2 cm in the step, then 0.2²/2 = 2 cm braking: the centre stops 4 cm on.
+        // A point at r + 4.5 cm ahead is not reached; at r + 3.5 cm it is, head-on.
+        let p = params();
+        let mut ps = PassiveSafety::default();
+        let cmd = Twist::new(0.2, 0.0);
+        assert_eq!(ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.045, 0.0)], &p), None);
+        let c = ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &p).unwrap();
+        assert!(!c.mover && c.t_s > 0.1 && c.t_s < 0.3, "{c:?}");
+        // Reached during braking, after 1.5 cm of it (v² = 0.04 − 2·0.015: 0.1 m/s), seen at
+        // the first sample past it, up to a centimetre on (0.2 − √… ≥ 0.05 m/s).
+        assert!(c.closing_speed_mps > 0.05 && c.closing_speed_mps <= 0.1 + 1e-9, "{c:?}");
+        // Stronger brakes: stops after 2 cm + 1 cm and does not reach it.
+        let mut strong = params();
+        strong.passive.brake_decel_mps2 = 2.0;
+        assert_eq!(ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &strong), None);
+        // Standing still and turning in place are always passively safe.
+        assert_eq!(
+            ps.closing_contact(Twist::new(0.0, 0.3), &[Vec2::new(0.1, 0.0)], &p),
+            None
+        );
+    }
+
+    #[test]
+    fn moving_away_from_a_touching_point_is_not_closing() {
+        let p = params();
+        let mut ps = PassiveSafety::default();
+        // A point behind, already inside r: forward motion moves away from it.
+        assert_eq!(
+            ps.closing_contact(Twist::new(0.2, 0.0), &[Vec2::new(-0.15, 0.0)], &p),
+            None
+        );
+        // Backing up into it is closing.
+        assert!(ps
+            .closing_contact(Twist::new(-0.05, 0.0), &[Vec2::new(-0.15, 0.0)], &p)
+            .is_some());
+        // Sliding past, barely approaching (tangential) is not.
+        assert_eq!(
+            ps.closing_contact(Twist::new(0.2, 0.0), &[Vec2::new(0.0, 0.17)], &p),
+            None
+        );
+    }
+
+    #[test]
+    fn a_mover_crossing_ahead_forbids_driving_into_its_predicted_disc() {
+        let p = params();
+        let mut ps = PassiveSafety::default();
+        // A person (radius 0.2 m) 0.2 m ahead-left walking right at 1 m/s: in 0.3 s
+        // its centre is at (0.45, 0.1) - in the way of a robot driving on.
+        ps.set_movers(std::iter::once(Mover {
+            position: Vec2::new(0.45, 0.4),
+            velocity: Vec2::new(0.0, -1.0),
+            radius_m: 0.2,
+        }));
+        let c = ps.closing_contact(Twist::new(0.22, 0.0), &[], &p).unwrap();
+        assert!(c.mover, "{c:?}");
+        // Standing still is passively safe even though it will be hit.
+        assert_eq!(ps.closing_contact(Twist::ZERO, &[], &p), None);
+        // Backing away from it (velocity away from its centre) is not closing either.
+        assert_eq!(ps.closing_contact(Twist::new(-0.05, 0.0), &[], &p), None);
+        // The same mover walking away is no obstacle.
+        ps.set_movers(std::iter::once(Mover {
+            position: Vec2::new(0.45, 0.5),
+            velocity: Vec2::new(0.0, 1.0),
+            radius_m: 0.2,
+        }));
+        assert_eq!(ps.closing_contact(Twist::new(0.22, 0.0), &[], &p), None);
+    }
+
+    #[test]
+    fn the_grown_margin_is_what_makes_a_near_miss_inadmissible() {
+        // A (standing) mover 3 cm beyond where the robot comes to rest (4 cm on,
+        // at 0.2 m/s) is not touched at its estimated size, but is with a margin.
+        let mut p = params();
+        let mut ps = PassiveSafety::default();
+        ps.set_movers(std::iter::once(Mover {
+            position: Vec2::new(0.04 + 0.178 + 0.2 + 0.03, 0.0),
+            velocity: Vec2::zeros(),
+            radius_m: 0.2,
+        }));
+        p.passive.mover_margin_m = 0.0;
+        p.passive.mover_growth_mps = 0.0;
+        assert_eq!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p), None);
+        p.passive.mover_margin_m = 0.025;
+        assert_eq!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p), None);
+        p.passive.mover_margin_m = 0.06;
+        let c = ps.closing_contact(Twist::new(0.2, 0.0), &[], &p).unwrap();
+        assert!(c.mover && (c.closing_speed_mps - 0.2).abs() < 1e-9, "{c:?}");
+        // Growth alone does it too: 3 cm by t ≈ 0.14 s needs 0.2 m/s of growth.
+        p.passive.mover_margin_m = 0.0;
+        p.passive.mover_growth_mps = 0.25;
+        assert!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p).is_some());
+    }
+
+    #[test]
+    fn evasion_prefers_the_command_that_keeps_contact_furthest_off() {
+        let mut p = params();
+        p.control.allow_reverse = true;
+        let mut ps = PassiveSafety::default();
+        // Head-on: a person 1 m ahead walking at the robot at 0.3 m/s.
+        ps.set_movers(std::iter::once(Mover {
+            position: Vec2::new(1.0, 0.0),
+            velocity: Vec2::new(-0.3, 0.0),
+            radius_m: 0.2,
+        }));
+        ps.select_reach(&[], &p);
+        let stay = ps.evasion_score(Twist::ZERO, &p);
+        let back = ps.evasion_score(Twist::new(-0.05, 0.0), &p);
+        let ahead = ps.evasion_score(Twist::new(0.22, 0.0), &p);
+        // Stay: contact when 1 − 0.3 t = 0.178 + 0.2 + 0.05 + 0.2 t → t = 1.144 s (sampled up).
+        assert!((stay.time_to_contact_s - 1.2).abs() < 1e-9, "{stay:?}");
+        assert!(back.beats(&stay, 0.1, 0.0), "{back:?} {stay:?}");
+        assert!(stay.beats(&ahead, 0.1, 0.0), "{stay:?} {ahead:?}");
+        // No mover: every command scores the horizon, and none beats another.
+        ps.set_movers(std::iter::empty());
+        let a = ps.evasion_score(Twist::ZERO, &p);
+        let b = ps.evasion_score(Twist::new(0.2, 0.1), &p);
+        assert_eq!(a.time_to_contact_s, 2.0);
+        assert!(!a.beats(&b, 0.2, 0.02) && !b.beats(&a, 0.2, 0.02));
+    }
+}
