@@ -32,8 +32,32 @@ pub fn summary_text(s: &RunSummary) -> String {
     );
     let _ = writeln!(
         out,
-        "  collisions {} | min clearance {:.3} m | CBF violations {} (logged), {} (exact geometry)",
-        s.collisions, s.min_clearance_m, s.cbf_violations, s.true_cbf_violations
+        "  collisions {} (closing {}, passive {}) | min clearance {:.3} m | CBF violations {} (logged), {} (exact geometry)",
+        s.collisions,
+        s.closing_contacts,
+        s.passive_contacts,
+        s.min_clearance_m,
+        s.cbf_violations,
+        s.true_cbf_violations
+    );
+    let inf = s.infeasible_steps;
+    let _ = writeln!(
+        out,
+        "  braking violations {} | infeasible {} steps (unsafe set {}, approaching {}, no passive command {}) | blind: stopped {}, driven {} steps",
+        s.braking_violations,
+        inf.total(),
+        inf.unsafe_set,
+        inf.approaching,
+        inf.no_passive_command,
+        s.blind_steps,
+        s.driven_blind_steps
+    );
+    let _ = writeln!(
+        out,
+        "  steering flips {} ({:.2} % of steps) | stalled {:.1} s",
+        s.steering_flips,
+        100.0 * s.steering_flips as f64 / s.steps.max(1) as f64,
+        s.stalled_s
     );
     let _ = writeln!(
         out,
@@ -45,8 +69,8 @@ pub fn summary_text(s: &RunSummary) -> String {
     let c = s.steps_by_state;
     let _ = writeln!(
         out,
-        "  states: forward {} avoid {} both_sides {} stop {} escape {}",
-        c.forward, c.avoid, c.both_sides, c.stop, c.escape
+        "  states: forward {} avoid {} both_sides {} stop {} escape {} evade {}",
+        c.forward, c.avoid, c.both_sides, c.stop, c.escape, c.evade
     );
     let _ = write!(
         out,
@@ -57,11 +81,12 @@ pub fn summary_text(s: &RunSummary) -> String {
         for r in &s.robots {
             let _ = write!(
                 out,
-                "\n  robot {}: goal {} | collisions {} | min clearance {:.3} m | CBF violations {} / {} | path {:.2} m",
+                "\n  robot {}: goal {} | collisions {} (closing {}) | min clearance {:.3} m | CBF violations {} / {} | path {:.2} m",
                 r.name,
                 r.time_to_goal_s
                     .map_or("not reached".to_string(), |t| format!("reached at {t:.1} s")),
                 r.collisions,
+                r.closing_contacts,
                 r.min_clearance_m,
                 r.cbf_violations,
                 r.true_cbf_violations,
@@ -88,7 +113,8 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
         w,
         "t_s,x_m,y_m,theta_rad,ref_x_m,ref_y_m,v_nominal_mps,omega_nominal_radps,v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
-         clearance_true_m,state,filter_changed,condition_held,in_collision,moving_tracks,threats,min_ttc_s,step_us"
+         clearance_true_m,state,filter_changed,condition_held,braking_held,infeasible,unknown_beams,held_beams,\
+         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us"
     )?;
     for r in rows {
         let nums = [
@@ -116,10 +142,15 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
         let mut line = nums.iter().map(|v| csv_value(*v)).collect::<Vec<_>>().join(",");
         let _ = write!(
             line,
-            ",{},{},{},{},{},{},{},{:.2}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{:.2}",
             r.state.as_str(),
             r.filter_changed as u8,
             r.condition_held as u8,
+            r.braking_held as u8,
+            r.infeasible,
+            r.unknown_beams,
+            r.held_beams,
+            r.driven_blind as u8,
             r.in_collision as u8,
             r.moving_tracks,
             r.threats,

@@ -72,16 +72,21 @@ pub struct ClosingContact {
 }
 
 /// How good a command is for getting away from movers: later first contact
-/// is better, then a wider least gap to the movers.
+/// is better, then more room to the movers over the horizon.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EvasionScore {
     /// Predicted time to the first contact with the command held (s);
     /// the horizon when there is none.
     pub time_to_contact_s: f64,
-    /// Least predicted body-to-mover distance over that time (m; movers at
-    /// their estimated radius, no margin).
+    /// Mean over the horizon (after now) of the predicted body-to-nearest-
+    /// mover distance, capped at [`GAP_CAP_M`] (m; movers at their estimated
+    /// radius, no margin): when contact cannot be put off, the command that
+    /// keeps the movers furthest off for longest. +inf without movers.
     pub mover_gap_m: f64,
 }
+
+/// Room to a mover beyond this counts no more in [`EvasionScore::mover_gap_m`] (m).
+pub const GAP_CAP_M: f64 = 0.5;
 
 impl EvasionScore {
     /// Whether `self` beats `other` by at least `min_gain_s` of time to
@@ -240,40 +245,44 @@ impl PassiveSafety {
         let horizon = p.passive.evasion_horizon_s;
         let threshold = 0.5 * p.passive.closing_speed_mps;
         let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
-        let mut gap = f64::INFINITY;
+        let mut contact: Option<f64> = None;
+        let mut gap_sum = 0.0;
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
             let pose = arc_step(Pose2::default(), cmd, t);
             let pos = pose.position();
             let vel = Vec2::new(pose.theta.cos(), pose.theta.sin()) * cmd.v_mps;
+            let mut gap = f64::INFINITY;
             for m in &self.movers {
                 let c = m.position + m.velocity * t;
                 let dist = (c - pos).norm();
                 gap = gap.min(dist - r - m.radius_m);
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
-                if dist < r + grown {
-                    return EvasionScore {
-                        time_to_contact_s: t,
-                        mover_gap_m: gap,
-                    };
+                if contact.is_none() && dist < r + grown {
+                    contact = Some(t);
                 }
             }
-            if k > 0 && cmd.v_mps != 0.0 {
-                for q in &self.reach {
-                    let d = q - pos;
-                    let d2 = d.norm_squared();
-                    if d2 < r * r && vel.dot(&d) > threshold * d2.sqrt() {
-                        return EvasionScore {
-                            time_to_contact_s: t,
-                            mover_gap_m: gap,
-                        };
+            if k > 0 {
+                gap_sum += gap.min(GAP_CAP_M);
+                if contact.is_none() && cmd.v_mps != 0.0 {
+                    let static_hit = self.reach.iter().any(|q| {
+                        let d = q - pos;
+                        let d2 = d.norm_squared();
+                        d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
+                    });
+                    if static_hit {
+                        contact = Some(t);
                     }
                 }
             }
         }
         EvasionScore {
-            time_to_contact_s: horizon,
-            mover_gap_m: gap,
+            time_to_contact_s: contact.unwrap_or(horizon),
+            mover_gap_m: if self.movers.is_empty() {
+                f64::INFINITY
+            } else {
+                gap_sum / n as f64
+            },
         }
     }
 }

@@ -71,7 +71,7 @@ impl Derived {
 struct Candidate {
     cmd: Twist,
     h_next_m: f64,
-    /// Meets the one-step condition (the logged one; inside the unsafe set,
+    /// Meets the (logged) one-step condition h(k+1) ≥ (1 − γ) h(k).
     /// the escape rule h(k+1) ≥ h(k) + ε).
     condition: bool,
     /// No predicted closing contact.
@@ -419,6 +419,16 @@ impl SafetyPipeline {
             (out, false, false)
         };
         let braking_held = self.braking_check(out.cmd).is_none();
+        // A step is feasible only if its command meets the logged condition: inside the
+        // unsafe set the filter may send an escape command that only raises h by ε,
+        // because no command of the box raises it by γ|h|.
+        if !out.condition_held && infeasibility.is_none() {
+            infeasibility = Some(if out.h_m < 0.0 {
+                Infeasibility::UnsafeSet
+            } else {
+                Infeasibility::Approaching
+            });
+        }
 
         let state = if evading {
             DoaaState::Evade
@@ -482,14 +492,8 @@ impl SafetyPipeline {
     fn weigh(&mut self, cmd: Twist, h: f64) -> Candidate {
         let p = &self.params;
         let h_next = self.filter.h_next(&self.points_next, cmd, p);
-        let condition = if !h.is_finite() {
-            true
-        } else if h < 0.0 {
-            // Inside the unsafe set: the condition, or at least the escape rule.
-            h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M || h_next >= h + p.dtcbf.escape_epsilon_m - TOL_M
-        } else {
-            h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M
-        };
+        // The logged condition, the one the record and the tests judge.
+        let condition = !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M;
         let passive = self.passive.closing_contact(cmd, &self.points_next, p).is_none();
         Candidate {
             cmd,
@@ -512,9 +516,19 @@ impl SafetyPipeline {
     ) -> (DtcbfOutcome, bool, bool) {
         let h = out.h_m;
         let stall = self.params.passive.closing_speed_mps;
+        let horizon = self.params.passive.evasion_horizon_s;
         let own = self.weigh(out.cmd, h);
+        // Threatened: a mover's predicted disc reaches the robot within the evasion
+        // horizon if it keeps the DTCBF's command.
+        let movers = !self.passive.movers().is_empty();
+        if movers {
+            self.passive.select_reach(&self.points_next, &self.params);
+        }
+        let threatened =
+            |ps: &PassiveSafety, cmd: Twist, p: &Params| movers && ps.evasion_score(cmd, p).time_to_contact_s < horizon;
         let closing_in = !self.threats.is_empty();
-        if own.passive && !(closing_in && (out.infeasible || out.cmd.v_mps.abs() < stall)) {
+        let stalled = out.infeasible || out.cmd.v_mps.abs() < stall;
+        if own.passive && !(closing_in && stalled) && !threatened(&self.passive, out.cmd, &self.params) {
             return (out, false, false);
         }
         let mut chosen = own;
@@ -563,12 +577,16 @@ impl SafetyPipeline {
                 }),
             };
         }
-        // Evasion: a mover closes on a robot that cannot go forward. Among the commands
-        // as admissible as the chosen one, the latest predicted contact.
+        // Evasion: a mover's predicted disc reaches the robot within the horizon, or a
+        // mover closes on a robot that cannot go forward. Among the commands as
+        // admissible as the chosen one: the latest predicted contact; among those with
+        // none within the horizon, the closest to the DOAA command.
         let mut evading = false;
-        if closing_in && (out.infeasible || chosen.cmd.v_mps.abs() < stall) {
+        let chosen_stalled = out.infeasible || chosen.cmd.v_mps.abs() < stall;
+        if movers && ((closing_in && chosen_stalled) || threatened(&self.passive, chosen.cmd, &self.params)) {
             let p = &self.params;
-            self.passive.select_reach(&self.points_next, p);
+            let w = p.dtcbf.omega_weight_m2_per_rad2;
+            let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
             let current = self.passive.evasion_score(chosen.cmd, p);
             let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
             let (mut best, mut best_score) = (chosen, current);
@@ -581,7 +599,12 @@ impl SafetyPipeline {
                         continue;
                     }
                     let score = self.passive.evasion_score(c.cmd, &self.params);
-                    if better(&score, &best_score) {
+                    let ahead = if score.time_to_contact_s >= horizon && best_score.time_to_contact_s >= horizon {
+                        cost(c.cmd) < cost(best.cmd)
+                    } else {
+                        better(&score, &best_score)
+                    };
+                    if ahead {
                         (best, best_score) = (c, score);
                     }
                 }

@@ -64,6 +64,12 @@ pub struct ControllerStats {
     pub collision_rate: f64,
     /// Collisions summed over worlds (a contact counts once when it begins).
     pub collisions_total: usize,
+    /// Closing contacts (the robot drove in) and passive ones, summed over
+    /// worlds, and the worlds with any.
+    pub closing_contacts_total: usize,
+    pub worlds_with_closing_contact: usize,
+    pub passive_contacts_total: usize,
+    pub worlds_with_passive_contact: usize,
     /// Least, 5th percentile and median over worlds of each world's least
     /// body-to-obstacle distance (m; negative = penetration).
     pub min_clearance_min_m: Option<f64>,
@@ -84,6 +90,22 @@ pub struct ControllerStats {
     /// The same on the exact geometry after the step.
     pub true_cbf_violations_total: usize,
     pub worlds_with_true_cbf_violation: usize,
+    /// Logged violations on steps the filter did not mark infeasible.
+    pub cbf_violations_feasible_total: usize,
+    /// Steps whose sent command could not brake to rest without a predicted
+    /// closing contact, and those of them not marked infeasible.
+    pub braking_violations_total: usize,
+    pub braking_violations_feasible_total: usize,
+    /// Steps marked infeasible.
+    pub infeasible_steps_total: usize,
+    /// Steps driven while an unknown beam hiding something near was taken as
+    /// free, and steps stopped for a blind sensor.
+    pub driven_blind_steps_total: usize,
+    pub blind_steps_total: usize,
+    /// Steering flips (|ω(k) − ω(k−1)| > ω_max) as a fraction of all steps.
+    pub steering_flip_rate: f64,
+    /// Mean over worlds of the time stalled (s).
+    pub mean_stalled_s: Option<f64>,
     /// Control steps over all worlds.
     pub steps_total: usize,
     /// Mean and 99th percentile of the controller's compute per step over
@@ -112,6 +134,10 @@ impl ControllerStats {
             worlds_with_collision,
             collision_rate: rate(worlds_with_collision, n),
             collisions_total: outcomes.iter().map(|o| o.collisions).sum(),
+            closing_contacts_total: outcomes.iter().map(|o| o.closing_contacts).sum(),
+            worlds_with_closing_contact: count(|o| o.closing_contacts > 0),
+            passive_contacts_total: outcomes.iter().map(|o| o.passive_contacts).sum(),
+            worlds_with_passive_contact: count(|o| o.passive_contacts > 0),
             min_clearance_min_m: percentile(clearances.iter().copied(), 0.0),
             min_clearance_p5_m: percentile(clearances.iter().copied(), 5.0),
             min_clearance_median_m: percentile(clearances.iter().copied(), 50.0),
@@ -124,6 +150,17 @@ impl ControllerStats {
             worlds_with_cbf_violation: count(|o| o.cbf_violations > 0),
             true_cbf_violations_total: outcomes.iter().map(|o| o.true_cbf_violations).sum(),
             worlds_with_true_cbf_violation: count(|o| o.true_cbf_violations > 0),
+            cbf_violations_feasible_total: outcomes.iter().map(|o| o.cbf_violations_feasible).sum(),
+            braking_violations_total: outcomes.iter().map(|o| o.braking_violations).sum(),
+            braking_violations_feasible_total: outcomes.iter().map(|o| o.braking_violations_feasible).sum(),
+            infeasible_steps_total: outcomes.iter().map(|o| o.infeasible_steps).sum(),
+            driven_blind_steps_total: outcomes.iter().map(|o| o.driven_blind_steps).sum(),
+            blind_steps_total: outcomes.iter().map(|o| o.blind_steps).sum(),
+            steering_flip_rate: rate(
+                outcomes.iter().map(|o| o.steering_flips).sum(),
+                outcomes.iter().map(|o| o.steps).sum(),
+            ),
+            mean_stalled_s: mean(outcomes.iter().map(|o| o.stalled_s)),
             steps_total: outcomes.iter().map(|o| o.steps).sum(),
             mean_step_us: mean(steps_us.iter().copied()),
             p99_step_us: percentile_of_sorted(&steps_us, 99.0),
@@ -178,6 +215,9 @@ mod tests {
             sensor_seed: 0,
             steps: steps_us.len(),
             collisions,
+            // World w: its contacts split w closing first (capped), the rest passive.
+            closing_contacts: collisions.min(world),
+            passive_contacts: collisions - collisions.min(world),
             min_clearance_m: clearance,
             reached_goal: goal.is_some(),
             time_to_goal_s: goal,
@@ -185,6 +225,14 @@ mod tests {
             max_tracking_error_m: Some(0.1 * world as f64),
             cbf_violations: world,
             true_cbf_violations: 0,
+            cbf_violations_feasible: world / 2,
+            braking_violations: 2 * world,
+            braking_violations_feasible: world,
+            infeasible_steps: world + 1,
+            driven_blind_steps: usize::from(world == 3),
+            blind_steps: 0,
+            steering_flips: world % 2,
+            stalled_s: 1.5 * world as f64,
             mean_step_us: 0.0,
             step_us: steps_us.to_vec(),
         }
@@ -204,6 +252,18 @@ mod tests {
         assert_eq!(s.worlds_with_collision, 2);
         assert_eq!(s.collision_rate, 0.5);
         assert_eq!(s.collisions_total, 3);
+        // World 1: 2 contacts, 1 closing; world 3: 1 contact, closing.
+        assert_eq!((s.closing_contacts_total, s.worlds_with_closing_contact), (2, 2));
+        assert_eq!((s.passive_contacts_total, s.worlds_with_passive_contact), (1, 1));
+        assert_eq!(
+            (s.cbf_violations_feasible_total, s.braking_violations_total),
+            (0 + 0 + 1 + 1, 12)
+        );
+        assert_eq!((s.braking_violations_feasible_total, s.infeasible_steps_total), (6, 10));
+        assert_eq!((s.driven_blind_steps_total, s.blind_steps_total), (1, 0));
+        // Flips in worlds 1 and 3 over 5 steps; stalled 0, 1.5, 3, 4.5 s.
+        assert_eq!(s.steering_flip_rate, 0.4);
+        assert!(close(s.mean_stalled_s, 2.25));
         assert!(close(s.min_clearance_min_m, -0.02));
         // Sorted −0.02 0.05 0.2 0.4, rank 0.15: −0.02 + 0.15 · 0.07.
         assert!(close(s.min_clearance_p5_m, -0.02 + 0.15 * 0.07));

@@ -17,34 +17,45 @@ fn rate(r: f64, count: usize, total: usize) -> String {
 }
 
 /// The header of the text table, two lines per column (name, unit).
-const TEXT_HEADER: [(&str, &str); 12] = [
+const TEXT_HEADER: [(&str, &str); 14] = [
     ("controller", ""),
     ("worlds", ""),
     ("collision", "rate"),
-    ("min clear.", "min (m)"),
-    ("min clear.", "p5 (m)"),
+    ("closing", "(worlds)"),
+    ("passive", "(worlds)"),
+    ("min clear. (m)", "median / p5"),
     ("goal", "rate"),
     ("time to", "goal (s)"),
-    ("path", "(m)"),
-    ("max track.", "err. (m)"),
-    ("CBF viol. logged", "steps (worlds)"),
-    ("CBF viol. exact", "steps (worlds)"),
+    ("stalled", "mean (s)"),
+    ("steering", "flips"),
+    ("CBF viol. logged", "all / feasible"),
+    ("braking viol.", "all / feasible"),
+    ("infeasible", "steps"),
     ("step (µs)", "mean / p99"),
 ];
 
-fn text_cells(r: &ControllerStats) -> [String; 12] {
+fn text_cells(r: &ControllerStats) -> [String; 14] {
     [
         controller_name(r.controller),
         r.worlds.to_string(),
         rate(r.collision_rate, r.worlds_with_collision, r.worlds),
-        opt(r.min_clearance_min_m, 3),
-        opt(r.min_clearance_p5_m, 3),
+        format!("{} ({})", r.closing_contacts_total, r.worlds_with_closing_contact),
+        format!("{} ({})", r.passive_contacts_total, r.worlds_with_passive_contact),
+        format!(
+            "{} / {}",
+            opt(r.min_clearance_median_m, 3),
+            opt(r.min_clearance_p5_m, 3)
+        ),
         rate(r.goal_rate, r.worlds_reached, r.worlds),
         opt(r.mean_time_to_goal_s, 1),
-        opt(r.mean_path_length_m, 2),
-        opt(r.mean_max_tracking_error_m, 2),
-        format!("{} ({})", r.cbf_violations_total, r.worlds_with_cbf_violation),
-        format!("{} ({})", r.true_cbf_violations_total, r.worlds_with_true_cbf_violation),
+        opt(r.mean_stalled_s, 1),
+        format!("{:.2} %", 100.0 * r.steering_flip_rate),
+        format!("{} / {}", r.cbf_violations_total, r.cbf_violations_feasible_total),
+        format!(
+            "{} / {}",
+            r.braking_violations_total, r.braking_violations_feasible_total
+        ),
+        r.infeasible_steps_total.to_string(),
         format!("{} / {}", opt(r.mean_step_us, 1), opt(r.p99_step_us, 1)),
     ]
 }
@@ -52,7 +63,7 @@ fn text_cells(r: &ControllerStats) -> [String; 12] {
 /// The readable comparison: a title line, the aligned table (one row per
 /// controller) and a legend of the columns.
 pub fn text(report: &BatchReport) -> String {
-    let mut rows: Vec<[String; 12]> = vec![
+    let mut rows: Vec<[String; 14]> = vec![
         TEXT_HEADER.map(|(name, _)| name.to_string()),
         TEXT_HEADER.map(|(_, unit)| unit.to_string()),
     ];
@@ -90,11 +101,14 @@ pub fn text(report: &BatchReport) -> String {
     }
     for line in [
         "collision rate: worlds with >= 1 contact (worlds with / worlds).",
-        "min clear.: each world's least body-to-obstacle distance; least and 5th percentile over worlds.",
-        "time to goal: mean over the worlds reached. path: mean over all worlds.",
-        "max track. err.: mean over worlds of each world's largest distance from the reference.",
-        "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command, logged (from the scan)",
-        "  and exact (true geometry); total steps (worlds with any).",
+        "closing: contacts the robot drove into (its speed towards the touched point > 0.02 m/s at the",
+        "  onset); passive: the others (at rest, turning or moving away); contacts (worlds with any).",
+        "min clear.: each world's least body-to-obstacle distance; median and 5th percentile over worlds.",
+        "time to goal: mean over the worlds reached. stalled: |v| < 0.02 m/s before the goal, mean over worlds.",
+        "steering flips: steps whose omega differs from the previous step's by more than omega_max.",
+        "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command (from the scan);",
+        "  feasible: of those, steps the filter did not mark infeasible. braking viol.: steps whose command",
+        "  could not brake to rest without a predicted closing contact (ALGORITHM.md 5b), all / feasible.",
         "step: compute per control step over every step of every world; wall clock while worlds run in",
         "  parallel on shared cores, so indicative only.",
     ] {
@@ -104,12 +118,16 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 21] = [
+pub const CSV_COLUMNS: [&str; 33] = [
     "controller",
     "worlds",
     "worlds_with_collision",
     "collision_rate",
     "collisions_total",
+    "closing_contacts_total",
+    "worlds_with_closing_contact",
+    "passive_contacts_total",
+    "worlds_with_passive_contact",
     "min_clearance_min_m",
     "min_clearance_p5_m",
     "min_clearance_median_m",
@@ -122,6 +140,14 @@ pub const CSV_COLUMNS: [&str; 21] = [
     "worlds_with_cbf_violation",
     "true_cbf_violations_total",
     "worlds_with_true_cbf_violation",
+    "cbf_violations_feasible_total",
+    "braking_violations_total",
+    "braking_violations_feasible_total",
+    "infeasible_steps_total",
+    "driven_blind_steps_total",
+    "blind_steps_total",
+    "steering_flip_rate",
+    "mean_stalled_s",
     "steps_total",
     "mean_step_us",
     "p99_step_us",
@@ -144,6 +170,10 @@ pub fn csv(report: &BatchReport) -> String {
             r.worlds_with_collision.to_string(),
             r.collision_rate.to_string(),
             r.collisions_total.to_string(),
+            r.closing_contacts_total.to_string(),
+            r.worlds_with_closing_contact.to_string(),
+            r.passive_contacts_total.to_string(),
+            r.worlds_with_passive_contact.to_string(),
             num(r.min_clearance_min_m),
             num(r.min_clearance_p5_m),
             num(r.min_clearance_median_m),
@@ -156,6 +186,14 @@ pub fn csv(report: &BatchReport) -> String {
             r.worlds_with_cbf_violation.to_string(),
             r.true_cbf_violations_total.to_string(),
             r.worlds_with_true_cbf_violation.to_string(),
+            r.cbf_violations_feasible_total.to_string(),
+            r.braking_violations_total.to_string(),
+            r.braking_violations_feasible_total.to_string(),
+            r.infeasible_steps_total.to_string(),
+            r.driven_blind_steps_total.to_string(),
+            r.blind_steps_total.to_string(),
+            r.steering_flip_rate.to_string(),
+            num(r.mean_stalled_s),
             r.steps_total.to_string(),
             num(r.mean_step_us),
             num(r.p99_step_us),
@@ -170,18 +208,22 @@ pub fn csv(report: &BatchReport) -> String {
 /// Every (world, controller) outcome as CSV, one row each.
 pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
     let mut out = String::from(
-        "world,controller,sensor_seed,steps,collisions,min_clearance_m,reached_goal,time_to_goal_s,\
-         path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,mean_step_us\n",
+        "world,controller,sensor_seed,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
+         reached_goal,time_to_goal_s,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
+         cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
+         driven_blind_steps,blind_steps,steering_flips,stalled_s,mean_step_us\n",
     );
     for o in outcomes {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
             o.steps,
             o.collisions,
+            o.closing_contacts,
+            o.passive_contacts,
             o.min_clearance_m,
             o.reached_goal,
             num(o.time_to_goal_s),
@@ -189,6 +231,14 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
             num(o.max_tracking_error_m),
             o.cbf_violations,
             o.true_cbf_violations,
+            o.cbf_violations_feasible,
+            o.braking_violations,
+            o.braking_violations_feasible,
+            o.infeasible_steps,
+            o.driven_blind_steps,
+            o.blind_steps,
+            o.steering_flips,
+            o.stalled_s,
             o.mean_step_us
         );
     }
@@ -207,6 +257,10 @@ mod tests {
             worlds_with_collision: collisions,
             collision_rate: collisions as f64 / 4.0,
             collisions_total: collisions,
+            closing_contacts_total: collisions / 2,
+            worlds_with_closing_contact: collisions / 2,
+            passive_contacts_total: collisions - collisions / 2,
+            worlds_with_passive_contact: collisions - collisions / 2,
             min_clearance_min_m: Some(-0.0125),
             min_clearance_p5_m: Some(0.01),
             min_clearance_median_m: Some(0.2),
@@ -219,6 +273,14 @@ mod tests {
             worlds_with_cbf_violation: 2,
             true_cbf_violations_total: 1,
             worlds_with_true_cbf_violation: 1,
+            cbf_violations_feasible_total: 0,
+            braking_violations_total: 3,
+            braking_violations_feasible_total: 0,
+            infeasible_steps_total: 5,
+            driven_blind_steps_total: 0,
+            blind_steps_total: 0,
+            steering_flip_rate: 0.0125,
+            mean_stalled_s: Some(2.5),
             steps_total: 4000,
             mean_step_us: Some(6.25),
             p99_step_us: Some(40.0),
@@ -245,7 +307,13 @@ mod tests {
         let none = lines.iter().find(|l| l.starts_with("none")).expect("none row");
         assert_eq!(oldbf.chars().count(), none.chars().count(), "{t}");
         assert!(oldbf.contains("0.00 (0/4)") && none.contains("0.75 (3/4)"), "{t}");
-        assert!(oldbf.contains("-0.013") && oldbf.contains("6.2 / 40.0"), "{t}");
+        // none: 3 contacts, 1 closing in 1 world, 2 passive in 2.
+        assert!(none.contains("1 (1)") && none.contains("2 (2)"), "{t}");
+        assert!(oldbf.contains("0.200 / 0.010") && oldbf.contains("6.2 / 40.0"), "{t}");
+        assert!(
+            oldbf.contains("1.25 %") && oldbf.contains("7 / 0") && oldbf.contains("3 / 0"),
+            "{t}"
+        );
         // A missing mean time to goal is a dash, not NaN.
         assert!(oldbf.contains('–') && !t.contains("NaN"), "{t}");
     }
@@ -267,8 +335,8 @@ mod tests {
         let row: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert_eq!(row.len(), CSV_COLUMNS.len());
         assert_eq!(row[0], "oldbf");
-        assert_eq!(row[5], "-0.0125");
-        assert_eq!(row[10], "", "a missing value is an empty cell");
+        assert_eq!(row[9], "-0.0125");
+        assert_eq!(row[14], "", "a missing value is an empty cell");
         assert_eq!(lines.count(), 1);
     }
 }

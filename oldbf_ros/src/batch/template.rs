@@ -120,6 +120,14 @@ pub enum MoverKind {
     Bounce,
     /// Loops through 2 to 4 random waypoints in the room.
     WaypointLoop,
+    /// Walks back and forth along the robot's line (up to 0.15 m to one side
+    /// of it), timed to meet the robot head-on 20-80 % of the way along.
+    HeadOn,
+    /// Comes up from behind the robot going its way, converging on its line
+    /// at 15-35°, timed to pass it 20-80 % of the way along: it overtakes
+    /// when it is faster, is caught up otherwise. (Along the line itself it
+    /// would have to start inside the start's free zone.)
+    Overtaking,
 }
 
 /// Moving discs: how many, how large, how fast relative to the robot, and
@@ -677,6 +685,8 @@ impl Generator<'_> {
                     MoverKind::Crossing => self.crossing(line, radius_m, speed_mps)?,
                     MoverKind::Bounce => self.bounce(radius_m, speed_mps),
                     MoverKind::WaypointLoop => self.waypoint_loop(radius_m, speed_mps)?,
+                    MoverKind::HeadOn => self.along_line(line, radius_m, speed_mps, false)?,
+                    MoverKind::Overtaking => self.along_line(line, radius_m, speed_mps, true)?,
                 };
                 let start = match &motion {
                     MotionSpec::ConstantVelocity { start, .. } | MotionSpec::Bounce { start, .. } => *start,
@@ -690,6 +700,8 @@ impl Generator<'_> {
                 MoverKind::Crossing => "crossing",
                 MoverKind::Bounce => "bounce",
                 MoverKind::WaypointLoop => "loop",
+                MoverKind::HeadOn => "headon",
+                MoverKind::Overtaking => "overtaking",
             };
             world.moving.push(MovingObstacleSpec {
                 radius_m,
@@ -717,7 +729,44 @@ impl Generator<'_> {
         let side = if self.rng.gen::<bool>() { 1.0 } else { -1.0 };
         let angle = line.heading_rad + side * PI / 2.0 + self.rng.gen_range(-PI / 6.0..=PI / 6.0);
         let dir = Vec2::new(angle.cos(), angle.sin());
+        self.pace_through(cross, dir, t_cross_s, radius_m, speed_mps)
+    }
+
+    /// Paces back and forth through the point where the robot's nominal
+    /// motion puts it 20-80 % of the way along (up to 0.15 m to one side),
+    /// phased to be there with the robot: against it along the line
+    /// (head-on), or going its way converging at 15-35° (`from_behind`).
+    fn along_line(&mut self, line: &Line, radius_m: f64, speed_mps: f64, from_behind: bool) -> Option<MotionSpec> {
+        let v_nom = self.t.spec.nominal.v_mps;
+        let along = self.rng.gen_range(0.2..=0.8) * line.length_m;
+        let offset = self.rng.gen_range(-0.15..=0.15);
+        let normal = Vec2::new(-line.direction().y, line.direction().x);
+        let meet = line.start + line.direction() * along + normal * offset;
+        let t_meet_s = along / v_nom * self.rng.gen_range(0.9..=1.1);
+        let heading = if from_behind {
+            let side = if self.rng.gen::<bool>() { 1.0 } else { -1.0 };
+            line.heading_rad + side * self.rng.gen_range(15f64.to_radians()..=35f64.to_radians())
+        } else {
+            line.heading_rad + PI
+        };
+        let dir = Vec2::new(heading.cos(), heading.sin());
+        self.pace_through(meet, dir, t_meet_s, radius_m, speed_mps)
+    }
+
+    /// Paces back and forth through `cross` along `dir` (unit), wall to wall,
+    /// phased to pass `cross` going along `dir` at `t_cross_s`.
+    fn pace_through(
+        &mut self,
+        cross: Vec2,
+        dir: Vec2,
+        t_cross_s: f64,
+        radius_m: f64,
+        speed_mps: f64,
+    ) -> Option<MotionSpec> {
         let (lo, hi) = self.inner_region(radius_m);
+        if cross.x < lo.x || cross.x > hi.x || cross.y < lo.y || cross.y > hi.y {
+            return None;
+        }
         // The walk's ends A (behind the crossing point) and B (ahead), on the region's edge.
         let behind_m = exit_distance(cross, -dir, lo, hi);
         let ahead_m = exit_distance(cross, dir, lo, hi);

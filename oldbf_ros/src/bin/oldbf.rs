@@ -99,13 +99,19 @@ enum Command {
     /// from one wall to the opposite one; see config/batch/*.yaml), runs
     /// every controller on every world with the same world, sensor seed and
     /// nominal line, worlds in parallel, and prints one row per controller:
-    /// worlds; collision rate (fraction of worlds with >= 1 contact); least
-    /// clearance (m), min and 5th percentile over worlds; goal-reach rate;
-    /// mean time to goal over the worlds reached (s); mean path length (m);
-    /// mean over worlds of the largest tracking error (m); DTCBF condition
-    /// violations, logged and on the exact geometry (steps, and worlds with
-    /// any); compute per control step, mean and 99th percentile over all
-    /// steps (µs). A progress bar goes to stderr when it is a terminal.
+    /// worlds; collision rate (fraction of worlds with >= 1 contact);
+    /// closing contacts (the robot drove in: its speed towards the touched
+    /// point above 0.02 m/s) and passive ones (it was at rest or moving
+    /// away), with the worlds having any; least clearance (m), median and
+    /// 5th percentile over worlds; goal-reach rate; mean time to goal over
+    /// the worlds reached (s); mean time stalled (s); steering flips (% of
+    /// steps whose ω jumps by more than ω_max); DTCBF condition and braking
+    /// check violations (steps, all and on steps not marked infeasible);
+    /// infeasible steps; compute per control step, mean and 99th percentile
+    /// (µs). `oldbf-paper` is OLDBF with this project's checks beyond the
+    /// paper off (every invalid range free, no braking check or evasion, no
+    /// reverse): the gain of those checks on the same worlds. A progress
+    /// bar goes to stderr when it is a terminal.
     /// Exits 0 when every run completed, whatever the figures; 2 on a bad
     /// template, configuration or option.
     Batch {
@@ -121,7 +127,7 @@ enum Command {
         seed: u64,
         /// Controllers to compare, comma-separated, each a table row in this
         /// order (repeats are dropped).
-        #[arg(long, value_enum, value_delimiter = ',', value_name = "LIST", default_values_t = [Controller::Oldbf, Controller::Dcbf, Controller::Vo, Controller::None])]
+        #[arg(long, value_enum, value_delimiter = ',', value_name = "LIST", default_values_t = [Controller::Oldbf, Controller::OldbfPaper, Controller::Dcbf, Controller::Vo, Controller::None])]
         controllers: Vec<Controller>,
         /// Also print the whole comparison as one JSON object on the last stdout line.
         #[arg(long)]
