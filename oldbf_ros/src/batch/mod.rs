@@ -40,6 +40,10 @@ pub struct WorldOutcome {
     pub controller: Controller,
     /// LiDAR noise seed (the scenario's `seed`).
     pub sensor_seed: u64,
+    /// Whether a path keeping r + d_safe from the static obstacles leads to
+    /// the goal, and the world's kind (`room`, `wide_doorway`, `narrow_doorway`).
+    pub path_exists: bool,
+    pub label: &'static str,
     /// Control steps run.
     pub steps: usize,
     pub collisions: usize,
@@ -82,13 +86,15 @@ pub struct WorldOutcome {
 }
 
 impl WorldOutcome {
-    /// The figures of `result` (a single-robot run of world `world`).
-    pub fn from_run(world: usize, sensor_seed: u64, result: &RunResult) -> WorldOutcome {
+    /// The figures of `result` (a single-robot run of `world`).
+    pub fn from_run(world: &GeneratedWorld, result: &RunResult) -> WorldOutcome {
         let s = &result.summary;
         WorldOutcome {
-            world,
+            world: world.index,
             controller: s.controller,
-            sensor_seed,
+            sensor_seed: world.sensor_seed,
+            path_exists: world.path_exists,
+            label: world.label,
             steps: s.steps,
             collisions: s.collisions,
             closing_contacts: s.closing_contacts,

@@ -74,7 +74,7 @@ pub fn run_worlds(
                         let result = run_scenario(&w.scenario, c, w.sensor_seed)
                             .map_err(|m| format!("{} with {c:?}: {m}", w.scenario.file))?;
                         progress.inc(1);
-                        Ok(WorldOutcome::from_run(w.index, w.sensor_seed, &result))
+                        Ok(WorldOutcome::from_run(w, &result))
                     })
                     .collect()
             })

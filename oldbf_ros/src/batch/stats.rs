@@ -77,6 +77,12 @@ pub struct ControllerStats {
     pub min_clearance_median_m: Option<f64>,
     pub worlds_reached: usize,
     pub goal_rate: f64,
+    /// Worlds where a path keeping r + d_safe from the static obstacles leads
+    /// to the goal, and the goal rate over those: a doorway too narrow for
+    /// that must be refused, not counted against the controller.
+    pub worlds_with_path: usize,
+    pub worlds_reached_with_path: usize,
+    pub goal_rate_with_path: f64,
     /// Mean time to goal over the worlds where it was reached (s).
     pub mean_time_to_goal_s: Option<f64>,
     /// Mean path length over all worlds (m).
@@ -143,6 +149,9 @@ impl ControllerStats {
             min_clearance_median_m: percentile(clearances.iter().copied(), 50.0),
             worlds_reached,
             goal_rate: rate(worlds_reached, n),
+            worlds_with_path: count(|o| o.path_exists),
+            worlds_reached_with_path: count(|o| o.path_exists && o.reached_goal),
+            goal_rate_with_path: rate(count(|o| o.path_exists && o.reached_goal), count(|o| o.path_exists)),
             mean_time_to_goal_s: mean(outcomes.iter().filter_map(|o| o.time_to_goal_s)),
             mean_path_length_m: mean(outcomes.iter().map(|o| o.path_length_m)),
             mean_max_tracking_error_m: mean(outcomes.iter().filter_map(|o| o.max_tracking_error_m)),
@@ -213,6 +222,8 @@ mod tests {
             world,
             controller: Controller::Oldbf,
             sensor_seed: 0,
+            path_exists: world != 3,
+            label: "room",
             steps: steps_us.len(),
             collisions,
             // World w: its contacts split w closing first (capped), the rest passive.
@@ -269,6 +280,9 @@ mod tests {
         assert!(close(s.min_clearance_p5_m, -0.02 + 0.15 * 0.07));
         assert!(close(s.min_clearance_median_m, 0.125));
         assert_eq!((s.worlds_reached, s.goal_rate), (2, 0.5));
+        // World 3 has no path: two of the other three reached.
+        assert_eq!((s.worlds_with_path, s.worlds_reached_with_path), (3, 2));
+        assert!((s.goal_rate_with_path - 2.0 / 3.0).abs() < 1e-12);
         assert!(close(s.mean_time_to_goal_s, 40.0));
         assert!(close(s.mean_path_length_m, 3.0));
         assert!(close(s.mean_max_tracking_error_m, 0.15));

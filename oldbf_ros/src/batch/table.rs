@@ -46,7 +46,7 @@ fn text_cells(r: &ControllerStats) -> [String; 14] {
             opt(r.min_clearance_median_m, 3),
             opt(r.min_clearance_p5_m, 3)
         ),
-        rate(r.goal_rate, r.worlds_reached, r.worlds),
+        rate(r.goal_rate_with_path, r.worlds_reached_with_path, r.worlds_with_path),
         opt(r.mean_time_to_goal_s, 1),
         opt(r.mean_stalled_s, 1),
         format!("{:.2} %", 100.0 * r.steering_flip_rate),
@@ -104,6 +104,7 @@ pub fn text(report: &BatchReport) -> String {
         "closing: contacts the robot drove into (its speed towards the touched point > 0.02 m/s at the",
         "  onset); passive: the others (at rest, turning or moving away); contacts (worlds with any).",
         "min clear.: each world's least body-to-obstacle distance; median and 5th percentile over worlds.",
+        "goal rate: over the worlds where a path keeps r + d_safe from the static obstacles (reached / those).",
         "time to goal: mean over the worlds reached. stalled: |v| < 0.02 m/s before the goal, mean over worlds.",
         "steering flips: steps whose omega differs from the previous step's by more than omega_max.",
         "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command (from the scan);",
@@ -118,7 +119,7 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 33] = [
+pub const CSV_COLUMNS: [&str; 36] = [
     "controller",
     "worlds",
     "worlds_with_collision",
@@ -133,6 +134,9 @@ pub const CSV_COLUMNS: [&str; 33] = [
     "min_clearance_median_m",
     "worlds_reached",
     "goal_rate",
+    "worlds_with_path",
+    "worlds_reached_with_path",
+    "goal_rate_with_path",
     "mean_time_to_goal_s",
     "mean_path_length_m",
     "mean_max_tracking_error_m",
@@ -179,6 +183,9 @@ pub fn csv(report: &BatchReport) -> String {
             num(r.min_clearance_median_m),
             r.worlds_reached.to_string(),
             r.goal_rate.to_string(),
+            r.worlds_with_path.to_string(),
+            r.worlds_reached_with_path.to_string(),
+            r.goal_rate_with_path.to_string(),
             num(r.mean_time_to_goal_s),
             num(r.mean_path_length_m),
             num(r.mean_max_tracking_error_m),
@@ -208,7 +215,7 @@ pub fn csv(report: &BatchReport) -> String {
 /// Every (world, controller) outcome as CSV, one row each.
 pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
     let mut out = String::from(
-        "world,controller,sensor_seed,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
+        "world,controller,sensor_seed,path_exists,label,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
          reached_goal,time_to_goal_s,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
          cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
          driven_blind_steps,blind_steps,steering_flips,stalled_s,mean_step_us\n",
@@ -216,10 +223,12 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
     for o in outcomes {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
+            o.path_exists,
+            o.label,
             o.steps,
             o.collisions,
             o.closing_contacts,
@@ -266,6 +275,9 @@ mod tests {
             min_clearance_median_m: Some(0.2),
             worlds_reached: 3,
             goal_rate: 0.75,
+            worlds_with_path: 4,
+            worlds_reached_with_path: 3,
+            goal_rate_with_path: 0.75,
             mean_time_to_goal_s: None,
             mean_path_length_m: Some(6.5),
             mean_max_tracking_error_m: Some(0.5),
@@ -336,7 +348,7 @@ mod tests {
         assert_eq!(row.len(), CSV_COLUMNS.len());
         assert_eq!(row[0], "oldbf");
         assert_eq!(row[9], "-0.0125");
-        assert_eq!(row[14], "", "a missing value is an empty cell");
+        assert_eq!(row[17], "", "a missing value is an empty cell");
         assert_eq!(lines.count(), 1);
     }
 }

@@ -25,7 +25,7 @@ use crate::sim::lidar::LidarSpec;
 use crate::sim::motion::{MotionSpec, MovingObstacleSpec};
 use crate::sim::robot::RobotSpec;
 use crate::sim::scenario::Scenario;
-use crate::sim::world::{BoxSpec, CircleSpec, WorldSpec};
+use crate::sim::world::{BoxSpec, CircleSpec, WallSpec, World, WorldSpec};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -105,6 +105,34 @@ pub struct StaticObstaclesSpec {
     pub circles: CirclesSpec,
     #[serde(default)]
     pub boxes: BoxesSpec,
+    /// Redraw the static obstacles until a path from the start to the goal
+    /// keeps the robot's centre r + d_safe from every static obstacle and
+    /// wall (`path_exists` of each world says whether one does).
+    #[serde(default)]
+    pub require_path: bool,
+}
+
+/// A wall across the room, perpendicular to the robot's line, with one
+/// doorway in it: a doorway narrower than 2 (r + d_safe) has no path through
+/// it at d_safe, and the robot must refuse it safely.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DoorwaySpec {
+    /// [least, most] width of the doorway (m).
+    pub width_m: [f64; 2],
+    /// [least, most] where the wall crosses the line, as a fraction of its length.
+    #[serde(default = "default_doorway_along")]
+    pub along: [f64; 2],
+    /// [least, most] offset of the doorway's centre from the line, along the wall (m).
+    #[serde(default = "default_doorway_offset")]
+    pub offset_m: [f64; 2],
+}
+
+fn default_doorway_along() -> [f64; 2] {
+    [0.35, 0.65]
+}
+fn default_doorway_offset() -> [f64; 2] {
+    [-0.5, 0.5]
 }
 
 /// How a generated mover moves.
@@ -187,6 +215,9 @@ pub struct TemplateSpec {
     pub static_obstacles: StaticObstaclesSpec,
     #[serde(default)]
     pub moving_obstacles: MovingObstaclesSpec,
+    /// A wall with a doorway across the robot's line.
+    #[serde(default)]
+    pub doorway: Option<DoorwaySpec>,
     /// Overrides of `config/oldbf.yaml`, as in a scenario file.
     #[serde(default)]
     pub oldbf: Option<Value>,
@@ -215,7 +246,19 @@ pub struct GeneratedWorld {
     /// The world as a scenario file; `oldbf sim` on it reruns this world
     /// (with the same `--config`).
     pub yaml: String,
+    /// Whether a path from the start to the goal keeps the robot's centre
+    /// r + d_safe from every static obstacle and wall (movers aside).
+    pub path_exists: bool,
+    /// What kind of world: `room`, `wide_doorway` or `narrow_doorway`.
+    pub label: &'static str,
 }
+
+/// Cell size of the grid the path check searches (m).
+const PATH_GRID_M: f64 = 0.04;
+/// Extra clearance the path check asks of cell centres, for the grid's coarseness (m).
+const PATH_SLACK_M: f64 = 0.02;
+/// Draws of the static obstacles before a template that requires a path gives up.
+const PATH_ATTEMPTS: usize = 200;
 
 /// Tries per obstacle before a template is declared too crowded.
 const PLACEMENT_ATTEMPTS: usize = 1000;
@@ -416,6 +459,11 @@ impl Template {
             true,
             " m (a quarter of the room's shorter side)",
         )?;
+        if let Some(d) = &s.doorway {
+            c.pair("doorway.width_m", d.width_m, 0.0, short_side, true, " m")?;
+            c.pair("doorway.along", d.along, 0.1, 0.9, false, " (fraction of the line)")?;
+            c.pair("doorway.offset_m", d.offset_m, -short_side, short_side, false, " m")?;
+        }
         let m = &s.moving_obstacles;
         c.count("moving_obstacles.count", m.count, MAX_COUNT)?;
         c.pair(
@@ -472,7 +520,36 @@ impl Template {
             ]],
             ..WorldSpec::default()
         };
-        g.static_obstacles(&line, &mut world)?;
+        let room = world.clone();
+        let clearance_m = self.params.robot_radius_m() + self.params.barrier.d_safe_m;
+        let mut path_exists = false;
+        let mut label = "room";
+        for attempt in 0..PATH_ATTEMPTS {
+            world = room.clone();
+            g.static_obstacles(&line, &mut world)?;
+            if let Some(d) = self.spec.doorway {
+                label = if g.doorway(&line, &d, &mut world) >= 2.0 * clearance_m {
+                    "wide_doorway"
+                } else {
+                    "narrow_doorway"
+                };
+            }
+            path_exists = path_exists_in(&world, line.start, line.goal, clearance_m + PATH_SLACK_M, &self.file)?;
+            let wants_path = self.spec.static_obstacles.require_path && label != "narrow_doorway";
+            if path_exists || !wants_path {
+                break;
+            }
+            if attempt + 1 == PATH_ATTEMPTS {
+                return Err(invalid(
+                    &self.file,
+                    "static_obstacles.require_path",
+                    format!(
+                        "no draw of world {index} in {PATH_ATTEMPTS} left a path {clearance_m:.3} m clear of the \
+                         static obstacles from the start to the goal: the room is too crowded"
+                    ),
+                ));
+            }
+        }
         g.movers(&line, &mut world)?;
 
         let spec = &self.spec;
@@ -505,6 +582,8 @@ impl Template {
             sensor_seed,
             scenario,
             yaml,
+            path_exists,
+            label,
         })
     }
 }
@@ -663,6 +742,34 @@ impl Generator<'_> {
         Ok(())
     }
 
+    /// Adds a wall across the room through the line, perpendicular to it, with
+    /// a doorway; returns the doorway's width (m).
+    fn doorway(&mut self, line: &Line, d: &DoorwaySpec, world: &mut WorldSpec) -> f64 {
+        let (w, h) = self.room();
+        let width = self.uniform(d.width_m);
+        let along = self.uniform(d.along) * line.length_m;
+        let offset = self.uniform(d.offset_m);
+        let p = line.start + line.direction() * along;
+        let n = Vec2::new(-line.direction().y, line.direction().x);
+        let (lo, hi) = (Vec2::new(0.0, 0.0), Vec2::new(w, h));
+        // The wall from room edge to room edge, along n through p.
+        let (s_min, s_max) = (-exit_distance(p, -n, lo, hi), exit_distance(p, n, lo, hi));
+        let centre = offset.clamp(s_min + 0.5 * width, s_max - 0.5 * width);
+        let at = |s: f64| {
+            let q = p + n * s;
+            [q.x, q.y]
+        };
+        world.walls.push(WallSpec {
+            from: at(s_min),
+            to: at(centre - 0.5 * width),
+        });
+        world.walls.push(WallSpec {
+            from: at(centre + 0.5 * width),
+            to: at(s_max),
+        });
+        width
+    }
+
     /// True if a mover of `radius_m` at `p` at t = 0 keeps the start free and
     /// does not sit inside a static obstacle.
     fn mover_start_ok(&self, p: Vec2, radius_m: f64, line: &Line, world: &WorldSpec) -> bool {
@@ -815,6 +922,55 @@ impl Generator<'_> {
             .sum();
         (perimeter_m >= MIN_LOOP_M).then_some(MotionSpec::WaypointLoop { waypoints, speed_mps })
     }
+}
+
+/// Whether a chain of grid cells (4-connected, [`PATH_GRID_M`] apart) leads
+/// from `start` to `goal` through cell centres at least `clearance_m` from
+/// every static obstacle and wall of `spec` (its movers are ignored).
+fn path_exists_in(
+    spec: &WorldSpec,
+    start: Vec2,
+    goal: Vec2,
+    clearance_m: f64,
+    file: &str,
+) -> Result<bool, ConfigError> {
+    let statics = WorldSpec {
+        moving: Vec::new(),
+        ..spec.clone()
+    };
+    let world = World::new(&statics).map_err(|m| invalid(file, "", m))?;
+    let Some((lo, hi)) = world.bounds() else {
+        return Ok(true);
+    };
+    let nx = ((hi.x - lo.x) / PATH_GRID_M).ceil() as usize + 1;
+    let ny = ((hi.y - lo.y) / PATH_GRID_M).ceil() as usize + 1;
+    let cell = |p: Vec2| {
+        let i = ((p.x - lo.x) / PATH_GRID_M).round().clamp(0.0, (nx - 1) as f64) as usize;
+        let j = ((p.y - lo.y) / PATH_GRID_M).round().clamp(0.0, (ny - 1) as f64) as usize;
+        (i, j)
+    };
+    let centre = |i: usize, j: usize| Vec2::new(lo.x + i as f64 * PATH_GRID_M, lo.y + j as f64 * PATH_GRID_M);
+    let free = |i: usize, j: usize| world.distance_to_nearest(centre(i, j)) >= clearance_m;
+    let (s, g) = (cell(start), cell(goal));
+    let mut seen = vec![false; nx * ny];
+    let mut queue = std::collections::VecDeque::new();
+    seen[s.1 * nx + s.0] = true;
+    queue.push_back(s);
+    while let Some((i, j)) = queue.pop_front() {
+        if (i, j) == g {
+            return Ok(true);
+        }
+        let next = [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)];
+        for (a, b) in next {
+            if a < nx && b < ny && !seen[b * nx + a] {
+                seen[b * nx + a] = true;
+                if free(a, b) {
+                    queue.push_back((a, b));
+                }
+            }
+        }
+    }
+    Ok(false)
 }
 
 /// A scenario file as `Scenario` parses it (the keys the batch sets).
