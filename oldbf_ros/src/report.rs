@@ -69,8 +69,8 @@ pub fn summary_text(s: &RunSummary) -> String {
     let c = s.steps_by_state;
     let _ = writeln!(
         out,
-        "  states: forward {} avoid {} both_sides {} stop {} escape {} evade {}",
-        c.forward, c.avoid, c.both_sides, c.stop, c.escape, c.evade
+        "  states: forward {} avoid {} both_sides {} stop {} escape {} evade {} follow {}",
+        c.forward, c.avoid, c.both_sides, c.stop, c.escape, c.evade, c.follow
     );
     let _ = write!(
         out,
@@ -111,7 +111,8 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
     let mut w = std::io::BufWriter::new(file);
     writeln!(
         w,
-        "t_s,x_m,y_m,theta_rad,ref_x_m,ref_y_m,v_nominal_mps,omega_nominal_radps,v_cmd_mps,omega_cmd_radps,\
+        "t_s,x_m,y_m,theta_rad,ref_x_m,ref_y_m,v_nominal_mps,omega_nominal_radps,v_doaa_mps,omega_doaa_radps,\
+         v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
          clearance_true_m,state,filter_changed,condition_held,braking_held,infeasible,unknown_beams,held_beams,\
          driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us"
@@ -126,6 +127,8 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
             r.ref_y_m,
             r.v_nominal_mps,
             r.omega_nominal_radps,
+            r.v_doaa_mps,
+            r.omega_doaa_radps,
             r.v_cmd_mps,
             r.omega_cmd_radps,
             r.v_actual_mps,

@@ -5,6 +5,17 @@
 //! restricted to the sector |bearing| ≤ hemisphere_fov/2 (default 180°: the
 //! front half). d_min is over every valid point (the full scan), because the
 //! safe set S = { d_min ≥ d_safe } must hold all around the robot.
+//!
+//! Departure (ALGORITHM.md §4b, smooth steering): with `barrier.side_fade_deg`
+//! > 0 the sides have no hard edges. A point counts for a side with its
+//! clearance raised by a penalty that grows linearly from 0 to the activation
+//! band's width as its bearing goes from the side's own half into the other
+//! half by the fade angle, and likewise as it nears the hemisphere's rear
+//! edge. A penalised point at full penalty sits beyond d_act, where it no
+//! longer raises the barrier, so a point that crosses bearing 0 (or the
+//! hemisphere edge) moves B_l and B_r continuously: dead ahead it counts the
+//! same on both sides, and the steering term k (B_r − B_l) passes through 0
+//! instead of jumping from one sign to the other. 0 gives the hard sectors.
 
 use super::geometry::Vec2;
 
@@ -68,8 +79,99 @@ impl Clearances {
     };
 }
 
+/// How the side clearances fade near bearing 0 and the hemisphere's edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SideFade {
+    /// Penalty at full fade (m): the width of the activation band, d_act − d_safe
+    /// + d_safe = d_act, so a fully faded point no longer raises the barrier.
+    penalty_m: f64,
+    /// 1 / sin(fade angle): the cross-side ramp, on sin(bearing).
+    inv_sin_fade: f64,
+    /// cos of the bearing where the rear ramp starts, and 1 / its width in cos;
+    /// None for a full-circle hemisphere.
+    rear: Option<(f64, f64)>,
+}
+
+impl SideFade {
+    /// `fade_rad` > 0, for a hemisphere of `hemisphere_fov_rad`, activation
+    /// distance `d_act_m`; None for a fade of 0 (hard sectors).
+    pub fn new(fade_rad: f64, hemisphere_fov_rad: f64, d_act_m: f64) -> Option<Self> {
+        if fade_rad <= 0.0 {
+            return None;
+        }
+        let half = (hemisphere_fov_rad / 2.0).min(std::f64::consts::PI);
+        let fade = fade_rad.min(half).min(std::f64::consts::FRAC_PI_2);
+        let rear = (half < std::f64::consts::PI).then(|| {
+            let start = (half - fade).cos();
+            (start, 1.0 / (start - half.cos()).max(1e-12))
+        });
+        Some(Self {
+            penalty_m: d_act_m,
+            inv_sin_fade: 1.0 / fade.sin().max(1e-12),
+            rear,
+        })
+    }
+
+    /// Penalties (m) of a point with cos and sin of its bearing for the left
+    /// and the right side; +inf where it does not count at all.
+    #[inline]
+    pub fn penalties(&self, cos_b: f64, sin_b: f64) -> (f64, f64) {
+        let back = match self.rear {
+            Some((start, inv)) => ((start - cos_b) * inv).max(0.0),
+            None => 0.0,
+        };
+        let left = (-sin_b * self.inv_sin_fade).max(back);
+        let right = (sin_b * self.inv_sin_fade).max(back);
+        let scale = |f: f64| if f < 1.0 { f * self.penalty_m } else { f64::INFINITY };
+        (scale(left), scale(right))
+    }
+}
+
 /// Points per batch in `compute_clearances`.
 const BATCH: usize = 8;
+
+/// Computes every clearance in one pass over the points; with `fade`, the
+/// side clearances fade by bearing (see the module docs).
+pub fn compute_clearances_faded(
+    points: &[Vec2],
+    robot_radius_m: f64,
+    front: Sector,
+    fade: &SideFade,
+) -> Clearances {
+    let mut c = Clearances::OPEN;
+    for p in points {
+        let norm2 = p.norm_squared();
+        let norm = norm2.sqrt();
+        let clearance = norm - robot_radius_m;
+        if clearance < c.d_min_m {
+            c.d_min_m = clearance;
+            c.closest = Some(p.clone_owned());
+        }
+        if front.contains(*p, norm) && clearance < c.d_front_m {
+            c.d_front_m = clearance;
+        }
+        if norm == 0.0 {
+            continue;
+        }
+        let inv = 1.0 / norm;
+        let (pl, pr) = fade.penalties(p.x * inv, p.y * inv);
+        if pl.is_finite() {
+            c.crowding_left += if p.y > 0.0 { inv } else { 0.0 };
+            if clearance + pl < c.d_left_m {
+                c.d_left_m = clearance + pl;
+                c.closest_left = Some(*p);
+            }
+        }
+        if pr.is_finite() {
+            c.crowding_right += if p.y < 0.0 { inv } else { 0.0 };
+            if clearance + pr < c.d_right_m {
+                c.d_right_m = clearance + pr;
+                c.closest_right = Some(*p);
+            }
+        }
+    }
+    c
+}
 
 /// Computes every clearance in one pass over the points.
 pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sector, front: Sector) -> Clearances {
@@ -150,6 +252,38 @@ mod tests {
         assert_eq!(c.d_left_m, f64::INFINITY);
         let c = compute_clearances(&pts, 0.0, Sector::new(deg(360.0)), Sector::new(deg(60.0)));
         assert!((c.d_left_m - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn faded_sides_change_continuously_across_bearing_zero_and_the_rear_edge() {
+        // d_act 1.2 m, fade 30°, hemisphere 180°: a point 1 m away, r = 0.
+        let fade = SideFade::new(deg(30.0), deg(180.0), 1.2).unwrap();
+        let front = Sector::new(deg(30.0));
+        let at = |bearing_deg: f64| {
+            let b = deg(bearing_deg);
+            compute_clearances_faded(&[Vec2::new(b.cos(), b.sin())], 0.0, front, &fade)
+        };
+        // Dead ahead: the same on both sides, no penalty.
+        let c = at(0.0);
+        assert!((c.d_left_m - 1.0).abs() < 1e-12 && (c.d_right_m - 1.0).abs() < 1e-12);
+        // 15° right: full clearance on the right, half the ramp (sin 15° / sin 30° = 0.5176) on the left.
+        let c = at(-15.0);
+        assert!((c.d_right_m - 1.0).abs() < 1e-12);
+        let ramp = deg(15.0).sin() / deg(30.0).sin();
+        assert!((c.d_left_m - (1.0 + 1.2 * ramp)).abs() < 1e-9, "{c:?}");
+        // Just either side of 0: nearly equal, not one side jumping to +inf.
+        let (a, b) = (at(0.01), at(-0.01));
+        assert!((a.d_left_m - b.d_left_m).abs() < 1e-3 && (a.d_right_m - b.d_right_m).abs() < 1e-3);
+        // 30° or more right: no longer on the left at all.
+        assert_eq!(at(-30.5).d_left_m, f64::INFINITY);
+        // Rear edge (90°): the ramp starts at 60°; at 75° half of it.
+        let c = at(75.0);
+        let half = (deg(60.0).cos() - deg(75.0).cos()) / deg(60.0).cos();
+        assert!((c.d_left_m - (1.0 + 1.2 * half)).abs() < 1e-9, "{c:?}");
+        assert_eq!(at(91.0).d_left_m, f64::INFINITY);
+        // d_min and the front sector are not faded.
+        assert!((at(-15.0).d_min_m - 1.0).abs() < 1e-12 && (at(-15.0).d_front_m - 1.0).abs() < 1e-12);
+        assert_eq!(SideFade::new(0.0, deg(180.0), 1.2), None);
     }
 
     #[test]

@@ -60,6 +60,8 @@ pub enum DoaaState {
     /// A mover closes on a robot that cannot go forward: the admissible
     /// command with the latest predicted contact (§5b).
     Evade,
+    /// Progress stalled: following a free direction round the obstacle (§4b).
+    Follow,
 }
 
 impl DoaaState {
@@ -71,10 +73,11 @@ impl DoaaState {
             Self::Stop => "stop",
             Self::Escape => "escape",
             Self::Evade => "evade",
+            Self::Follow => "follow",
         }
     }
 
-    /// Stable small integer for messages (forward 0 … escape 4, evade 5).
+    /// Stable small integer for messages (forward 0 … escape 4, evade 5, follow 6).
     pub fn code(&self) -> u8 {
         *self as u8
     }
@@ -105,10 +108,14 @@ impl TurnDirection {
 /// Clearances closer than this (m) are treated as equal when picking a turn side.
 const TIE_M: f64 = 0.01;
 
-/// The DOAA state machine; holds only the latched both-sides turn.
+/// The DOAA state machine: the latched both-sides turn and the committed
+/// turn direction.
 #[derive(Debug, Default, Clone)]
 pub struct Doaa {
     both_sides: Option<TurnDirection>,
+    /// The side the robot passes the obstacle ahead on (§4b), while one is
+    /// within d_act in the front sector.
+    commit: Option<TurnDirection>,
 }
 
 impl Doaa {
@@ -119,14 +126,39 @@ impl Doaa {
     /// Forgets the latched turn (after a stop, a reset, or a filter toggle).
     pub fn reset(&mut self) {
         self.both_sides = None;
+        self.commit = None;
     }
 
     pub fn latched_turn(&self) -> Option<TurnDirection> {
         self.both_sides
     }
 
+    /// The side the robot is committed to passing the obstacle ahead on.
+    pub fn committed_turn(&self) -> Option<TurnDirection> {
+        self.commit
+    }
+
+    /// Drops the committed side: the unstuck logic steers towards a free
+    /// direction, which may lie either way.
+    pub fn release_commit(&mut self) {
+        self.commit = None;
+    }
+
     /// The DOAA command for this step, before the DTCBF check.
     pub fn command(&mut self, nominal: Twist, c: &Clearances, b: &Barriers, p: &Params) -> (Twist, DoaaState) {
+        self.command_with(nominal, c, b, p, p.doaa.commit_turns)
+    }
+
+    /// As [`Self::command`], committing to a side only when `commit` (the
+    /// unstuck logic, heading for a free direction, turns it off).
+    pub fn command_with(
+        &mut self,
+        nominal: Twist,
+        c: &Clearances,
+        b: &Barriers,
+        p: &Params,
+        commit: bool,
+    ) -> (Twist, DoaaState) {
         let d_act = p.barrier.d_act_m();
         let w_max = p.control.omega_max_radps;
 
@@ -136,6 +168,21 @@ impl Doaa {
         if nominal.v_mps <= 0.0 {
             self.both_sides = None;
         }
+        // Commitment (§4b): once something is within d_act ahead, the robot picks
+        // the side to pass it on and keeps it until the front is clear again.
+        let front_blocked = c.d_front_m < d_act;
+        let speed_scale = (nominal.v_mps / p.doaa.full_gain_speed_mps).clamp(0.0, 1.0);
+        let avoid = p.doaa.gain_k_radps * speed_scale * (b.b_right - b.b_left);
+        if !commit {
+            self.commit = None;
+        } else {
+            if self.commit.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
+                self.commit = None;
+            }
+            if self.commit.is_none() && front_blocked && nominal.v_mps > p.doaa.both_sides_min_speed_mps {
+                self.commit = Some(commit_side(avoid, c, p));
+            }
+        }
         if self.both_sides.is_none()
             && nominal.v_mps > p.doaa.both_sides_min_speed_mps
             && c.d_left_m < d_act
@@ -143,7 +190,7 @@ impl Doaa {
             && c.d_front_m < d_act
             && front_is_nearest
         {
-            self.both_sides = Some(pick_turn(c, nominal));
+            self.both_sides = Some(self.commit.unwrap_or_else(|| pick_turn(c, nominal)));
         }
         if self.both_sides.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
             self.both_sides = None;
@@ -165,9 +212,25 @@ impl Doaa {
 
         // Steering only changes clearances when the robot moves forward; at a standstill the
         // term would only fight the nominal turn (and chatter where points cross a sector edge).
-        let speed_scale = (nominal.v_mps / p.doaa.full_gain_speed_mps).clamp(0.0, 1.0);
-        let avoid = p.doaa.gain_k_radps * speed_scale * (b.b_right - b.b_left);
-        let omega = (nominal.omega_radps + avoid).clamp(-w_max, w_max);
+        let omega = match self.commit {
+            // Committed, and driving (above the both-sides speed, the same hysteresis): never
+            // steer towards the side given up, and while the front is blocked turn at least
+            // `commit_min_turn` of ω_max the committed way, so an obstacle dead ahead
+            // (B_l = B_r) is not driven at until the filter stops. A nominal that (nearly)
+            // only turns in place, safe for a circular robot, passes.
+            Some(dir) if nominal.v_mps > p.doaa.both_sides_min_speed_mps => {
+                let s = dir.sign();
+                let floor = if front_blocked {
+                    p.doaa.commit_min_turn * w_max * speed_scale
+                } else {
+                    0.0
+                };
+                let avoid = s * (s * avoid).max(0.0);
+                s * (s * (nominal.omega_radps + avoid)).max(floor)
+            }
+            _ => nominal.omega_radps + avoid,
+        }
+        .clamp(-w_max, w_max);
         let state = if c.d_left_m < d_act || c.d_right_m < d_act {
             DoaaState::Avoid
         } else {
@@ -175,6 +238,25 @@ impl Doaa {
         };
         (Twist::new(nominal.v_mps, omega), state)
     }
+}
+
+/// The side to pass an obstacle ahead on: the way the barriers already steer
+/// when they do by more than a tie; else the side with more clearance, then
+/// the less crowded one; else the right (§4b right of way: two robots
+/// running this law head-on both turn right and pass each other).
+fn commit_side(avoid: f64, c: &Clearances, p: &Params) -> TurnDirection {
+    let pick = |left: bool| if left { TurnDirection::Left } else { TurnDirection::Right };
+    if avoid.abs() > 0.05 * p.doaa.gain_k_radps {
+        return pick(avoid > 0.0);
+    }
+    // inf − inf is NaN and fails the comparison: no clearance difference to go by.
+    if (c.d_left_m - c.d_right_m).abs() > TIE_M {
+        return pick(c.d_left_m > c.d_right_m);
+    }
+    if c.crowding_left != c.crowding_right {
+        return pick(c.crowding_left < c.crowding_right);
+    }
+    TurnDirection::Right
 }
 
 /// The side with more clearance; ties go to the less crowded side, then to

@@ -23,6 +23,7 @@ pub mod reference;
 pub mod scan;
 pub mod tracking;
 pub mod unicycle;
+pub mod unstuck;
 
 pub use doaa::DoaaState;
 pub use geometry::{Pose2, Twist, Vec2};

@@ -22,6 +22,7 @@ pub struct Params {
     pub tracking: TrackingParams,
     pub obstacles: ObstacleParams,
     pub passive: PassiveParams,
+    pub unstuck: UnstuckParams,
     pub baselines: BaselineParams,
 }
 
@@ -185,6 +186,11 @@ pub struct BarrierParams {
     /// 2·asin((r + d_safe) / (r + d_act)) = 2·asin(0.378 / 1.378) ≈ 32°, so a
     /// corridor wall beside the robot does not count as "ahead".
     pub front_fov_deg: f64,
+    /// Fade angle of the side sectors (deg): a point's contribution to a side
+    /// fades out over this much bearing past bearing 0 and before the
+    /// hemisphere's edge, so B_l and B_r change continuously (§4b); 0 = the
+    /// hard sectors of the definition.
+    pub side_fade_deg: f64,
 }
 
 impl Default for BarrierParams {
@@ -198,6 +204,7 @@ impl Default for BarrierParams {
             barrier_max: 1000.0,
             hemisphere_fov_deg: 180.0,
             front_fov_deg: 30.0,
+            side_fade_deg: 30.0,
         }
     }
 }
@@ -229,6 +236,17 @@ pub struct DoaaParams {
     /// The avoidance term k (B_r − B_l) has full weight at nominal forward speeds ≥ this,
     /// and falls linearly to 0 at a standstill (m/s).
     pub full_gain_speed_mps: f64,
+    /// Commit to the side an obstacle ahead is passed on until the front is
+    /// clear (§4b); false = the differential law alone, whose sign follows the
+    /// nearest point across bearing 0.
+    pub commit_turns: bool,
+    /// While committed and the front is blocked, turn at least this fraction
+    /// of ω_max the committed way (scaled like the avoidance term by speed).
+    pub commit_min_turn: f64,
+    /// Largest change of the DOAA's yaw rate from the last command sent, per
+    /// control step (rad/s); the DTCBF then judges the command actually sent.
+    /// 0 = no limit.
+    pub max_omega_change_radps: f64,
 }
 
 impl Default for DoaaParams {
@@ -241,6 +259,9 @@ impl Default for DoaaParams {
             both_sides_min_speed_mps: 0.02,
             front_nearest_tolerance_m: 0.05,
             full_gain_speed_mps: 0.1,
+            commit_turns: true,
+            commit_min_turn: 0.5,
+            max_omega_change_radps: 0.25,
         }
     }
 }
@@ -373,6 +394,34 @@ impl Default for ObstacleParams {
 
 /// The comparison controllers (ALGORITHM.md §8; `--controller dcbf|vo`).
 /// Not used by the OLDBF filter or the ROS node.
+/// Getting round an obstacle when steering alone has stalled (ALGORITHM.md §4b).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UnstuckParams {
+    /// Follow free directions when progress stalls; false = reactive steering only.
+    pub enabled: bool,
+    /// Progress stalled: less than `progress_m` gained for this long (s).
+    pub stall_s: f64,
+    /// Progress that counts (m of the reference's arc length minus distance to it).
+    pub progress_m: f64,
+    /// A direction is free when the robot could go this far along it (m).
+    pub look_m: f64,
+    /// Following one side this long without progress switches to the other (s).
+    pub switch_s: f64,
+}
+
+impl Default for UnstuckParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            stall_s: 6.0,
+            progress_m: 0.15,
+            look_m: 1.0,
+            switch_s: 30.0,
+        }
+    }
+}
+
 /// Passive motion safety and evasion (ALGORITHM.md §5b).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -533,14 +582,19 @@ impl Params {
         self.footprint.radius_m()
     }
 
-    /// The same parameters with the checks this project added beyond the
-    /// paper switched off: every invalid range is free space (no hold, no
-    /// blindness), no braking check or evasion, no reversing. This is the
+    /// The same parameters with what this project added beyond the paper
+    /// switched off: every invalid range is free space (no hold, no
+    /// blindness), hard side sectors, no committed turns, yaw-rate step
+    /// limit or unstuck, no braking check or evasion, no reversing. This is the
     /// filter as it was before REP 117 semantics and passive motion safety,
     /// kept so the batch and compare tables can measure the difference on
     /// the same worlds (`config/paper_method.yaml` says the same in YAML).
     pub fn paper_method(mut self) -> Self {
         self.laser.range_semantics = RangeSemantics::AllInvalidFree;
+        self.barrier.side_fade_deg = 0.0;
+        self.doaa.commit_turns = false;
+        self.doaa.max_omega_change_radps = 0.0;
+        self.unstuck.enabled = false;
         self.passive.enabled = false;
         self.control.allow_reverse = false;
         self
@@ -590,6 +644,7 @@ impl Params {
         c.range("barrier.barrier_max", b.barrier_max, "(1, 1e12]");
         c.range("barrier.hemisphere_fov_deg", b.hemisphere_fov_deg, "(0, 360] deg");
         c.range("barrier.front_fov_deg", b.front_fov_deg, "(0, 360] deg");
+        c.range("barrier.side_fade_deg", b.side_fade_deg, "[0, 90] deg");
         if b.d_safe_m.is_finite() && b.big_gamma.is_finite() && b.sigma.is_finite() {
             let band = b.d_act_m() - b.d_safe_m;
             c.rule(
@@ -623,6 +678,8 @@ impl Params {
         );
         // Divides the nominal speed: 0 would make the gain weight NaN at a standstill.
         c.range("doaa.full_gain_speed_mps", d.full_gain_speed_mps, "(0, 5] m/s");
+        c.range("doaa.commit_min_turn", d.commit_min_turn, "[0, 1]");
+        c.range("doaa.max_omega_change_radps", d.max_omega_change_radps, "[0, 20] rad/s");
 
         let f = &self.dtcbf;
         c.range("dtcbf.gamma", f.gamma, "(0, 1]");
@@ -665,6 +722,12 @@ impl Params {
         c.range("obstacles.min_travel_m", o.min_travel_m, "[0, 100] m");
         c.range("obstacles.lookahead_s", o.lookahead_s, "[0, 60] s");
         c.range("obstacles.max_tracks", o.max_tracks as f64, "[1, 1000]");
+
+        let u = &self.unstuck;
+        c.range("unstuck.stall_s", u.stall_s, "(0, 600] s");
+        c.range("unstuck.progress_m", u.progress_m, "(0, 10] m");
+        c.range("unstuck.look_m", u.look_m, "(0, 10] m");
+        c.range("unstuck.switch_s", u.switch_s, "(0, 3600] s");
 
         let pa = &self.passive;
         c.range("passive.brake_decel_mps2", pa.brake_decel_mps2, "(0, 100] m/s²");

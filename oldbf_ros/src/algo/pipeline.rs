@@ -21,7 +21,7 @@
 use super::barrier::compute_barriers;
 use super::beam_memory::BeamMemory;
 use super::blind::BlindDetector;
-use super::clearance::{compute_clearances, Clearances, Sector};
+use super::clearance::{compute_clearances, compute_clearances_faded, Clearances, Sector, SideFade};
 use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
 use super::doaa::{Doaa, DoaaState};
@@ -34,6 +34,7 @@ use super::passive::{ClosingContact, EvasionScore, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{check_scan, fill_points, LaserMount, LaserScan, ScanPoints};
 use super::unicycle::arc_step;
+use super::unstuck::{Guidance, Unstuck, UnstuckDecision};
 
 /// Numerical tolerance on the DTCBF condition (m), as in the filter.
 const TOL_M: f64 = 1e-9;
@@ -53,6 +54,7 @@ struct Derived {
     mount: LaserMount,
     hemisphere: Sector,
     front: Sector,
+    fade: Option<SideFade>,
 }
 
 impl Derived {
@@ -62,6 +64,11 @@ impl Derived {
             mount: LaserMount::from_params(&p.laser),
             hemisphere: Sector::new(p.barrier.hemisphere_fov_deg.to_radians()),
             front: Sector::new(p.barrier.front_fov_deg.to_radians()),
+            fade: SideFade::new(
+                p.barrier.side_fade_deg.to_radians(),
+                p.barrier.hemisphere_fov_deg.to_radians(),
+                p.barrier.d_act_m(),
+            ),
         }
     }
 }
@@ -88,6 +95,9 @@ pub struct SafetyPipeline {
     memory: BeamMemory,
     blind: BlindDetector,
     doaa: Doaa,
+    unstuck: Unstuck,
+    /// Where the nominal is heading this step ([`Self::set_guidance`]).
+    guidance: Option<Guidance>,
     filter: DtcbfFilter,
     passive: PassiveSafety,
     candidates: Vec<Candidate>,
@@ -129,6 +139,8 @@ impl SafetyPipeline {
             memory: BeamMemory::with_capacity(cap),
             blind: BlindDetector::default(),
             doaa: Doaa::new(),
+            unstuck: Unstuck::default(),
+            guidance: None,
             filter: DtcbfFilter::with_capacity(cap),
             passive: PassiveSafety::with_capacity(max_tracks, cap),
             candidates: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
@@ -201,7 +213,16 @@ impl SafetyPipeline {
     /// Forget latched DOAA state (after an e-stop release or a filter toggle).
     pub fn reset(&mut self) {
         self.doaa.reset();
+        self.unstuck.reset();
         self.last_cmd = Twist::ZERO;
+    }
+
+    /// Where the nominal command is heading, for the next step only: the
+    /// governed reference point (robot frame) and its arc length. Without it
+    /// (an upstream `cmd_vel_in`, a constant command) there is no progress to
+    /// watch and no unstuck behaviour (§4b).
+    pub fn set_guidance(&mut self, guidance: Option<Guidance>) {
+        self.guidance = guidance;
     }
 
     /// A stop step with no scan processing (missing scan, e-stop…).
@@ -309,10 +330,15 @@ impl SafetyPipeline {
                 self.points_next[i] += vel * dt;
                 predicted = predicted.min((pts[i] + vel * horizon).norm() - r);
             }
-            if cluster.centroid.y >= 0.0 {
-                c.d_left_m = c.d_left_m.min(predicted);
-            } else {
-                c.d_right_m = c.d_right_m.min(predicted);
+            match &self.derived.fade {
+                Some(fade) => {
+                    let n = cluster.centroid.norm().max(1e-9);
+                    let (pl, pr) = fade.penalties(cluster.centroid.x / n, cluster.centroid.y / n);
+                    c.d_left_m = c.d_left_m.min(predicted + pl);
+                    c.d_right_m = c.d_right_m.min(predicted + pr);
+                }
+                None if cluster.centroid.y >= 0.0 => c.d_left_m = c.d_left_m.min(predicted),
+                None => c.d_right_m = c.d_right_m.min(predicted),
             }
             self.threats.push(Threat {
                 track_id: track.id,
@@ -389,7 +415,10 @@ impl SafetyPipeline {
             0.0
         };
         let d = self.derived;
-        let mut c = compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front);
+        let mut c = match &d.fade {
+            Some(fade) => compute_clearances_faded(&self.points.points, d.robot_radius_m, d.front, fade),
+            None => compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front),
+        };
         let v_now = if current_v_mps.is_finite() {
             current_v_mps
         } else {
@@ -404,7 +433,40 @@ impl SafetyPipeline {
         let p = &self.params;
         let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &p.barrier);
         let nominal_boxed = bx.clamp(nominal);
-        let (doaa_cmd, doaa_state) = self.doaa.command(nominal_boxed, &c, &b, p);
+        // Unstuck (§4b): when progress has stalled, a free direction replaces the nominal.
+        let guidance = self.guidance.take();
+        let unstuck = if p.unstuck.enabled {
+            self.unstuck.step(
+                now_s,
+                guidance,
+                nominal_boxed,
+                &self.points.points,
+                self.doaa.committed_turn(),
+                p,
+            )
+        } else {
+            UnstuckDecision {
+                nominal: None,
+                side: None,
+            }
+        };
+        // Following a free direction, the DOAA's barriers (which only see the nearest
+        // point on each side) would steer it back at the obstacle; the direction is free
+        // with r + d_safe to spare by construction, and the DTCBF still judges it.
+        let (mut doaa_cmd, doaa_state) = match unstuck.nominal {
+            Some(follow) => {
+                self.doaa.release_commit();
+                (bx.clamp(follow), DoaaState::Follow)
+            }
+            None => self.doaa.command(nominal_boxed, &c, &b, p),
+        };
+        let step = p.doaa.max_omega_change_radps;
+        if step > 0.0 {
+            // Smooth steering (§4b): the DOAA's yaw rate moves towards its target from the
+            // last command sent; the filter below judges whatever results.
+            let last = self.last_cmd.omega_radps;
+            doaa_cmd.omega_radps = doaa_cmd.omega_radps.clamp(last - step, last + step);
+        }
         let out = self
             .filter
             .filter_in(&self.points.points, &self.points_next, doaa_cmd, p, &bx);

@@ -28,6 +28,7 @@ use crate::algo::record::{Infeasibility, StepRecord, StopCause};
 use crate::algo::reference::ReferenceProgress;
 use crate::algo::scan::{classify_range, BeamStatus, LaserScan, RangeKind};
 use crate::algo::tracking::{track, TrackingError};
+use crate::algo::unstuck::Guidance;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
 use serde::Serialize;
 use std::time::Instant;
@@ -66,6 +67,9 @@ pub struct StepRow {
     /// The nominal command, clamped to the input box (m/s, rad/s).
     pub v_nominal_mps: f64,
     pub omega_nominal_radps: f64,
+    /// The DOAA's command before the DTCBF and passive checks (m/s, rad/s).
+    pub v_doaa_mps: f64,
+    pub omega_doaa_radps: f64,
     pub v_cmd_mps: f64,
     pub omega_cmd_radps: f64,
     pub v_actual_mps: f64,
@@ -199,6 +203,7 @@ pub struct StateCounts {
     pub stop: usize,
     pub escape: usize,
     pub evade: usize,
+    pub follow: usize,
 }
 
 /// Steps marked infeasible, by reason (`Infeasibility`).
@@ -240,6 +245,7 @@ impl StateCounts {
             DoaaState::Stop => self.stop += 1,
             DoaaState::Escape => self.escape += 1,
             DoaaState::Evade => self.evade += 1,
+            DoaaState::Follow => self.follow += 1,
         }
     }
 
@@ -251,6 +257,7 @@ impl StateCounts {
             stop: self.stop + o.stop,
             escape: self.escape + o.escape,
             evade: self.evade + o.evade,
+            follow: self.follow + o.follow,
         }
     }
 }
@@ -420,6 +427,10 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     a.tracked_steps += 1;
                     let rate = ReferenceProgress::rate(e, params.tracking.capture_radius_m);
                     let (ref_pose, ref_twist) = a.progress.reference(reference, rate);
+                    a.pipeline.set_guidance(Some(Guidance {
+                        target: pose.inverse_transform_point(ref_pose.position()),
+                        along_m: a.progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
+                    }));
                     a.progress.advance(dt, rate);
                     (track(pose, ref_pose, ref_twist, &params.tracking), ref_pose.position())
                 }
@@ -519,6 +530,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 ref_y_m: ref_pos.y,
                 v_nominal_mps: boxed.v_mps,
                 omega_nominal_radps: boxed.omega_radps,
+                v_doaa_mps: rec.doaa_cmd.v_mps,
+                omega_doaa_radps: rec.doaa_cmd.omega_radps,
                 v_cmd_mps: cmd.v_mps,
                 omega_cmd_radps: cmd.omega_radps,
                 v_actual_mps: f64::NAN,
