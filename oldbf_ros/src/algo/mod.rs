@@ -14,6 +14,7 @@ pub mod collision_cone;
 pub mod doaa;
 pub mod dtcbf;
 pub mod geometry;
+pub mod local_plan;
 pub mod obstacle_tracker;
 pub mod params;
 pub mod passive;

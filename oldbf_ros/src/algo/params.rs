@@ -404,10 +404,10 @@ pub struct UnstuckParams {
     pub stall_s: f64,
     /// Progress that counts (m of the reference's arc length minus distance to it).
     pub progress_m: f64,
-    /// A direction is free when the robot could go this far along it (m).
-    pub look_m: f64,
-    /// Following one side this long without progress switches to the other (s).
-    pub switch_s: f64,
+    /// Width of the square window round the robot the way round is planned in (m).
+    pub window_m: f64,
+    /// The way round keeps r + d_safe + this from every point (m).
+    pub margin_m: f64,
 }
 
 impl Default for UnstuckParams {
@@ -416,8 +416,8 @@ impl Default for UnstuckParams {
             enabled: true,
             stall_s: 6.0,
             progress_m: 0.15,
-            look_m: 1.0,
-            switch_s: 30.0,
+            window_m: 5.0,
+            margin_m: 0.02,
         }
     }
 }
@@ -726,8 +726,8 @@ impl Params {
         let u = &self.unstuck;
         c.range("unstuck.stall_s", u.stall_s, "(0, 600] s");
         c.range("unstuck.progress_m", u.progress_m, "(0, 10] m");
-        c.range("unstuck.look_m", u.look_m, "(0, 10] m");
-        c.range("unstuck.switch_s", u.switch_s, "(0, 3600] s");
+        c.range("unstuck.window_m", u.window_m, "[1, 20] m");
+        c.range("unstuck.margin_m", u.margin_m, "[0, 1] m");
 
         let pa = &self.passive;
         c.range("passive.brake_decel_mps2", pa.brake_decel_mps2, "(0, 100] m/s²");

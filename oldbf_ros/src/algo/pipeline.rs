@@ -436,18 +436,11 @@ impl SafetyPipeline {
         // Unstuck (§4b): when progress has stalled, a free direction replaces the nominal.
         let guidance = self.guidance.take();
         let unstuck = if p.unstuck.enabled {
-            self.unstuck.step(
-                now_s,
-                guidance,
-                nominal_boxed,
-                &self.points.points,
-                self.doaa.committed_turn(),
-                p,
-            )
+            self.unstuck.step(now_s, guidance, nominal_boxed, &self.points.points, p)
         } else {
             UnstuckDecision {
                 nominal: None,
-                side: None,
+                waypoint: None,
             }
         };
         // Following a free direction, the DOAA's barriers (which only see the nearest
