@@ -79,6 +79,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("unstuck.progress_m", "0"),
     ("unstuck.window_m", "0.5"),
     ("unstuck.margin_m", "-1"),
+    ("unstuck.ahead_m", "21"),
     ("passive.enabled", "yes please"),
     ("passive.brake_decel_mps2", "0"),
     ("passive.mover_margin_m", "-0.01"),

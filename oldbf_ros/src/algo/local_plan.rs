@@ -23,6 +23,10 @@ use std::collections::VecDeque;
 pub const CELL_M: f64 = 0.05;
 /// Unreached.
 const FAR: u32 = u32::MAX;
+/// Keeping to a side blocks the other side's cells this near the robot (m)…
+pub const SIDE_BLOCK_M: f64 = 1.5;
+/// …but not those this near, where the robot turns (m).
+const SIDE_KEEP_M: f64 = 0.15;
 
 /// Where the planner heads and whether the target itself was reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,15 +68,23 @@ impl LocalPlanner {
 
     /// Plans from the robot (the origin) towards `target` (robot frame, m)
     /// through a window `window_m` wide, keeping `clearance_m` from every
-    /// point. The robot's own cell counts as free whatever its clearance (it
-    /// is there). `None` when no free cell is reachable at all.
+    /// point. The cells within `own_m` of the robot count as free whatever
+    /// their clearance (it is there, and may move within what it occupies).
+    /// With `keep_side` (+1: left of the line from the robot to the target, −1:
+    /// right), the cells clearly on the other side within [`SIDE_BLOCK_M`]
+    /// of the robot are blocked too: the way round keeps to the side chosen
+    /// before instead of flipping between two nearly equal ones.
+    /// `None` when no free cell is reachable at all.
+    #[allow(clippy::too_many_arguments)]
     pub fn plan(
         &mut self,
         points: &[Vec2],
         target: Vec2,
         clearance_m: f64,
+        own_m: f64,
         window_m: f64,
         reach_m: f64,
+        keep_side: Option<f64>,
     ) -> Option<Waypoint> {
         let side = ((window_m / CELL_M).ceil() as usize) | 1; // odd: the robot in the centre cell
         let cells = side * side;
@@ -110,7 +122,30 @@ impl LocalPlanner {
                 }
             }
         }
+        if let Some(sign) = keep_side {
+            let t = target / target.norm().max(1e-9);
+            for k in 0..cells {
+                let c = self.centre_of(k as u32);
+                let across = t.x * c.y - t.y * c.x;
+                let d = c.norm();
+                if sign * across < -CELL_M && d > SIDE_KEEP_M && d < SIDE_BLOCK_M {
+                    self.blocked[k] = true;
+                }
+            }
+        }
         let start = self.cell_of(Vec2::zeros())?;
+        let own = (own_m / CELL_M).floor() as i64;
+        for dj in -own..=own {
+            for di in -own..=own {
+                let (i, j) = (half + di, half + dj);
+                if (di * di + dj * dj) as f64 * CELL_M * CELL_M <= own_m * own_m
+                    && (0..side as i64).contains(&i)
+                    && (0..side as i64).contains(&j)
+                {
+                    self.blocked[j as usize * side + i as usize] = false;
+                }
+            }
+        }
         self.blocked[start as usize] = false;
         self.dist[start as usize] = 0;
         self.queue.push_back(start);
@@ -202,7 +237,7 @@ mod tests {
     #[test]
     fn open_space_heads_straight_for_the_target() {
         let mut lp = LocalPlanner::default();
-        let w = lp.plan(&[], Vec2::new(1.0, 0.0), 0.4, 4.0, 1.2).unwrap();
+        let w = lp.plan(&[], Vec2::new(1.0, 0.0), 0.4, 0.0, 4.0, 1.2, None).unwrap();
         assert!(w.target_in_sight);
         assert!((w.end - Vec2::new(1.0, 0.0)).norm() < 1e-9, "{w:?}");
         assert!((w.point - Vec2::new(1.0, 0.0)).norm() < 1e-9, "{w:?}");
@@ -214,14 +249,17 @@ mod tests {
         let mut lp = LocalPlanner::default();
         // Wall 0.8 m ahead from y = −0.5 to 1.5: its lower end is nearer.
         let pts = wall(0.8, -0.5, 1.5);
-        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 5.0, 1.2).unwrap();
+        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, None).unwrap();
         assert!(!w.target_in_sight);
         assert!(w.point.y < -0.4, "heads below the wall: {w:?}");
         // The end reaches the target: there is room round the wall.
         assert!((w.end - Vec2::new(2.0, 0.0)).norm() < 0.05, "{w:?}");
+        // Made to keep to the left, it goes round the far end instead.
+        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, Some(1.0)).unwrap();
+        assert!(w.point.y > 0.2 && (w.end - Vec2::new(2.0, 0.0)).norm() < 0.05, "{w:?}");
         // Mirror the wall: goes above.
         let pts: Vec<Vec2> = pts.iter().map(|p| Vec2::new(p.x, -p.y)).collect();
-        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 5.0, 1.2).unwrap();
+        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, None).unwrap();
         assert!(w.point.y > 0.4, "{w:?}");
     }
 
@@ -232,7 +270,7 @@ mod tests {
         let mut pts = wall(1.0, -3.0, -0.35);
         pts.extend(wall(1.0, 0.35, 1.0));
         pts.extend(wall(1.0, 1.9, 3.0));
-        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 6.0, 1.2).unwrap();
+        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 6.0, 1.2, None).unwrap();
         // Not straight through the narrow one: up to the wide one and through it, to the
         // target (a path of at least 0.6 + 1.45 · 2 + 1 m).
         assert!((w.end - Vec2::new(2.0, 0.0)).norm() < 1e-9 && w.path_m > 4.0, "{w:?}");
@@ -240,7 +278,7 @@ mod tests {
         // Only the narrow doorway: the best it can do is stop short of it, r + d_safe off its jambs.
         let mut pts = wall(1.0, -3.0, -0.35);
         pts.extend(wall(1.0, 0.35, 3.0));
-        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 6.0, 1.2).unwrap();
+        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 6.0, 1.2, None).unwrap();
         assert!(w.end.x < 0.9 && w.path_m < 1.0, "{w:?}");
     }
 
@@ -248,9 +286,9 @@ mod tests {
     fn no_allocation_once_the_window_is_sized() {
         let mut lp = LocalPlanner::default();
         let pts = wall(0.8, -0.5, 1.5);
-        lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 5.0, 1.2);
+        lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, None);
         let caps = (lp.blocked.capacity(), lp.dist.capacity(), lp.queue.capacity(), lp.path.capacity());
-        lp.plan(&pts, Vec2::new(2.0, 0.3), 0.4, 5.0, 1.2);
+        lp.plan(&pts, Vec2::new(2.0, 0.3), 0.4, 0.0, 5.0, 1.2, None);
         assert_eq!(
             caps,
             (lp.blocked.capacity(), lp.dist.capacity(), lp.queue.capacity(), lp.path.capacity())

@@ -408,6 +408,9 @@ pub struct UnstuckParams {
     pub window_m: f64,
     /// The way round keeps r + d_safe + this from every point (m).
     pub margin_m: f64,
+    /// The way round heads for the point this far further along the
+    /// reference's path than the (governed) reference point (m).
+    pub ahead_m: f64,
 }
 
 impl Default for UnstuckParams {
@@ -418,6 +421,7 @@ impl Default for UnstuckParams {
             progress_m: 0.15,
             window_m: 5.0,
             margin_m: 0.02,
+            ahead_m: 1.5,
         }
     }
 }
@@ -728,6 +732,7 @@ impl Params {
         c.range("unstuck.progress_m", u.progress_m, "(0, 10] m");
         c.range("unstuck.window_m", u.window_m, "[1, 20] m");
         c.range("unstuck.margin_m", u.margin_m, "[0, 1] m");
+        c.range("unstuck.ahead_m", u.ahead_m, "[0, 20] m");
 
         let pa = &self.passive;
         c.range("passive.brake_decel_mps2", pa.brake_decel_mps2, "(0, 100] m/s²");

@@ -13,14 +13,17 @@
 //!   with the governor holding the reference 2 R_c ahead, makes none.
 //! * **Stalled**: the nominal asks to move, and progress has grown by less
 //!   than `unstuck.progress_m` for `unstuck.stall_s`.
-//! * **Follow**: the gap nearest the reference, found on a grid round the
-//!   robot ([`LocalPlanner`]: cells r + d_safe + `unstuck.margin_m` clear of
-//!   every point, the reachable one minimising path + straight distance to
-//!   the reference); the nominal becomes a turn towards the path's farthest
+//! * **Follow**: the way round, planned on a grid round the robot
+//!   ([`LocalPlanner`]: cells r + d_safe + `unstuck.margin_m` clear of every
+//!   point) to the point `unstuck.ahead_m` further along the reference's
+//!   path: the shortest path when it is reachable (through the gap nearest
+//!   the reference that the robot fits through), else to the reachable cell
+//!   nearest it. The nominal becomes a turn towards the path's farthest
 //!   visible cell within 1 m, at up to the nominal speed, slower the more it
 //!   must turn. Replanned every step, so the way slides along the obstacle's
-//!   boundary as the robot goes round it. A gap narrower than
-//!   2 (r + d_safe + margin) is not one.
+//!   boundary as the robot goes round it; it keeps to the side of the line
+//!   to the goal it chose first while that side is about as good. A gap
+//!   narrower than 2 (r + d_safe + margin) is not one.
 //! * **Release**: progress has grown by `unstuck.progress_m` since the stall
 //!   and the reference is in sight, or it is within the capture radius.
 //!   With nowhere to go (no free cell reachable), the nominal is a turn in
@@ -29,11 +32,13 @@
 //! Everything still goes through the DTCBF and the passive checks.
 
 use super::geometry::{Twist, Vec2};
-use super::local_plan::LocalPlanner;
+use super::local_plan::{LocalPlanner, Waypoint};
 use super::params::Params;
 
 /// The waypoint is the farthest visible path cell within this (m).
 const WAYPOINT_REACH_M: f64 = 1.0;
+/// The side kept may end this much farther from the goal than the best way (m).
+const SIDE_SLACK_M: f64 = 0.3;
 
 /// Where the nominal command is heading: the governed reference point and
 /// how far along its path it is.
@@ -43,6 +48,10 @@ pub struct Guidance {
     pub target: Vec2,
     /// The reference's arc length so far (m).
     pub along_m: f64,
+    /// The point `unstuck.ahead_m` further along the reference's path (its
+    /// end at most), robot frame (m): where the way round heads. The governed
+    /// reference itself often waits inside or against the obstacle.
+    pub ahead: Vec2,
 }
 
 /// What the unstuck logic decided this step.
@@ -69,6 +78,8 @@ pub struct Unstuck {
     last_gain_s: Option<f64>,
     /// Progress when following began (m), while following.
     following_from_m: Option<f64>,
+    /// The side of the robot-to-reference line the way round keeps to.
+    side: Option<f64>,
     planner: LocalPlanner,
 }
 
@@ -77,6 +88,7 @@ impl Unstuck {
         self.best_progress_m = None;
         self.last_gain_s = None;
         self.following_from_m = None;
+        self.side = None;
     }
 
     /// Whether the robot is following a way round an obstacle.
@@ -115,6 +127,7 @@ impl Unstuck {
         let arrived = dist <= p.tracking.capture_radius_m;
         if arrived {
             self.following_from_m = None;
+            self.side = None;
             return UnstuckDecision::NONE;
         }
         if self.following_from_m.is_none() {
@@ -124,12 +137,38 @@ impl Unstuck {
             }
             log::debug!("t {now_s:.1}: no progress for {:.1} s: going round", now_s - last_gain);
             self.following_from_m = Some(progress);
+            self.side = None;
         }
         let from = self.following_from_m.unwrap_or(progress);
+        let cell = super::local_plan::CELL_M;
         let clearance = p.robot_radius_m() + p.barrier.d_safe_m + u.margin_m;
-        let way = self.planner.plan(points, g.target, clearance, u.window_m, WAYPOINT_REACH_M);
+        // A robot already closer than that to something (noise, a tight spot) may move
+        // within the disc it is short by, or its own neighbourhood would be walled in.
+        let nearest = points.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min);
+        let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell).min(nearest - cell).max(0.0);
+        // Keep to the side chosen first while that side is about as good (ends as near
+        // the goal, within SIDE_SLACK_M); else take the best way and its side.
+        let goal = g.ahead;
+        let reaches = |w: &Waypoint| (w.end - goal).norm() < 2.0 * cell;
+        let free = self.planner.plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, None);
+        let kept = match (self.side, free) {
+            (Some(sign), Some(f)) => self
+                .planner
+                .plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, Some(sign))
+                .filter(|k| (k.end - goal).norm() <= (f.end - goal).norm() + SIDE_SLACK_M),
+            _ => None,
+        };
+        let way = kept.or_else(|| {
+            if let Some(w) = free {
+                let t = goal / goal.norm().max(1e-9);
+                let across = t.x * w.point.y - t.y * w.point.x;
+                self.side = (across.abs() > cell).then_some(across.signum());
+            }
+            free
+        });
         if let Some(w) = way {
             if progress >= from + u.progress_m && w.target_in_sight {
+                self.side = None;
                 self.following_from_m = None;
                 self.best_progress_m = Some(progress);
                 self.last_gain_s = Some(now_s);
@@ -137,8 +176,9 @@ impl Unstuck {
             }
         }
         let w_max = p.control.omega_max_radps;
+        // Somewhere to go: a way that leaves the disc the robot is short by.
         let (nominal, waypoint) = match way {
-            Some(w) if w.point.norm() > 0.5 * super::local_plan::CELL_M => {
+            Some(w) if w.point.norm() > 0.5 * cell && (w.end.norm() > own_m + cell || reaches(&w)) => {
                 let b = w.point.y.atan2(w.point.x);
                 let v = p.control.v_nom_mps * b.cos().max(0.0).powi(2);
                 let omega = (p.tracking.k_bearing_per_s.max(1.0) * b).clamp(-w_max, w_max);
@@ -151,7 +191,11 @@ impl Unstuck {
                 (Twist::new(0.0, side * p.doaa.omega_0_radps.min(w_max)), None)
             }
         };
-        log::trace!("t {now_s:.1}: going round: waypoint {waypoint:?}, nominal {nominal:?}");
+        log::trace!(
+            "t {now_s:.1}: going round: ahead {:?} way {way:?} side {:?} nominal {nominal:?}",
+            g.ahead,
+            self.side
+        );
         UnstuckDecision {
             nominal: Some(nominal),
             waypoint,
@@ -182,6 +226,7 @@ mod tests {
         let g = Guidance {
             target: Vec2::new(1.5, 0.0),
             along_m: 3.0,
+            ahead: Vec2::new(3.0, 0.0),
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
@@ -198,6 +243,7 @@ mod tests {
         let g2 = Guidance {
             target: Vec2::new(1.2, -1.2),
             along_m: 3.4,
+            ahead: Vec2::new(2.4, -1.2),
         };
         let d = u.step(8.0, Some(g2), nominal, &[], &p);
         assert_eq!((d.nominal, u.following()), (None, false));
@@ -210,6 +256,7 @@ mod tests {
         let g = Guidance {
             target: Vec2::new(1.5, 0.3),
             along_m: 3.0,
+            ahead: Vec2::new(3.0, 0.3),
         };
         // Points all round at 0.3 m: nowhere to go.
         let ring: Vec<Vec2> = (0..72)
@@ -235,6 +282,7 @@ mod tests {
             let g = Guidance {
                 target: Vec2::new(1.5, 0.0),
                 along_m: 0.015 * k as f64,
+                ahead: Vec2::new(3.0, 0.0),
             };
             assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, &p).nominal, None);
         }
@@ -242,6 +290,7 @@ mod tests {
         let g = Guidance {
             target: Vec2::new(1.5, 0.0),
             along_m: 3.0,
+            ahead: Vec2::new(3.0, 0.0),
         };
         for k in 0..200 {
             assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, &p).nominal, None);
