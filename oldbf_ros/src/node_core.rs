@@ -311,6 +311,11 @@ impl NodeCore {
         &self.settings
     }
 
+    /// The latest odometry, fresh or not (markers orient their label by it).
+    pub fn odom(&self) -> Option<OdomSample> {
+        self.odom
+    }
+
     /// Valid points of the last accepted scan (robot frame), for markers.
     pub fn points(&self) -> &[nalgebra::Vector2<f64>] {
         self.pipeline.points()
