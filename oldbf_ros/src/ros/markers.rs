@@ -77,6 +77,9 @@ pub fn label_position(p: &Params, odom_yaw: Option<f64>) -> (f64, f64) {
     (up * a.cos(), up * a.sin())
 }
 
+/// The label's colour (tests/ros/check_screenshot.py looks for it).
+pub const LABEL_RGB: [f32; 3] = [0.55, 0.9, 1.0];
+
 /// Gap between the d_act circle and the label's centre line (m).
 const LABEL_CLEARANCE_M: f64 = 0.3;
 
@@ -163,7 +166,8 @@ pub fn markers(
     let (lx, ly) = label_position(p, odom_yaw);
     label.pose.position = point(lx, ly);
     label.pose.position.z = 0.5;
-    label.color = color(1.0, 1.0, 1.0, 1.0);
+    // Light blue: apart from the white scan points, and findable in a screenshot.
+    label.color = color(LABEL_RGB[0], LABEL_RGB[1], LABEL_RGB[2], 1.0);
     label.text = match rec.stop_cause {
         Some(cause) if !rec.measured() || tick.e_stop => format!("STOP: {cause}"),
         _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
