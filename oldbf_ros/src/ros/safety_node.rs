@@ -128,7 +128,8 @@ struct Node {
     name: String,
     activity: Activity,
     last_diag: f64,
-    last_status: Option<&'static str>,
+    /// The stop status last logged (None: nothing logged yet, so the first tick's is).
+    last_status: Option<Option<&'static str>>,
 }
 
 impl Node {
@@ -164,12 +165,12 @@ impl Node {
             .scan_fault
             .map(|f| f.code())
             .or(tick.record.stop_cause.map(|c| c.code()));
-        if status != self.last_status {
+        if self.last_status != Some(status) {
             match tick.record.stop_cause {
                 Some(_) => log::warn!("commanding a stop: {}", stop_reason(&tick)),
                 None => log::info!("filtering ({})", tick.nominal_used),
             }
-            self.last_status = status;
+            self.last_status = Some(status);
         }
     }
 }
