@@ -130,12 +130,17 @@ struct Node {
     last_diag: f64,
     /// The stop status last logged (None: nothing logged yet, so the first tick's is).
     last_status: Option<Option<&'static str>>,
+    /// Set on the way out: no tick publishes after the last zero command.
+    stopping: bool,
 }
 
 impl Node {
     /// One tick at `now`: the command first (what the robot waits for), then
     /// ~state, ~markers, and /diagnostics once a second.
     fn tick(&mut self, now: f64) {
+        if self.stopping {
+            return;
+        }
         let tick = self.core.tick(now);
         if let Err(e) = self.cmd_pub.send(twist_to_msg(tick.cmd)) {
             log::warn!("publishing cmd_vel: {e}");
@@ -205,6 +210,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         activity: Activity::default(),
         last_diag: f64::NEG_INFINITY,
         last_status: None,
+        stopping: false,
     }));
 
     // A scan is filtered, and its command published, as it arrives.
@@ -313,7 +319,9 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         drop(node);
         pacer.sleep();
     }
-    // Leave the robot stopped: a last zero command, sent a few times.
+    // Leave the robot stopped: a last zero command, sent a few times, and
+    // nothing after it (scans may still be arriving).
+    lock(&node).stopping = true;
     log::info!("{name}: shutting down; sending a zero command");
     for _ in 0..3 {
         let _ = cmd_pub.send(twist_to_msg(crate::algo::Twist::ZERO));
