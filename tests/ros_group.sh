@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # tests/ros_group.sh: the ROS 1 tests, against Debian's real ROS tools.
 #
-# Installs Debian's ROS 1 packages if missing, builds and installs the nodes
-# (oldbf_ros/rospkg/install.sh), starts a roscore on a private port, runs every
-# test below, and tears everything down even on failure. Prints PASS/FAIL per
-# test and the measured figures; exits non-zero if any test failed.
+# Installs Debian's ROS 1 packages (and catkin) if missing, builds and
+# installs the nodes (oldbf_ros/rospkg/install.sh: the one cargo build of the
+# group; the catkin test reuses it), starts a roscore on a private port, runs
+# every test below, and tears everything down even on failure. Prints
+# PASS/FAIL per test and the measured figures; exits non-zero if any test
+# failed.
 #
 #   md5        every vendored message md5 equals `rosmsg md5` / `rossrv md5`
 #   scan       rostopic pub of a scan: obstacle left -> angular.z < 0; wall
@@ -13,7 +15,18 @@
 #   sim        roslaunch sim.launch (headless): paper_line reaches its goal,
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
-#              period; scan -> command latency over loopback
+#              period
+#   latency    scan -> cmd_vel latency over loopback (tests/ros/latency_probe.py):
+#              every command is shown to come from the scan it is timed
+#              against (~state carries its stamp); p50/p99/max reported
+#   reconfigure  dynamic_reconfigure through Debian's Python client: read
+#              the parameters, set d_safe 0.2 -> 0.4 and read it back, the
+#              robot stops 0.2 m earlier before a wall; out-of-range values
+#              refused naming the key, the running values kept
+#   catkin     a fresh catkin workspace with the repository in src/:
+#              catkin_make (cargo's build reused: nothing recompiled) and
+#              catkin_make install; roslaunch sim.launch from devel/ and from
+#              install/, each running its own space's binaries
 #   bag        rosbag play of the sim run into a fresh node (use_sim_time):
 #              commands produced, none NaN
 #   params     YAML params, a roslaunch override, bad values and unknown keys
@@ -21,14 +34,16 @@
 #   multi      multi_robot.launch (two_robots_offset): both robots reach their goals, topics namespaced
 #   carmen     the real CARMEN log played as LaserScans into the node
 #   shutdown   SIGTERM -> a last zero command; no master -> clear error and retry
-#   rviz       rviz under Xvfb with config/oldbf.rviz while the sim runs: the
-#              screenshot is not blank and shows the safety markers
+#   rviz       rviz under Xvfb with config/oldbf.rviz while the sim runs: two
+#              screenshots metres apart along the robot's way are not blank,
+#              show the safety markers, have the robot in the view's centre
+#              and the B_l/B_r/state label above it
 #
 #   tests/ros_group.sh [TEST...]
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan sim stale bag params multi carmen shutdown rviz)
+ALL=(md5 scan sim stale latency reconfigure bag params multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -70,6 +85,8 @@ stop_pid() { # pid [signal]
 }
 cleanup() {
   tac "$PIDFILE" 2>/dev/null | while read -r p; do stop_pid "$p" INT; done
+  # The catkin test's workspace (outside the repository).
+  if [ -s "$LOG/catkin_ws" ]; then rm -rf "$(cat "$LOG/catkin_ws")"; fi
 }
 trap cleanup EXIT
 spawn roscore roscore -p "$PORT" > /dev/null
@@ -97,7 +114,7 @@ t_md5() {
   local n
   n=$(grep -c " ours " "$LOG/md5.log")
   figure "md5: $n message and service types match rosmsg/rossrv"
-  check "$([ "$n" -ge 23 ] && echo true)" "only $n types checked"
+  check "$([ "$n" -ge 26 ] && echo true)" "only $n types checked"
 }
 
 t_scan() {
@@ -148,10 +165,38 @@ t_stale() {
   echo "$s" > "$LOG/stale.json"
   delay=$(json "d['stop_delay_s']" <<< "$s")
   figure "stale: zero command ${delay} s after the last scan (limit scan_timeout 0.5 + period 0.1 s)"
-  figure "latency scan -> ~state over loopback: $(json "'p50 %s ms, p99 %s ms, max %s ms over %d scans' % (d['latency_ms']['p50'], d['latency_ms']['p99'], d['latency_ms']['max'], d['latency_ms']['n'])" <<< "$s")"
   check "$(json "str(d['commands_while_fresh'] > 10).lower()" <<< "$s")" "no motion while scans were fresh: $s" || return 1
   # 0.6 s plus 50 ms for message transport and timer jitter on a shared 2-core machine.
   check "$(json "str(d['stop_delay_s'] is not None and d['stop_delay_s'] <= 0.65).lower()" <<< "$s")" "stop delay: $s"
+}
+
+t_latency() {
+  local node s
+  node=$(spawn latency_node "$BIN/oldbf_node" __ns:=/t_latency _node/nominal_source:=constant)
+  wait_log "$LOG/latency_node.log" "filtering at" 10 || return 1
+  s=$($ROSPY tests/ros/latency_probe.py /t_latency 200)
+  stop_pid "$node"
+  echo "$s" > "$LOG/latency.json"
+  figure "latency scan -> cmd_vel over loopback: $(json "'p50 %s ms, p99 %s ms, max %s ms over %d scans (~state: p50 %s, p99 %s, max %s ms); %d cmd_vel messages' % (d['cmd_latency_ms']['p50'], d['cmd_latency_ms']['p99'], d['cmd_latency_ms']['max'], d['cmd_latency_ms']['n'], d['state_latency_ms']['p50'], d['state_latency_ms']['p99'], d['state_latency_ms']['max'], d['cmd_vel_messages'])" <<< "$s")"
+  # Asserted: each scan's command was computed from it (not a timing bound, which is reported only).
+  check "$(json "str(d['used'] >= 0.95 * d['scans'] and d['matched'] >= 0.95 * (d['scans'] - 1) and d['wrong_kind'] == 0).lower()" <<< "$s")" "commands not traced to their scans: $s"
+}
+
+t_reconfigure() {
+  local node s
+  node=$(spawn reconfigure_node "$BIN/oldbf_node" __ns:=/t_reconf _node/nominal_source:=constant)
+  wait_log "$LOG/reconfigure_node.log" "filtering at" 10 || return 1
+  s=$($ROSPY tests/ros/reconfigure_probe.py /t_reconf) || { stop_pid "$node"; say "  probe failed: $s"; return 1; }
+  stop_pid "$node"
+  echo "$s" > "$LOG/reconfigure.json"
+  figure "reconfigure: $(json "'%d parameters; d_safe %s -> 0.4 (answer %s, read back %s, param server %s): the robot stops with a wall %s m ahead, then %s m; d_safe 30 refused (running %s), {gamma 0.5, d_safe -1} refused (running %s)' % (d['parameters'], d['d_safe_initial'], d['d_safe_answer'], d['d_safe_read_back'], d['d_safe_param_server'], d['stop_at_initial_m'], d['stop_at_0.4_m'], d['refused_answer'], d['after_refusals'])" <<< "$s")"
+  check "$(json "str(d['d_safe_initial'] == 0.2 and d['d_safe_answer'] == 0.4 and d['d_safe_read_back'] == 0.4 and d['d_safe_param_server'] == 0.4).lower()" <<< "$s")" "set and read: $s" || return 1
+  check "$(json "str(d['d_safe_description'] == {'type': 'double', 'min': 0.0, 'max': 10.0, 'default': 0.2}).lower()" <<< "$s")" "description: $s" || return 1
+  # The larger margin stops the robot earlier: by the 0.2 m added, to a centimetre.
+  check "$(json "str(d['stop_at_initial_m'] is not None and d['stop_at_0.4_m'] is not None and abs(d['stop_at_0.4_m'] - d['stop_at_initial_m'] - 0.2) <= 0.015).lower()" <<< "$s")" "stop distances: $s" || return 1
+  check "$(json "str(d['refused_answer'] == 0.4 and d['after_refusals'] == [0.2, 0.4] and d['after_refusals_param_server'] == 0.4 and d['v_at_0.5_m_after_refusals'] == 0.0).lower()" <<< "$s")" "refusals: $s" || return 1
+  # shellcheck disable=SC2016 # the backticks are literal: they quote the key in the message
+  check "$(grep -q 'request refused, running values kept: key `barrier.d_safe_m` = 30 is out of range; allowed: \[0, 10\] m' "$LOG/reconfigure_node.log" && echo true)" "no refusal message naming the key"
 }
 
 t_bag() {
@@ -257,22 +302,90 @@ t_shutdown() {
   check "$(grep -q 'cannot reach the ROS master at http://localhost:1/' "$LOG/nomaster.log" && [ "$rc" = 0 ] && ! grep -q panicked "$LOG/nomaster.log" && echo true)" "no-master behaviour (exit $rc)"
 }
 
+t_catkin() {
+  # Outside the repository: the workspace links to it, and a link back into
+  # the package would make roslaunch's source-tree search loop.
+  local ws
+  ws=$(mktemp -d "${TMPDIR:-/tmp}/oldbf_catkin_ws.XXXXXX")
+  echo "$ws" > "$LOG/catkin_ws"
+  mkdir -p "$ws/src"
+  ln -s "$ROOT" "$ws/src/oldbf_ros"
+  # A user's shell: Debian's ROS, nothing of install.sh's layout; with
+  # SPACE/setup.bash sourced unless SPACE is '-'. A script, so spawn can run it.
+  local in_ws=$ws/in_ws.sh
+  cat > "$in_ws" <<'SH'
+#!/usr/bin/env bash
+ws=$(cd "$(dirname "$0")" && pwd); space=$1; shift
+unset ROS_PACKAGE_PATH PYTHONPATH CMAKE_PREFIX_PATH
+cd "$ws"
+[ "$space" = - ] || source "$ws/$space/setup.bash"
+exec "$@"
+SH
+  chmod +x "$in_ws"
+  local t0=$SECONDS
+  # Debian's python3, not one first on PATH without catkin_pkg (TESTBED.md).
+  "$in_ws" - catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 > "$LOG/catkin_make.log" 2>&1 \
+    || { tail -30 "$LOG/catkin_make.log"; return 1; }
+  local build_s=$(( SECONDS - t0 ))
+  t0=$SECONDS
+  "$in_ws" - catkin_make install -DPYTHON_EXECUTABLE=/usr/bin/python3 > "$LOG/catkin_install.log" 2>&1 \
+    || { tail -30 "$LOG/catkin_install.log"; return 1; }
+  local install_s=$(( SECONDS - t0 ))
+  figure "catkin: catkin_make ${build_s} s, catkin_make install ${install_s} s in a fresh workspace; cargo: $(grep -c ' Compiling ' "$LOG/catkin_make.log" || true) crates compiled ($(grep -m1 -o 'Finished .*' "$LOG/catkin_make.log"))"
+  # One workspace build: cargo ran on the target dir install.sh already built.
+  check "$(grep -q 'Finished `release`' "$LOG/catkin_make.log" && ! grep -q ' Compiling ' "$LOG/catkin_make.log" && echo true)" "catkin_make recompiled the workspace" || return 1
+  for f in devel/lib/oldbf_ros/oldbf_node devel/lib/python3/dist-packages/oldbf_ros/msg/_BarrierState.py \
+           install/lib/oldbf_ros/oldbf_node install/lib/oldbf_ros/can_bridge_node install/share/oldbf_ros/launch/sim.launch \
+           install/share/oldbf_ros/config/oldbf.yaml install/share/oldbf_ros/msg/BarrierState.msg \
+           install/lib/python3/dist-packages/oldbf_ros/msg/_BarrierState.py install/share/oldbf_ros/package.xml; do
+    [ -e "$ws/$f" ] || { say "  $f missing"; return 1; }
+  done
+  [ ! -L "$ws/install/lib/oldbf_ros/oldbf_node" ] || { say "  the install space links into the source tree"; return 1; }
+  # package.xml: the run dependencies rosdep would resolve.
+  figure "catkin: exec_depend $($ROSPY -c "from catkin_pkg.package import parse_package; print(' '.join(d.name for d in parse_package('$ROOT').exec_depends))")"
+  local space l state pids
+  for space in devel install; do
+    l=$(spawn "catkin_$space" "$in_ws" "$space" roslaunch --wait oldbf_ros sim.launch)
+    wait_log "$LOG/catkin_$space.log" "filtering (" 30 || { stop_pid "$l"; tail -20 "$LOG/catkin_$space.log"; return 1; }
+    # ~state decoded with the space's own Python class.
+    state=$("$in_ws" "$space" timeout 10 rostopic echo -n 1 /oldbf_node/state) || true
+    # The processes roslaunch started for this workspace (others may run on the machine).
+    pids=$(ps -eo args | grep -E "^$ws/[a-z]+/lib/oldbf_ros/oldbf_(node|sim_node) " || true)
+    stop_pid "$l"
+    figure "catkin: roslaunch sim.launch from $space/ ran $(awk '{print $1}' <<< "$pids" | sed "s|^$ws/||" | tr '\n' ' ')"
+    check "$([ "$(grep -c "^$ws/$space/lib/oldbf_ros/oldbf_" <<< "$pids")" = 2 ] && echo true)" "$space: nodes not run from $ws/$space: $pids" || return 1
+    check "$(grep -q 'doaa_state_name:' <<< "$state" && echo true)" "$space: ~state not echoed: $state" || return 1
+  done
+  rm -rf "$ws"
+}
+
 t_rviz() {
-  local xvfb l shot
+  local xvfb l poser x1 x2 s1 s2 rc1=0 rc2=0
   xvfb=$(spawn xvfb Xvfb :97 -screen 0 1024x768x24 -nolisten tcp)
+  # The robot's x, from /tf, subscribed before the simulator starts.
+  rm -f "$LOG/base_x"
+  poser=$(spawn base_x "$ROSPY" tests/ros/base_x.py "$LOG/base_x")
   sleep 1
   l=$(DISPLAY=:97 spawn rviz_launch roslaunch --wait oldbf_ros sim.launch rviz:=true)
   # rviz under software GL takes a while; the sim must be under way too.
   wait_log "$LOG/rviz_launch.log" "filtering (" 30 || true
-  sleep 20
-  shot=$LOG/rviz.ppm
-  xwd -root -display :97 -silent | xwdtopnm > "$shot" 2>/dev/null
-  pnmtopng "$shot" > "$LOG/rviz.png" 2>/dev/null
-  stop_pid "$l"; stop_pid "$xvfb"
-  local s rc=0
-  s=$($ROSPY tests/ros/check_screenshot.py "$shot") || rc=$?
-  figure "rviz: screenshot $LOG/rviz.png: $s"
-  [ $rc = 0 ] || { say "  screenshot looks blank: $s"; return 1; }
+  # Two screenshots metres apart along the robot's way: the view must follow it.
+  shoot() { # name: screenshot; prints the robot's x in odom when it was taken
+    xwd -root -display :97 -silent | xwdtopnm > "$LOG/$1.ppm" 2>/dev/null
+    pnmtopng "$LOG/$1.ppm" > "$LOG/$1.png" 2>/dev/null
+    cat "$LOG/base_x" 2>/dev/null || echo none
+  }
+  sleep 8
+  x1=$(shoot rviz_early)
+  sleep 18
+  x2=$(shoot rviz)
+  stop_pid "$l"; stop_pid "$poser"; stop_pid "$xvfb"
+  s1=$($ROSPY tests/ros/check_screenshot.py "$LOG/rviz_early.ppm") || rc1=$?
+  s2=$($ROSPY tests/ros/check_screenshot.py "$LOG/rviz.ppm") || rc2=$?
+  figure "rviz: robot at x = $x1 m: $LOG/rviz_early.png: $s1"
+  figure "rviz: robot at x = $x2 m: $LOG/rviz.png: $s2"
+  check "$(awk -v a="$x1" -v b="$x2" 'BEGIN{print (a != "none" && b - a >= 1.5) ? "true" : "false"}')" "the robot moved only from x = $x1 to $x2 m" || return 1
+  [ $rc1 = 0 ] && [ $rc2 = 0 ] || { say "  screenshots: blank, not following the robot, or no label: $s1 / $s2"; return 1; }
 }
 
 for t in "${SELECTED[@]}"; do

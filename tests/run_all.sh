@@ -15,8 +15,9 @@
 #         zero-allocation and CLI tests: cargo test --release --workspace
 #   run   the README run command (the paper_line scenario), outputs checked
 #   ros   the ROS 1 nodes against Debian's real ROS tools (tests/ros_group.sh:
-#         installs the ROS packages, roscore on a private port, launch files,
-#         rosbag, rviz under Xvfb)
+#         installs the ROS packages and catkin, roscore on a private port,
+#         launch files, rosbag, latency, dynamic_reconfigure, a fresh catkin
+#         workspace, rviz under Xvfb)
 #   can   the CAN bridge in a real Linux kernel: one QEMU guest boot with
 #         vcan0 (this machine's kernel has no CAN) runs the vcan test
 #         groups and the candump + python cantools decoding checks

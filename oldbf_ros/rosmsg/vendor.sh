@@ -21,3 +21,33 @@ copy diagnostic_msgs msg DiagnosticArray DiagnosticStatus KeyValue
 copy rosgraph_msgs msg Clock
 copy tf2_msgs msg TFMessage
 copy std_srvs srv SetBool Trigger
+
+# dynamic_reconfigure: Debian installs no .msg/.srv files for it, only the
+# Python classes (python3-dynamic-reconfigure), whose _full_text holds every
+# definition verbatim. Split them out of there.
+/usr/bin/python3 - <<'PY'
+import os
+from dynamic_reconfigure.msg import ConfigDescription
+from dynamic_reconfigure.srv import ReconfigureRequest, ReconfigureResponse
+
+SEP = "=" * 80 + "\nMSG: "
+def sections(cls):
+    head, *deps = cls._full_text.split(SEP)
+    out = {}
+    for d in deps:
+        name, body = d.split("\n", 1)
+        out[name.split("/")[1]] = body
+    return head, out
+
+os.makedirs("dynamic_reconfigure/msg", exist_ok=True)
+os.makedirs("dynamic_reconfigure/srv", exist_ok=True)
+head, deps = sections(ConfigDescription)
+deps["ConfigDescription"] = head
+for name, body in deps.items():
+    with open("dynamic_reconfigure/msg/%s.msg" % name, "w") as f:
+        f.write(body.rstrip("\n") + "\n")
+req, _ = sections(ReconfigureRequest)
+res, _ = sections(ReconfigureResponse)
+with open("dynamic_reconfigure/srv/Reconfigure.srv", "w") as f:
+    f.write(req.rstrip("\n") + "\n---\n" + res.rstrip("\n") + "\n")
+PY

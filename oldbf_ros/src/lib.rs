@@ -20,6 +20,7 @@ pub mod config;
 pub mod node_config;
 pub mod node_core;
 pub mod plot;
+pub mod reconfigure;
 pub mod replay;
 pub mod report;
 #[cfg(feature = "ros")]

@@ -1,8 +1,15 @@
-//! The safety node's logic without ROS: what oldbf_node decides every
-//! control tick from the latest scan, odometry and upstream command. The
-//! rosrust binary only converts messages and calls this, so every rule here
-//! (stale scan → stop, e-stop latch, filter toggle, nominal source) is unit
-//! tested in microseconds.
+//! The safety node's logic without ROS: what oldbf_node decides at every
+//! tick from the latest scan, odometry and upstream command. The rosrust
+//! binary only converts messages and calls this, so every rule here (stale
+//! scan → stop, e-stop latch, filter toggle, nominal source) is unit tested
+//! in microseconds.
+//!
+//! When it ticks: on every scan and every upstream command as it arrives (the
+//! command goes out at once, not at the next timer tick), and from a watchdog
+//! whenever nothing has gone out for about a control period
+//! ([`NodeCore::watchdog_due`]), so cmd_vel keeps coming, and turns into a
+//! stop, when the scans do not. Every tick applies the same rules, whatever
+//! triggered it.
 //!
 //! Nominal command, in order of precedence (`nominal_source: auto`):
 //! 1. `cmd_vel_in` (teleop, a planner). Once one has arrived the node stays in
@@ -24,6 +31,7 @@
 //! stop into a single tick that never shows on the wheels.
 
 use crate::algo::geometry::{Pose2, Twist};
+use crate::algo::params::ParamError;
 use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
@@ -172,6 +180,9 @@ impl fmt::Display for ScanFault {
     }
 }
 
+/// How often a control period the watchdog checks [`NodeCore::watchdog_due`].
+pub const WATCHDOG_POLLS_PER_PERIOD: u32 = 4;
+
 /// Which nominal source produced this tick's nominal command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NominalUsed {
@@ -273,8 +284,36 @@ impl NodeCore {
         self.pipeline.params()
     }
 
+    /// New algorithm parameters while running (dynamic_reconfigure). They are
+    /// validated first; when invalid nothing changes and every offending key
+    /// is returned. Tracks, the scan in hand and the stamp history are kept.
+    pub fn set_params(&mut self, params: Params) -> Result<(), Vec<ParamError>> {
+        params.validate()?;
+        self.pipeline.set_params(params);
+        Ok(())
+    }
+
+    /// Whether the watchdog must tick at `now_s`: nothing has gone out yet,
+    /// the clock went back, or the last tick is about a control period old.
+    /// The watchdog polls [`WATCHDOG_POLLS_PER_PERIOD`] times a period and
+    /// ticks from half a poll before the period is over, so without scans
+    /// the node publishes every period, ± half a poll.
+    pub fn watchdog_due(&self, now_s: f64) -> bool {
+        let period_s = self.pipeline.params().control.dt_s();
+        let due_after_s = period_s * (1.0 - 0.5 / f64::from(WATCHDOG_POLLS_PER_PERIOD));
+        match self.last_tick_s {
+            None => true,
+            Some(t) => now_s < t || now_s - t >= due_after_s,
+        }
+    }
+
     pub fn settings(&self) -> &NodeSettings {
         &self.settings
+    }
+
+    /// The latest odometry, fresh or not (markers orient their label by it).
+    pub fn odom(&self) -> Option<OdomSample> {
+        self.odom
     }
 
     /// Valid points of the last accepted scan (robot frame), for markers.
@@ -834,6 +873,90 @@ mod tests {
         n.on_scan(meta(1.0), &vec![f32::NEG_INFINITY; 360], &[]);
         let t = n.tick(1.05);
         assert!(t.cmd.v_mps == 0.0 && t.record.h_m < 0.0, "{t:?}");
+    }
+
+    #[test]
+    fn the_watchdog_ticks_about_once_a_period_without_input_and_on_a_clock_jump() {
+        let mut n = node(NominalSource::Constant);
+        assert!(n.watchdog_due(1.0), "nothing published yet");
+        n.on_scan(meta(1.0), &open(), &[]);
+        n.tick(1.0); // the scan's own tick
+                     // Period 0.1 s, polled every 25 ms: due from 87.5 ms on.
+        assert!(!n.watchdog_due(1.05));
+        assert!(!n.watchdog_due(1.087));
+        assert!(n.watchdog_due(1.088));
+        assert!(n.watchdog_due(1.3));
+        // A scan tick in between moves the deadline.
+        n.on_scan(meta(1.06), &open(), &[]);
+        n.tick(1.06);
+        assert!(!n.watchdog_due(1.1));
+        assert!(n.watchdog_due(1.15));
+        // The clock went back: due at once, so the jump is noticed.
+        assert!(n.watchdog_due(1.0));
+    }
+
+    /// The scan that arrives is the one the next tick uses, whatever ticked before.
+    #[test]
+    fn a_tick_right_after_a_scan_uses_that_scan() {
+        let mut n = node(NominalSource::Constant);
+        let mut wall = open();
+        for r in &mut wall[170..=190] {
+            *r = 0.3;
+        }
+        for (i, ranges) in [open(), wall.clone(), open(), wall].iter().enumerate() {
+            let stamp = 1.0 + 0.01 * i as f64;
+            n.on_scan(meta(stamp), ranges, &[]);
+            let t = n.tick(stamp + 0.001);
+            assert_eq!(t.scan_stamp_s, stamp);
+            assert_eq!(t.cmd.v_mps > 0.0, i % 2 == 0, "scan {i}: {t:?}");
+        }
+    }
+
+    #[test]
+    fn new_params_apply_to_the_next_tick_and_invalid_ones_change_nothing() {
+        let mut n = node(NominalSource::Constant);
+        // A wall 0.5 m ahead: outside r + d_safe = 0.378 m, so the robot may approach.
+        let mut wall = open();
+        for r in &mut wall[170..=190] {
+            *r = 0.5;
+        }
+        n.on_scan(meta(1.0), &wall, &[]);
+        assert!(n.tick(1.0).cmd.v_mps > 0.0);
+        // d_safe 0.4: r + d_safe = 0.578 m > 0.5 m, inside the unsafe set: no forward motion.
+        let mut p = n.params().clone();
+        p.barrier.d_safe_m = 0.4;
+        n.set_params(p).unwrap();
+        n.on_scan(meta(1.1), &wall, &[]);
+        let t = n.tick(1.1);
+        assert!(t.cmd.v_mps <= 0.0 && t.record.h_m < 0.0, "{t:?}");
+        // Out of range: refused naming the key, the running value kept.
+        let mut bad = n.params().clone();
+        bad.barrier.d_safe_m = 30.0;
+        bad.dtcbf.gamma = 0.5;
+        let errors = n.set_params(bad).unwrap_err();
+        assert_eq!(errors.iter().map(|e| e.key).collect::<Vec<_>>(), ["barrier.d_safe_m"]);
+        assert_eq!((n.params().barrier.d_safe_m, n.params().dtcbf.gamma), (0.4, 0.2));
+    }
+
+    #[test]
+    fn new_params_keep_the_obstacle_tracks() {
+        let mut n = node(NominalSource::Constant);
+        // A small object 1 m ahead, seen on a few scans: a confirmed track.
+        let mut ranges = open();
+        for r in &mut ranges[178..=182] {
+            *r = 1.0;
+        }
+        for i in 0..5 {
+            let stamp = 1.0 + 0.1 * f64::from(i);
+            n.on_scan(meta(stamp), &ranges, &[]);
+            n.tick(stamp);
+        }
+        let tracks = n.pipeline.tracker().tracks().to_vec();
+        assert!(tracks.iter().any(|t| t.is_confirmed()), "{tracks:?}");
+        let mut p = n.params().clone();
+        p.barrier.d_safe_m = 0.3;
+        n.set_params(p).unwrap();
+        assert_eq!(n.pipeline.tracker().tracks(), &tracks[..]);
     }
 
     #[test]

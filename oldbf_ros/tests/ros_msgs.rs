@@ -6,8 +6,8 @@
 //! `cargo test` run, which must work without ROS.
 
 use ::oldbf_ros::ros::msg::{
-    diagnostic_msgs, geometry_msgs, nav_msgs, rosgraph_msgs, sensor_msgs, std_msgs, std_srvs, tf2_msgs,
-    visualization_msgs,
+    diagnostic_msgs, dynamic_reconfigure, geometry_msgs, nav_msgs, rosgraph_msgs, sensor_msgs, std_msgs, std_srvs,
+    tf2_msgs, visualization_msgs,
 };
 use rosrust::Message;
 use std::process::Command;
@@ -99,6 +99,35 @@ fn vendored_messages_match_ros() {
         ("std_srvs/Trigger", std_srvs::Trigger::md5sum()),
     ] {
         mismatches.extend(check("srv", name, &md5));
+    }
+    // dynamic_reconfigure: Debian installs no definitions for genmsg, only the
+    // Python classes (python3-dynamic-reconfigure) that the client and
+    // rqt_reconfigure use, so `rosmsg md5` / `rossrv md5` must know them and agree.
+    for (kind, name, ours) in [
+        (
+            "msg",
+            "dynamic_reconfigure/Config",
+            dynamic_reconfigure::Config::md5sum(),
+        ),
+        (
+            "msg",
+            "dynamic_reconfigure/ConfigDescription",
+            dynamic_reconfigure::ConfigDescription::md5sum(),
+        ),
+        (
+            "srv",
+            "dynamic_reconfigure/Reconfigure",
+            dynamic_reconfigure::Reconfigure::md5sum(),
+        ),
+    ] {
+        let tool = if kind == "msg" { "rosmsg" } else { "rossrv" };
+        let theirs = rosmsg_md5(tool, name);
+        println!("{name:36} ours {ours} {tool} {theirs}");
+        if theirs != ours {
+            mismatches.push(format!(
+                "{name}: ours {ours}, {tool} {theirs:?} (python3-dynamic-reconfigure installed?)"
+            ));
+        }
     }
     // The values TESTBED.md records, as a cross-check of the tools themselves.
     assert_eq!(sensor_msgs::LaserScan::md5sum(), "90c7ef2dc6895d81024acba2ac42f369");

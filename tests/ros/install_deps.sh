@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs, if missing, the Debian packages the ROS tests use: ROS 1 core
 # tools, the message definitions and Python classes rostopic needs, genpy
-# (for oldbf_ros/BarrierState), and rviz with Xvfb for the screenshot test.
+# (for oldbf_ros/BarrierState), catkin (the workspace build test), the
+# dynamic_reconfigure Python client, and rviz with Xvfb for the screenshot test.
 # python3-nav-msgs is left out on purpose (it pulls ~140 MB of boost -dev
 # packages); genmsg computes its md5 instead. Idempotent.
 set -Eeuo pipefail
@@ -9,6 +10,7 @@ APT=(ros-core ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-vi
      ros-diagnostic-msgs ros-rosgraph-msgs ros-tf2-msgs ros-std-srvs rospack-tools
      python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-diagnostic-msgs
      python3-visualization-msgs python3-tf2-msgs python3-std-srvs python3-rosgraph-msgs python3-genpy
+     catkin python3-dynamic-reconfigure
      rviz xvfb x11-apps netpbm)
 missing=()
 for p in "${APT[@]}"; do

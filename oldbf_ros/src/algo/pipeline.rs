@@ -225,6 +225,14 @@ impl SafetyPipeline {
         self.guidance = guidance;
     }
 
+    /// New parameters while running (dynamic_reconfigure), keeping tracks,
+    /// the DOAA latch and buffers. `params` must have passed
+    /// `Params::validate`; buffers keep the capacity they were built with.
+    pub fn set_params(&mut self, params: Params) {
+        self.derived = Derived::new(&params);
+        self.params = params;
+    }
+
     /// A stop step with no scan processing (missing scan, e-stop…).
     pub fn stop(&mut self, now_s: f64, nominal: Twist, cause: StopCause) -> StepRecord {
         self.doaa.reset();

@@ -65,8 +65,34 @@ const THREAT_ID0: i32 = 100;
 /// At most this many threats are drawn.
 const MAX_THREATS_DRAWN: usize = 16;
 
-/// The markers for one tick.
-pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, threats: &[Threat], p: &Params) -> MarkerArray {
+/// Where the B_l / B_r / state label goes, in the base frame: beyond the
+/// d_act circle, "up" in a top-down view of the odometry frame (+y there)
+/// when the robot's yaw in it is known, so the label stays level above the
+/// robot in a view that follows the robot, whatever its heading; without
+/// odometry, to the robot's left.
+pub fn label_position(p: &Params, odom_yaw: Option<f64>) -> (f64, f64) {
+    let up = p.robot_radius_m() + p.barrier.d_act_m() + LABEL_CLEARANCE_M;
+    // The world's +y expressed in the base frame: rotated by −yaw.
+    let a = std::f64::consts::FRAC_PI_2 - odom_yaw.filter(|y| y.is_finite()).unwrap_or(0.0);
+    (up * a.cos(), up * a.sin())
+}
+
+/// The label's colour (tests/ros/check_screenshot.py looks for it).
+pub const LABEL_RGB: [f32; 3] = [0.55, 0.9, 1.0];
+
+/// Gap between the d_act circle and the label's centre line (m).
+const LABEL_CLEARANCE_M: f64 = 0.3;
+
+/// The markers for one tick. `odom_yaw`: the robot's heading in the odometry
+/// frame, if known (places the label, see [`label_position`]).
+pub fn markers(
+    frame: &str,
+    stamp: rosrust::Time,
+    tick: &Tick,
+    threats: &[Threat],
+    p: &Params,
+    odom_yaw: Option<f64>,
+) -> MarkerArray {
     let rec = &tick.record;
     let r = p.robot_radius_m();
     let d_act = p.barrier.d_act_m();
@@ -136,9 +162,12 @@ pub fn markers(frame: &str, stamp: rosrust::Time, tick: &Tick, threats: &[Threat
     v.push(arrow);
 
     let mut label = marker(frame, stamp, 8, Marker::TEXT_VIEW_FACING as i32);
-    label.scale.z = 0.12;
+    label.scale.z = 0.2;
+    let (lx, ly) = label_position(p, odom_yaw);
+    label.pose.position = point(lx, ly);
     label.pose.position.z = 0.5;
-    label.color = color(1.0, 1.0, 1.0, 1.0);
+    // Light blue: apart from the white scan points, and findable in a screenshot.
+    label.color = color(LABEL_RGB[0], LABEL_RGB[1], LABEL_RGB[2], 1.0);
     label.text = match rec.stop_cause {
         Some(cause) if !rec.measured() || tick.e_stop => format!("STOP: {cause}"),
         _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
@@ -193,6 +222,22 @@ fn threat_markers(frame: &str, stamp: rosrust::Time, threats: &[Threat]) -> Vec<
 mod tests {
     use super::*;
     use crate::algo::Vec2;
+
+    #[test]
+    fn the_label_sits_above_the_d_act_circle_in_the_odometry_frame_whatever_the_heading() {
+        let p = Params::default();
+        let up = p.robot_radius_m() + p.barrier.d_act_m() + LABEL_CLEARANCE_M;
+        for yaw in [0.0, 0.7, -2.0, 3.1] {
+            let (x, y) = label_position(&p, Some(yaw));
+            // Back into the odometry frame: straight "up" from the robot.
+            let (c, s) = (yaw.cos(), yaw.sin());
+            let (wx, wy) = (c * x - s * y, s * x + c * y);
+            assert!(wx.abs() < 1e-9 && (wy - up).abs() < 1e-9, "yaw {yaw}: ({wx}, {wy})");
+        }
+        let (x, y) = label_position(&p, None);
+        assert!(x.abs() < 1e-9 && (y - up).abs() < 1e-9);
+        assert_eq!(label_position(&p, Some(f64::NAN)), label_position(&p, None));
+    }
 
     #[test]
     fn each_threat_gets_a_disc_an_arrow_and_its_time_to_collision_and_gone_ones_are_deleted() {

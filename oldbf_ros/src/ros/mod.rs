@@ -11,5 +11,6 @@ pub mod markers;
 pub mod msg;
 pub mod pacer;
 pub mod params;
+pub mod reconfigure;
 pub mod safety_node;
 pub mod sim_node;

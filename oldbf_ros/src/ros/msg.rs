@@ -25,5 +25,8 @@ rosrust::rosmsg_include!(
     tf2_msgs / TFMessage,
     std_srvs / SetBool,
     std_srvs / Trigger,
-    oldbf_ros / BarrierState
+    oldbf_ros / BarrierState,
+    dynamic_reconfigure / Config,
+    dynamic_reconfigure / ConfigDescription,
+    dynamic_reconfigure / Reconfigure
 );

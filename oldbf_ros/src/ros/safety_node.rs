@@ -1,22 +1,27 @@
-//! oldbf_node: LaserScan in, safe cmd_vel out, on a timer at control.rate_hz.
+//! oldbf_node: LaserScan in, safe cmd_vel out, as each scan arrives.
 //!
 //! Topics (relative names, so `__ns:=` and remapping work):
 //! * subscribes `scan` (sensor_msgs/LaserScan), `odom` (nav_msgs/Odometry,
 //!   optional), `cmd_vel_in` (geometry_msgs/Twist, optional), `e_stop`
 //!   (std_msgs/Bool; true latches a stop);
-//! * publishes `cmd_vel` (geometry_msgs/Twist) every control period,
+//! * publishes `cmd_vel` (geometry_msgs/Twist) on every scan and every
+//!   upstream command as it arrives, and from a watchdog whenever nothing
+//!   went out for a control period (so a stale scan still turns into a stop),
 //!   `~state` (oldbf_ros/BarrierState), `~markers`
 //!   (visualization_msgs/MarkerArray) and `/diagnostics` (1 Hz);
 //! * services `~enable` (std_srvs/SetBool: false = pass-through, reported)
-//!   and `~reset_e_stop` (std_srvs/Trigger).
+//!   and `~reset_e_stop` (std_srvs/Trigger);
+//! * dynamic_reconfigure (`~set_parameters`, `~parameter_descriptions`,
+//!   `~parameter_updates`) for the parameters of
+//!   [`crate::reconfigure::RECONFIGURABLE`] (see [`super::reconfigure`]).
 //!
 //! The decisions are all in [`crate::node_core`]; this file converts and
 //! publishes. A bad parameter: a message naming it, exit status 2.
 //! SIGINT/SIGTERM: a last zero command, then exit 0. The master lost: logged,
 //! the node runs on (connected topics flow peer to peer). The master back as
 //! a new run (restarted): logged, a last zero command, exit status 1, as
-//! rosrust cannot register again. The loop is paced on the monotonic clock
-//! (see [`super::pacer`]), so a wall-clock step cannot silence it.
+//! rosrust cannot register again. The watchdog is paced on the monotonic
+//! clock (see [`super::pacer`]), so a wall-clock step cannot silence it.
 
 use super::convert::{odom_from_msg, scan_meta, time_from_s, twist_from_msg, twist_to_msg};
 use super::diagnostics::{diagnostics, Activity};
@@ -28,8 +33,10 @@ use super::msg::{
 };
 use super::pacer::Pacer;
 use super::params::private_namespace;
+use super::reconfigure as ros_reconfigure;
 use crate::node_config::{node_config_from_params, NodeConfig};
-use crate::node_core::{NodeCore, Tick};
+use crate::node_core::{NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
+use crate::reconfigure;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -108,6 +115,77 @@ pub fn run() -> i32 {
     }
 }
 
+/// Everything a tick touches, behind one lock: the scan and upstream-command
+/// callbacks and the watchdog all tick through [`Node::tick`], so outputs
+/// never interleave and each goes out in the order it was computed.
+struct Node {
+    core: NodeCore,
+    cmd_pub: rosrust::Publisher<geometry_msgs::Twist>,
+    state_pub: rosrust::Publisher<BarrierState>,
+    markers_pub: rosrust::Publisher<MarkerArray>,
+    diag_pub: rosrust::Publisher<DiagnosticArray>,
+    settings: NodeSettings,
+    name: String,
+    activity: Activity,
+    last_diag: f64,
+    /// The stop status last logged (None: nothing logged yet, so the first tick's is).
+    last_status: Option<Option<&'static str>>,
+    /// Set on the way out: no tick publishes after the last zero command.
+    stopping: bool,
+}
+
+impl Node {
+    /// One tick at `now`: the command first (what the robot waits for), then
+    /// ~state, ~markers, and /diagnostics once a second.
+    fn tick(&mut self, now: f64) {
+        if self.stopping {
+            return;
+        }
+        let tick = self.core.tick(now);
+        if let Err(e) = self.cmd_pub.send(twist_to_msg(tick.cmd)) {
+            log::warn!("publishing cmd_vel: {e}");
+        }
+        let _ = self.state_pub.send(state_msg(&self.settings.base_frame, now, &tick));
+        if self.settings.publish_markers {
+            let yaw = self.core.odom().map(|o| o.pose.theta);
+            let _ = self.markers_pub.send(markers(
+                &self.settings.base_frame,
+                time_from_s(now),
+                &tick,
+                self.core.threats(),
+                self.core.params(),
+                yaw,
+            ));
+        }
+        self.activity.ticked(now, &tick);
+        // |Δ| so that a clock stepped back does not silence the diagnostics.
+        if (now - self.last_diag).abs() >= 1.0 {
+            let _ = self
+                .diag_pub
+                .send(diagnostics(&self.name, time_from_s(now), now, &tick, &self.activity));
+            self.last_diag = now;
+        }
+        // Log changes of stop status once (by kind: the details change every tick).
+        let status = tick
+            .scan_fault
+            .map(|f| f.code())
+            .or(tick.record.stop_cause.map(|c| c.code()));
+        if self.last_status != Some(status) {
+            match tick.record.stop_cause {
+                Some(_) => log::warn!("commanding a stop: {}", stop_reason(&tick)),
+                None => log::info!("filtering ({})", tick.nominal_used),
+            }
+            self.last_status = Some(status);
+        }
+    }
+}
+
+/// The node's lock. A panic elsewhere while holding it leaves consistent
+/// data (each step is one call): carry on rather than take the node down.
+fn lock(n: &Mutex<Node>) -> std::sync::MutexGuard<'_, Node> {
+    n.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 /// Ok(true): stopped by a signal; Ok(false): the master restarted.
 fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool, String> {
     let params = config.params.clone();
@@ -116,48 +194,63 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     if let Some(c) = config.constant {
         core = core.with_constant(c);
     }
-    let core = Arc::new(Mutex::new(core));
-    let activity = Arc::new(Mutex::new(Activity::default()));
     fn err(what: &'static str) -> impl Fn(rosrust::error::Error) -> String {
         move |e| format!("{what}: {e}")
     }
 
     let cmd_pub = rosrust::publish::<geometry_msgs::Twist>("cmd_vel", 1).map_err(err("advertising cmd_vel"))?;
-    let state_pub = rosrust::publish::<BarrierState>("~state", 1).map_err(err("advertising ~state"))?;
-    let markers_pub = rosrust::publish::<MarkerArray>("~markers", 1).map_err(err("advertising ~markers"))?;
-    let diag_pub = rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(err("advertising /diagnostics"))?;
+    let node = Arc::new(Mutex::new(Node {
+        core,
+        cmd_pub: cmd_pub.clone(),
+        state_pub: rosrust::publish("~state", 1).map_err(err("advertising ~state"))?,
+        markers_pub: rosrust::publish("~markers", 1).map_err(err("advertising ~markers"))?,
+        diag_pub: rosrust::publish("/diagnostics", 10).map_err(err("advertising /diagnostics"))?,
+        settings: settings.clone(),
+        name: rosrust::name(),
+        activity: Activity::default(),
+        last_diag: f64::NEG_INFINITY,
+        last_status: None,
+        stopping: false,
+    }));
 
-    let c = core.clone();
-    let a = activity.clone();
+    // A scan is filtered, and its command published, as it arrives.
+    let n = node.clone();
     let _scan_sub = rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
         let now = now_s();
-        c.lock()
-            .expect("node state lock")
-            .on_scan(scan_meta(&m), &m.ranges, &m.intensities);
-        a.lock().expect("activity lock").scan_arrived(now);
+        let mut node = lock(&n);
+        node.core.on_scan(scan_meta(&m), &m.ranges, &m.intensities);
+        node.activity.scan_arrived(now);
+        node.tick(now);
     })
     .map_err(err("subscribing to scan"))?;
-    let c = core.clone();
+    let n = node.clone();
     let _odom_sub = rosrust::subscribe("odom", 1, move |m: nav_msgs::Odometry| {
         let (pose, twist) = odom_from_msg(&m);
-        c.lock().expect("node state lock").on_odom(pose, twist, now_s());
+        lock(&n).core.on_odom(pose, twist, now_s());
     })
     .map_err(err("subscribing to odom"))?;
-    let c = core.clone();
+    // So is a new upstream command, against the latest scan.
+    let n = node.clone();
     let _cmd_in_sub = rosrust::subscribe("cmd_vel_in", 1, move |m: geometry_msgs::Twist| {
-        c.lock()
-            .expect("node state lock")
-            .on_cmd_in(twist_from_msg(&m), now_s());
+        let now = now_s();
+        let mut node = lock(&n);
+        node.core.on_cmd_in(twist_from_msg(&m), now);
+        node.tick(now);
     })
     .map_err(err("subscribing to cmd_vel_in"))?;
-    let c = core.clone();
+    // An e-stop goes out at once too.
+    let n = node.clone();
     let _e_stop_sub = rosrust::subscribe("e_stop", 10, move |m: std_msgs::Bool| {
-        c.lock().expect("node state lock").on_e_stop(m.data);
+        let mut node = lock(&n);
+        node.core.on_e_stop(m.data);
+        if m.data {
+            node.tick(now_s());
+        }
     })
     .map_err(err("subscribing to e_stop"))?;
-    let c = core.clone();
+    let n = node.clone();
     let _enable_srv = rosrust::service::<std_srvs::SetBool, _>("~enable", move |req| {
-        c.lock().expect("node state lock").set_enabled(req.data);
+        lock(&n).core.set_enabled(req.data);
         let message = if req.data {
             "safety filter enabled"
         } else {
@@ -169,9 +262,9 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         })
     })
     .map_err(err("advertising ~enable"))?;
-    let c = core.clone();
+    let n = node.clone();
     let _reset_srv = rosrust::service::<std_srvs::Trigger, _>("~reset_e_stop", move |_| {
-        Ok(match c.lock().expect("node state lock").reset_e_stop() {
+        Ok(match lock(&n).core.reset_e_stop() {
             Ok(()) => std_srvs::TriggerRes {
                 success: true,
                 message: "e-stop released".into(),
@@ -184,6 +277,25 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     })
     .map_err(err("advertising ~reset_e_stop"))?;
 
+    // dynamic_reconfigure: the parameters of reconfigure::RECONFIGURABLE.
+    let (specs, problems) = reconfigure::specs();
+    for p in &problems {
+        log::error!("dynamic_reconfigure: {p} (left out)");
+    }
+    let initial = reconfigure::values(&params, &specs);
+    let n = node.clone();
+    let table = specs.clone();
+    let _reconfigure = ros_reconfigure::start(
+        specs,
+        &initial,
+        Box::new(move |changes| {
+            let mut node = lock(&n);
+            let outcome = reconfigure::apply(node.core.params(), &table, changes)
+                .and_then(|p| node.core.set_params(p).map_err(reconfigure::ReconfigureError::Invalid));
+            (outcome, reconfigure::values(node.core.params(), &table))
+        }),
+    )?;
+
     log::info!(
         "{}: filtering at {} Hz; r = {:.3} m, d_safe = {:.2} m, d_act = {:.2} m; nominal source {:?}",
         rosrust::name(),
@@ -193,55 +305,24 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         params.barrier.d_act_m(),
         settings.nominal_source
     );
-    let node = rosrust::name();
-    let mut pacer = Pacer::new(params.control.rate_hz);
-    let watch = MasterWatch::start(&node);
-    let mut last_diag = f64::NEG_INFINITY;
-    let mut last_status: Option<&'static str> = None;
+    let name = rosrust::name();
+    // The watchdog: polls a few times a period and ticks when nothing has
+    // gone out for about a period (node_core::NodeCore::watchdog_due).
+    let mut pacer = Pacer::new(params.control.rate_hz * f64::from(WATCHDOG_POLLS_PER_PERIOD));
+    let watch = MasterWatch::start(&name);
     while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
         let now = now_s();
-        let (tick, threats) = {
-            let mut core = core.lock().expect("node state lock");
-            let tick = core.tick(now);
-            (tick, core.threats().to_vec())
-        };
-        if let Err(e) = cmd_pub.send(twist_to_msg(tick.cmd)) {
-            log::warn!("publishing cmd_vel: {e}");
+        let mut node = lock(&node);
+        if node.core.watchdog_due(now) {
+            node.tick(now);
         }
-        let _ = state_pub.send(state_msg(&settings.base_frame, now, &tick));
-        if settings.publish_markers {
-            let _ = markers_pub.send(markers(
-                &settings.base_frame,
-                time_from_s(now),
-                &tick,
-                &threats,
-                &params,
-            ));
-        }
-        let mut act = activity.lock().expect("activity lock");
-        act.ticked(now, &tick);
-        // |Δ| so that a clock stepped back does not silence the diagnostics.
-        if (now - last_diag).abs() >= 1.0 {
-            let _ = diag_pub.send(diagnostics(&node, time_from_s(now), now, &tick, &act));
-            last_diag = now;
-        }
-        drop(act);
-        // Log changes of stop status once (by kind: the details change every tick).
-        let status = tick
-            .scan_fault
-            .map(|f| f.code())
-            .or(tick.record.stop_cause.map(|c| c.code()));
-        if status != last_status {
-            match tick.record.stop_cause {
-                Some(_) => log::warn!("commanding a stop: {}", stop_reason(&tick)),
-                None => log::info!("filtering ({})", tick.nominal_used),
-            }
-            last_status = status;
-        }
+        drop(node);
         pacer.sleep();
     }
-    // Leave the robot stopped: a last zero command, sent a few times.
-    log::info!("{node}: shutting down; sending a zero command");
+    // Leave the robot stopped: a last zero command, sent a few times, and
+    // nothing after it (scans may still be arriving).
+    lock(&node).stopping = true;
+    log::info!("{name}: shutting down; sending a zero command");
     for _ in 0..3 {
         let _ = cmd_pub.send(twist_to_msg(crate::algo::Twist::ZERO));
         std::thread::sleep(Duration::from_millis(30));
