@@ -44,6 +44,8 @@ const PASSIVE_SPEEDS: usize = 10;
 const EVASION_OMEGAS: usize = 9;
 /// Evasion must also gain this much least gap (m) when it cannot gain time.
 const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
+/// A tracked mover this near (beyond r, m) suspends going round obstacles.
+const MOVER_NEAR_M: f64 = 2.0;
 /// Half-angle of the rear sector a reversing robot must see (rad).
 const REAR_HALF_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
@@ -444,7 +446,10 @@ impl SafetyPipeline {
         // Unstuck (§4b): when progress has stalled, a free direction replaces the nominal.
         let guidance = self.guidance.take();
         let unstuck = if p.unstuck.enabled {
-            self.unstuck.step(now_s, guidance, nominal_boxed, &self.points.points, p)
+            let near = MOVER_NEAR_M + p.robot_radius_m();
+            let movers_near = self.passive.movers().iter().any(|m| m.position.norm() - m.radius_m < near);
+            self.unstuck
+                .step(now_s, guidance, nominal_boxed, &self.points.points, movers_near, p)
         } else {
             UnstuckDecision {
                 nominal: None,

@@ -24,8 +24,10 @@
 //!   boundary as the robot goes round it; it keeps to the side of the line
 //!   to the goal it chose first while that side is about as good. A gap
 //!   narrower than 2 (r + d_safe + margin) is not one.
-//! * **Release**: progress has grown by `unstuck.progress_m` since the stall
-//!   and the reference is in sight, or it is within the capture radius.
+//! * **Release**: progress has grown by `unstuck.progress_m` since the
+//!   stall, or the reference is within the capture radius, or a tracked
+//!   mover has come near (a robot held up by people waits for them to pass:
+//!   DOAA and evasion deal with movers; going round them is not this).
 //!   With nowhere to go (no free cell reachable), the nominal is a turn in
 //!   place: the paper's ω_0 case.
 //!
@@ -97,14 +99,17 @@ impl Unstuck {
     }
 
     /// One step at `now_s` (s): `guidance` (None: nothing to make progress
-    /// towards, nothing to do), the nominal command and the points (robot
-    /// frame, m).
+    /// towards, nothing to do), the nominal command, the points (robot
+    /// frame, m), and whether a tracked mover is near: a robot held up by
+    /// people waits for them to pass (DOAA and evasion deal with movers), it
+    /// does not go round them.
     pub fn step(
         &mut self,
         now_s: f64,
         guidance: Option<Guidance>,
         nominal: Twist,
         points: &[Vec2],
+        movers_near: bool,
         p: &Params,
     ) -> UnstuckDecision {
         let Some(g) = guidance.filter(|g| g.target.x.is_finite() && g.target.y.is_finite() && g.along_m.is_finite())
@@ -125,7 +130,7 @@ impl Unstuck {
         }
         let last_gain = self.last_gain_s.unwrap_or(now_s);
         let arrived = dist <= p.tracking.capture_radius_m;
-        if arrived {
+        if arrived || movers_near {
             self.following_from_m = None;
             self.side = None;
             return UnstuckDecision::NONE;
@@ -166,14 +171,13 @@ impl Unstuck {
             }
             free
         });
-        if let Some(w) = way {
-            if progress >= from + u.progress_m && w.target_in_sight {
-                self.side = None;
-                self.following_from_m = None;
-                self.best_progress_m = Some(progress);
-                self.last_gain_s = Some(now_s);
-                return UnstuckDecision::NONE;
-            }
+        if progress >= from + u.progress_m {
+            // Progress again: the tracking law takes over.
+            self.side = None;
+            self.following_from_m = None;
+            self.best_progress_m = Some(progress);
+            self.last_gain_s = Some(now_s);
+            return UnstuckDecision::NONE;
         }
         let w_max = p.control.omega_max_radps;
         // Somewhere to go: a way that leaves the disc the robot is short by.
@@ -230,10 +234,10 @@ mod tests {
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
-            let d = u.step(k as f64 * 0.1, Some(g), nominal, &pts, &p);
+            let d = u.step(k as f64 * 0.1, Some(g), nominal, &pts, false, &p);
             assert_eq!(d.nominal, None, "no stall before 6 s");
         }
-        let d = u.step(6.0, Some(g), nominal, &pts, &p);
+        let d = u.step(6.0, Some(g), nominal, &pts, false, &p);
         assert!(u.following());
         // The wall ends 0.6 m to the right: the way round is to the right.
         let w = d.waypoint.unwrap();
@@ -245,7 +249,7 @@ mod tests {
             along_m: 3.4,
             ahead: Vec2::new(2.4, -1.2),
         };
-        let d = u.step(8.0, Some(g2), nominal, &[], &p);
+        let d = u.step(8.0, Some(g2), nominal, &[], false, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -265,10 +269,14 @@ mod tests {
                 Vec2::new(0.3 * a.cos(), 0.3 * a.sin())
             })
             .collect();
-        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, &p);
-        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, &p);
+        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
+        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
         assert_eq!(d.nominal, Some(Twist::new(0.0, p.doaa.omega_0_radps)));
-        let d = u.step(7.1, None, Twist::new(0.15, 0.0), &ring, &p);
+        let d = u.step(7.1, None, Twist::new(0.15, 0.0), &ring, false, &p);
+        assert_eq!((d.nominal, u.following()), (None, false));
+        // A mover near: no going round.
+        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
+        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, true, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -284,7 +292,7 @@ mod tests {
                 along_m: 0.015 * k as f64,
                 ahead: Vec2::new(3.0, 0.0),
             };
-            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, &p).nominal, None);
+            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, false, &p).nominal, None);
         }
         let mut u = Unstuck::default();
         let g = Guidance {
@@ -293,7 +301,7 @@ mod tests {
             ahead: Vec2::new(3.0, 0.0),
         };
         for k in 0..200 {
-            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, &p).nominal, None);
+            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, false, &p).nominal, None);
         }
     }
 }
