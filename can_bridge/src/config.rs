@@ -611,6 +611,50 @@ mod tests {
         );
     }
 
+    /// The CiA 402 rules that involve two keys, each naming the key to change.
+    #[test]
+    fn cia402_cross_key_rules() {
+        let cia = |t: String| t.replace("protocol: generic", "protocol: cia402");
+        let case = |key: &str, value: &str, rule: &str| {
+            let e = load_config_str(&cia(with(key, value)), "f.yaml").unwrap_err();
+            assert_eq!(e.keys(), [key], "{key} = {value}: {e}");
+            assert!(e.to_string().contains(rule), "{key} = {value}: {e}");
+        };
+        case("cia402.right_node_id", "1", "different from cia402.left_node_id");
+        case("cia402.bridge_node_id", "2", "different from both drives' node ids");
+        // heartbeat_timeout_s 0.5: at most 250 ms.
+        case("cia402.drive_heartbeat_ms", "251", "at most half of timing.heartbeat_timeout_s");
+        assert!(load_config_str(&cia(with("cia402.drive_heartbeat_ms", "250")), "f").is_ok());
+        case("cia402.drive_consumer_heartbeat_ms", "100", "longer than a non-zero cia402.bridge_heartbeat_ms");
+        let t = with("cia402.bridge_heartbeat_ms", "0");
+        let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["cia402.drive_consumer_heartbeat_ms"]);
+        let t: String = serde_yaml::to_string(&{
+            let mut v: serde_yaml::Value = serde_yaml::from_str(&t).unwrap();
+            v["cia402"]["drive_consumer_heartbeat_ms"] = 0.into();
+            v
+        })
+        .unwrap();
+        assert!(load_config_str(&cia(t), "f").is_ok(), "no heartbeat, nobody watching it");
+        // startup_timeout_s 2.0.
+        case("cia402.sdo_timeout_s", "2.0", "shorter than timing.startup_timeout_s");
+        // 0.01 rad/s² is 0.095 rpm/s: rounds to 0.
+        case("cia402.profile_accel_radps2", "0.01", "at least one drive acceleration unit");
+        // Without SYNC the feedback comes at the event timer: below feedback_timeout_s (0.2 s).
+        let e = load_config_str(
+            &cia(with("cia402.tpdo_event_ms", "200")).replace("sync_producer: true", "sync_producer: false"),
+            "f.yaml",
+        )
+        .unwrap_err();
+        assert_eq!(e.keys(), ["cia402.tpdo_event_ms"], "{e}");
+        assert!(load_config_str(&cia(with("cia402.tpdo_event_ms", "200")), "f").is_ok(), "SYNC: unused");
+        // 7 rad/s × 1000 (gear) × 9549.3 units per rad/s at 0.001 rpm = 6.7e7: fits; at 1e-5 rpm it does not.
+        let t = with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
+        let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
+        assert!(load_config_str(&t, "f").is_ok(), "only checked when cia402 is the protocol");
+    }
+
     #[test]
     fn missing_file_is_named() {
         let e = load_config_file(Path::new("/nonexistent/can_bridge.yaml")).unwrap_err();
