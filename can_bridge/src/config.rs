@@ -623,9 +623,17 @@ mod tests {
         case("cia402.right_node_id", "1", "different from cia402.left_node_id");
         case("cia402.bridge_node_id", "2", "different from both drives' node ids");
         // heartbeat_timeout_s 0.5: at most 250 ms.
-        case("cia402.drive_heartbeat_ms", "251", "at most half of timing.heartbeat_timeout_s");
+        case(
+            "cia402.drive_heartbeat_ms",
+            "251",
+            "at most half of timing.heartbeat_timeout_s",
+        );
         assert!(load_config_str(&cia(with("cia402.drive_heartbeat_ms", "250")), "f").is_ok());
-        case("cia402.drive_consumer_heartbeat_ms", "100", "longer than a non-zero cia402.bridge_heartbeat_ms");
+        case(
+            "cia402.drive_consumer_heartbeat_ms",
+            "100",
+            "longer than a non-zero cia402.bridge_heartbeat_ms",
+        );
         let t = with("cia402.bridge_heartbeat_ms", "0");
         let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["cia402.drive_consumer_heartbeat_ms"]);
@@ -635,11 +643,18 @@ mod tests {
             v
         })
         .unwrap();
-        assert!(load_config_str(&cia(t), "f").is_ok(), "no heartbeat, nobody watching it");
+        assert!(
+            load_config_str(&cia(t), "f").is_ok(),
+            "no heartbeat, nobody watching it"
+        );
         // startup_timeout_s 2.0.
         case("cia402.sdo_timeout_s", "2.0", "shorter than timing.startup_timeout_s");
         // 0.01 rad/s² is 0.095 rpm/s: rounds to 0.
-        case("cia402.profile_accel_radps2", "0.01", "at least one drive acceleration unit");
+        case(
+            "cia402.profile_accel_radps2",
+            "0.01",
+            "at least one drive acceleration unit",
+        );
         // Without SYNC the feedback comes at the event timer: below feedback_timeout_s (0.2 s).
         let e = load_config_str(
             &cia(with("cia402.tpdo_event_ms", "200")).replace("sync_producer: true", "sync_producer: false"),
@@ -647,12 +662,19 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!(e.keys(), ["cia402.tpdo_event_ms"], "{e}");
-        assert!(load_config_str(&cia(with("cia402.tpdo_event_ms", "200")), "f").is_ok(), "SYNC: unused");
+        assert!(
+            load_config_str(&cia(with("cia402.tpdo_event_ms", "200")), "f").is_ok(),
+            "SYNC: unused"
+        );
         // 7 rad/s × 1000 (gear) × 9549.3 units per rad/s at 0.001 rpm = 6.7e7: fits; at 1e-5 rpm it does not.
-        let t = with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
+        let t =
+            with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
         let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
-        assert!(load_config_str(&t, "f").is_ok(), "only checked when cia402 is the protocol");
+        assert!(
+            load_config_str(&t, "f").is_ok(),
+            "only checked when cia402 is the protocol"
+        );
     }
 
     #[test]

@@ -309,11 +309,20 @@ fn cia402_startup_writes_the_configuration_and_enables_only_at_zero() {
     // Per node: NMT pre-operational, then SDO only, NMT start after the last SDO.
     let log = sim.tap.wire_log();
     for node in [1u8, 2] {
-        let pre = log.iter().position(|f| f.id == 0 && f.data[..2] == [0x80, node]).unwrap();
+        let pre = log
+            .iter()
+            .position(|f| f.id == 0 && f.data[..2] == [0x80, node])
+            .unwrap();
         let first_sdo = log.iter().position(|f| f.id == 0x600 + u32::from(node)).unwrap();
         let last_sdo = log.iter().rposition(|f| f.id == 0x600 + u32::from(node)).unwrap();
-        let start = log.iter().position(|f| f.id == 0 && f.data[..2] == [0x01, node]).unwrap();
-        assert!(pre < first_sdo && last_sdo < start, "node {node}: {pre} {first_sdo} {last_sdo} {start}");
+        let start = log
+            .iter()
+            .position(|f| f.id == 0 && f.data[..2] == [0x01, node])
+            .unwrap();
+        assert!(
+            pre < first_sdo && last_sdo < start,
+            "node {node}: {pre} {first_sdo} {last_sdo} {start}"
+        );
     }
     // Controlwords: shutdown, switch on, enable operation, each at zero target.
     for node in [1, 2] {
@@ -350,7 +359,12 @@ fn cia402_estop_quick_stops_the_drive_at_0x6085() {
     let n = sim.tap.wire_log().len();
     sim.run_s(0.001);
     let after: Vec<CanFrame> = sim.tap.wire_log()[n - 3..].to_vec();
-    assert!(after.iter().any(|f| f.id == 0x201 && f.data[..6] == [0x02, 0, 0, 0, 0, 0]), "{after:?}");
+    assert!(
+        after
+            .iter()
+            .any(|f| f.id == 0x201 && f.data[..6] == [0x02, 0, 0, 0, 0, 0]),
+        "{after:?}"
+    );
     let mut slow = None;
     for i in 0..600 {
         sim.run_s(0.001);
@@ -444,13 +458,21 @@ fn cia402_reboot_while_driving_stops_within_a_period_and_restarts() {
     sim.stream(Twist::new(0.2, 0.0), 0.5);
     assert_eq!(sim.bridge.state(), BridgeState::Running);
     let t = sim.t;
-    sim.drive.inject(FaultKind::Reboot { wheel: Some(Wheel::Right) }, None, t);
+    sim.drive.inject(
+        FaultKind::Reboot {
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
     let n = rpdos(&sim).len();
     sim.stream(Twist::new(0.2, 0.0), 0.045);
     // The boot-up is seen at once; the next period's RPDOs are zero.
     let after = rpdos(&sim);
     assert!(after[n..].iter().skip(2).all(|r| r.3 == 0), "{:?}", &after[n..]);
-    assert!(reports(&mut sim).iter().any(|m| m == "node 2 booted (boot-up message): restarting it"));
+    assert!(reports(&mut sim)
+        .iter()
+        .any(|m| m == "node 2 booted (boot-up message): restarting it"));
     // Restarted (SDO, enable) and driving again with the fresh commands.
     sim.stream(Twist::new(0.2, 0.0), 1.0);
     assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
@@ -462,7 +484,8 @@ fn cia402_bus_off_stops_and_recovers() {
     sim.run_s(0.5);
     sim.stream(Twist::new(0.2, 0.0), 0.5);
     let t = sim.t;
-    sim.bridge.handle_bus_event(BusEvent::Error(CanErrorFrame::bus_off()), t);
+    sim.bridge
+        .handle_bus_event(BusEvent::Error(CanErrorFrame::bus_off()), t);
     sim.stream(Twist::new(0.2, 0.0), 0.03);
     assert!(sim.has_reason("bus_error"));
     assert_eq!(sim.bridge.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
