@@ -677,6 +677,21 @@ mod tests {
         );
     }
 
+    /// The EPOS example is complete and valid; its units by hand: 14 rad/s
+    /// at the wheel × 26 = 364 rad/s at the motor = 3476 rpm; 2000 rad/s² =
+    /// 19099 rpm/s.
+    #[test]
+    fn the_epos_example_is_valid() {
+        let text = include_str!("../../config/can_bridge_cia402_epos.yaml");
+        let c = load_config_str(text, "config/can_bridge_cia402_epos.yaml").unwrap();
+        assert_eq!(c.protocol, ProtocolKind::Cia402);
+        let s = c.cia402.settings();
+        let motor = c.limits.max_wheel_speed_radps * c.kinematics.gear_ratio;
+        assert_eq!(s.scaling.velocity_to_drive(motor), 3476);
+        assert_eq!(s.profile_accel, 19099);
+        assert_eq!(s.nodes, [1, 2]);
+    }
+
     #[test]
     fn missing_file_is_named() {
         let e = load_config_file(Path::new("/nonexistent/can_bridge.yaml")).unwrap_err();

@@ -44,8 +44,8 @@ wait_diag() { # name_part count_before timeout_s
 }
 count() { local n; n=$(grep -c -- "$1" "$2" 2>/dev/null) || true; echo "${n:-0}"; }
 diag_count() { count "$1" "$OUT/diag.jsonl"; }
-reset_bridge() { # mode
-  $ROSPY tests/faults/reset.py /can_bridge_node/reset "$EV" "$1" >> "$OUT/reset.log" 2>&1 || say "reset $1 failed (see reset.log)"
+reset_bridge() { # mode [node name]
+  $ROSPY tests/faults/reset.py "/${2:-can_bridge_node}/reset" "$EV" "$1" >> "$OUT/reset.log" 2>&1 || say "reset $1 failed (see reset.log)"
 }
 ready_count() { count '"event":"drive_ready"' "$OUT/bridge.log"; }
 wait_ready_after() { # count_before timeout_s
@@ -66,8 +66,8 @@ start_drive() { # n extra-args...
     --watchdog-s "$WATCHDOG_S" "$@" > "$OUT/drive$n.log" 2>&1 &
   drive=$!; PIDS+=("$drive")
 }
-start_bridge() {
-  "$BIN/can_bridge_node" __name:=can_bridge_node >> "$OUT/bridge.log" 2>&1 &
+start_bridge() { # [node name]
+  "$BIN/can_bridge_node" __name:="${1:-can_bridge_node}" >> "$OUT/bridge.log" 2>&1 &
   bridge=$!; PIDS+=("$bridge")
 }
 start_node() {
@@ -159,6 +159,35 @@ say "drive faults done"
 $ROSPY tests/faults/bus_error.py vcan0 busoff "$EV"
 sleep 3
 say "bus-off done"
+
+# -- CiA 402: the ODrive drive and bridge make way for a CANopen drive (two
+# virtual CiA 402 nodes, config/can_bridge.yaml's cia402 section) and a
+# bridge with protocol cia402 (/can_bridge_co). One drive, its faults
+# scheduled from its start: a drive fault (0x603F 0x2310) on the left node
+# at 12 s (reset at 16 s), heartbeat silence at 21 s for 2 s (reset at 26 s),
+# a reboot of both nodes at 30 s with the SDO server silent for 2.5 s (the
+# restart's SDO times out), and a bus-off at 39 s. Onsets are taken from the bus.
+kill -INT "$bridge"; wait "$bridge" || true
+kill -INT "$drive"; wait "$drive" || true
+r=$(ready_count)
+event co_start
+"$BIN/virtual_drive" --interface vcan0 --protocol cia402 --config config/can_bridge.yaml --watchdog-s "$WATCHDOG_S" \
+  --fault axis_error@12:0x2310:left --fault heartbeat_silence@21+2 --fault reboot@30 --fault sdo_silence@30+2.5 \
+  > "$OUT/drive_co.log" 2>&1 &
+drive=$!; PIDS+=("$drive")
+t_co=$(date +%s.%N)
+start_bridge can_bridge_co
+wait_ready_after "$r" 20
+since() { awk -v a="$t_co" -v b="$(date +%s.%N)" -v s="$1" 'BEGIN { d = s - (b - a); if (d > 0) printf "%.2f", d; else print 0 }'; }
+sleep "$(since 16)"
+reset_bridge co_axis_reset can_bridge_co
+sleep "$(since 26)"
+reset_bridge co_hb_reset can_bridge_co
+sleep "$(since 39)"
+$ROSPY tests/faults/bus_error.py vcan0 busoff "$EV" co_busoff
+sleep 3
+event co_end
+say "cia402 faults done"
 
 # -- roscore killed, then started again: the nodes report the loss and run
 # on; the new master (new PID): they exit 1 with a clear message (rosrust
