@@ -50,7 +50,7 @@ run_case() {
   n_sl=$(frames "$sl"); n_sr=$(frames "$sr"); n_fb=$(frames "$fb"); n_st=$(frames "$st")
   echo "e2e[$proto]: frames on vcan0: setpoints $sl $n_sl, $sr $n_sr, feedback $fb $n_fb, drive status $st $n_st"
   if $ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); sys.exit(0 if d['reached_goal'] and d['collisions'] == 0 else 1)" "$summary"; then
-    echo "PASS: $proto: paper_line through CAN reached its goal with 0 collisions ($($ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); print(f\"time to goal {d.get('time_to_goal_s')} s, min clearance {d.get('min_clearance_m')} m\")" "$summary"))"
+    echo "PASS: $proto: paper_line through CAN reached its goal with 0 collisions ($($ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); r=d['robots'][0]; print(f\"time to goal {r.get('time_to_goal_s'):.1f} s, min clearance {r.get('min_clearance_m'):.3f} m\")" "$summary"))"
   else
     echo "FAIL: $proto: paper_line through CAN: $summary"; ok=false
   fi
