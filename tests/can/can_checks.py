@@ -152,7 +152,7 @@ def run_session(bins, protocol, script_text, drive_args, tmp, drive_cmd=None):
     dump = os.path.join(tmp, f"{protocol}.candump")
     t0 = time.monotonic()
     before = rcv_count("vcan0")
-    cd = subprocess.Popen(["candump", "-L", "vcan0"], stdout=open(dump, "w"), stderr=subprocess.STDOUT)
+    cd = subprocess.Popen(["candump", "-r", "8388608", "-L", "vcan0"], stdout=open(dump, "w"), stderr=subprocess.STDOUT)
     for _ in range(200):
         if rcv_count("vcan0") > before:
             break

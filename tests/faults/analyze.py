@@ -63,7 +63,11 @@ def check(ok, what):
 
 # ---------------------------------------------------------------- capture
 raw = []  # [t, can_id, data]
+dropped = 0  # candump -d: frames the kernel dropped from candump's socket
 for line in open(os.path.join(OUT, "candump.log")):
+    d = re.search(r"DROPCOUNT: dropped (\d+)", line)
+    if d:
+        dropped += int(d.group(1))
     m = re.match(r"\((\d+\.\d+)\) \S+ ([0-9A-F]+)#([0-9A-F]*)", line.strip())
     if m:
         raw.append([float(m.group(1)), int(m.group(2), 16), bytes.fromhex(m.group(3))])
@@ -482,14 +486,14 @@ else:
                           and struct.unpack_from("<I", d, 4)[0] == 0x05040000), None)
             moved = [x for x in co_rpdo if boot < x[0] and x[3] != 0]
             t_move = moved[0][0] if moved else None
-            reported = log_has("bridge.log", "no response within")
-            ok = (abort is not None and abort - t_req <= sdo_timeout + MARGIN_S and reported and t_move is not None
+            sdo_reported = log_has("bridge.log", "no response within")
+            ok = (abort is not None and abort - t_req <= sdo_timeout + MARGIN_S and sdo_reported and t_move is not None
                   and not [x for x in co_rpdo if boot + tx_period + MARGIN_S < x[0] < t_req + sdo_timeout and x[3] != 0])
             row("cia402: SDO timeout at start-up (SDO server silent 2.5 s after the reboot)",
                 "no motion; the bridge aborts the transfer (0x05040000) and reports it; start-up retried after startup_timeout_s",
                 sdo_timeout + MARGIN_S, None if abort is None else abort - t_req,
                 f"measured: unanswered request 0x{u16(d_req, 1):04X}:{d_req[3]:02X} -> client abort on the bus; bridge log "
-                f"'no response within' {reported}; moving again {fmt(None if t_move is None else t_move - boot)} s after the boot-up "
+                f"'no response within' {sdo_reported}; moving again {fmt(None if t_move is None else t_move - boot)} s after the boot-up "
                 f"(silence 2.5 s + retries every startup_timeout_s {startup_timeout} s)", ok)
 
     e = ev("co_busoff")
@@ -508,6 +512,7 @@ else:
                       f"with its length ({len(co_raw)} frames; unexpected {co_bad[:5]})")
     check(len(co_rpdo) > 500, f"cia402: {len(co_rpdo)} RPDO1 setpoints decoded (integers: never a NaN)")
 
+check(dropped == 0, f"candump kept every frame (the kernel dropped {dropped} from its socket)")
 check(not nonfinite, f"no NaN or infinite value in any of {len(frames)} frames on vcan0" + (f": {nonfinite[:3]}" if nonfinite else ""))
 check(undecodable == 0, f"every frame decodes with ODrive's DBC (Estop, Clear_Errors by id and length; {undecodable} did not: {unknown_ids})")
 for name in ("oldbf_node.log", "bridge.log", "drive1.log", "drive2.log", "drive3.log", "drive_co.log"):

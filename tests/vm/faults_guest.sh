@@ -78,7 +78,10 @@ start_node() {
 start_core
 say "roscore up"
 rosparam load "$OUT/params.yaml" /
-candump -L vcan0 > "$OUT/candump.log" 2>&1 &
+# A large receive buffer: under emulation candump falls behind the CiA 402
+# traffic (7 frames a period) and the kernel drops what its socket cannot hold
+# (-d reports it as DROPCOUNT lines).
+candump -d -r 8388608 -L vcan0 > "$OUT/candump.log" 2>&1 &
 PIDS+=($!)
 start_drive 1
 start_bridge
@@ -160,30 +163,34 @@ $ROSPY tests/faults/bus_error.py vcan0 busoff "$EV"
 sleep 3
 say "bus-off done"
 
-# -- CiA 402: the ODrive drive and bridge make way for a CANopen drive (two
-# virtual CiA 402 nodes, config/can_bridge.yaml's cia402 section) and a
-# bridge with protocol cia402 (/can_bridge_co). One drive, its faults
-# scheduled from its start: a drive fault (0x603F 0x2310) on the left node
-# at 12 s (reset at 16 s), heartbeat silence at 21 s for 2 s (reset at 26 s),
-# a reboot of both nodes at 30 s with the SDO server silent for 2.5 s (the
-# restart's SDO times out), and a bus-off at 39 s. Onsets are taken from the bus.
+# -- CiA 402: the ODrive drive and bridge make way for a bridge with
+# protocol cia402 (/can_bridge_co) and then a CANopen drive (two virtual
+# CiA 402 nodes, config/can_bridge.yaml's cia402 section). The bridge is up
+# before the drive, so the drive's clock (its faults are scheduled from its
+# start) does not depend on the ROS node's start-up time under emulation:
+# a drive fault (0x603F 0x2310) on the left node at 8 s (reset at 11 s),
+# heartbeat silence at 15 s for 2 s (reset at 19.5 s), a reboot of both
+# nodes at 23 s with the SDO server silent for 2.5 s (the restart's SDO
+# times out), and a bus-off at 32 s. Onsets are taken from the bus.
 kill -INT "$bridge"; wait "$bridge" || true
 kill -INT "$drive"; wait "$drive" || true
+n_co=$(count "can_bridge_co: bridging" "$OUT/bridge.log")
+start_bridge can_bridge_co
+for _ in $(seq 600); do [ "$(count "can_bridge_co: bridging" "$OUT/bridge.log")" -gt "$n_co" ] && break; sleep 0.1; done
 r=$(ready_count)
 event co_start
 "$BIN/virtual_drive" --interface vcan0 --protocol cia402 --config config/can_bridge.yaml --watchdog-s "$WATCHDOG_S" \
-  --fault axis_error@12:0x2310:left --fault heartbeat_silence@21+2 --fault reboot@30 --fault sdo_silence@30+2.5 \
+  --fault axis_error@8:0x2310:left --fault heartbeat_silence@15+2 --fault reboot@23 --fault sdo_silence@23+2.5 \
   > "$OUT/drive_co.log" 2>&1 &
 drive=$!; PIDS+=("$drive")
 t_co=$(date +%s.%N)
-start_bridge can_bridge_co
 wait_ready_after "$r" 20
 since() { awk -v a="$t_co" -v b="$(date +%s.%N)" -v s="$1" 'BEGIN { d = s - (b - a); if (d > 0) printf "%.2f", d; else print 0 }'; }
-sleep "$(since 16)"
+sleep "$(since 11)"
 reset_bridge co_axis_reset can_bridge_co
-sleep "$(since 26)"
+sleep "$(since 19.5)"
 reset_bridge co_hb_reset can_bridge_co
-sleep "$(since 39)"
+sleep "$(since 32)"
 $ROSPY tests/faults/bus_error.py vcan0 busoff "$EV" co_busoff
 sleep 3
 event co_end

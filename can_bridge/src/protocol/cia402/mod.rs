@@ -13,7 +13,9 @@
 //! 0x6060 = 3, 0x6083/0x6084/0x6085, and (unless the mapping is
 //! preconfigured) map RPDO1/TPDO1/TPDO2; NMT start; then, from the
 //! statusword, controlword shutdown → switch on → enable operation, every
-//! word in an RPDO1 whose target velocity is zero. A fault present at
+//! word in an RPDO1 whose target velocity is zero (a drive found switched on
+//! or enabled is shut down first, and only an operation enabled that follows
+//! the bridge's own enable counts: a stale statusword cannot enable it). A fault present at
 //! start-up is reset (bit 7 edges, at most [`MAX_FAULT_RESETS`]); one that
 //! appears later is not. The node runs only when its last heartbeat says
 //! operational, its last statusword says operation enabled and its mode
@@ -174,6 +176,9 @@ struct Node {
     last_word: u16,
     /// A fault seen in this start-up may be reset (none seen clear yet).
     may_reset_fault: bool,
+    /// Since NMT start, the drive reported ready to switch on: the enable
+    /// sequence runs from a state the bridge saw.
+    seen_ready: bool,
     fault_resets_left: u8,
 }
 
@@ -235,6 +240,7 @@ impl Cia402Protocol {
                 startup_error: None,
                 last_word: cw::SHUTDOWN,
                 may_reset_fault: false,
+                seen_ready: false,
                 fault_resets_left: 0,
             }
         };
@@ -337,7 +343,9 @@ impl Cia402Protocol {
             Phase::Enabling if !faulted => {
                 // A fault that appears from here on is new: not reset.
                 n.may_reset_fault = false;
-                if n.running_candidate() {
+                n.seen_ready |= state == DriveState::ReadyToSwitchOn;
+                // Enabled by our own enable operation, after switch on from ready.
+                if n.seen_ready && n.last_word == cw::ENABLE_OPERATION && n.running_candidate() {
                     n.phase = Phase::Enabled;
                 }
             }
@@ -372,7 +380,7 @@ impl Cia402Protocol {
         match n.phase {
             Phase::Enabling => {
                 let allow = n.may_reset_fault && n.fault_resets_left > 0;
-                let w = enabling_controlword(n.drive_state, n.last_word, allow);
+                let w = enabling_controlword(n.drive_state, n.last_word, n.seen_ready, allow);
                 if w == cw::FAULT_RESET {
                     n.fault_resets_left -= 1;
                 }
@@ -463,6 +471,7 @@ impl Protocol for Cia402Protocol {
                         n.phase = Phase::Enabling;
                         n.drive_state = None;
                         n.nmt = None;
+                        n.seen_ready = false;
                     }
                 }
             }

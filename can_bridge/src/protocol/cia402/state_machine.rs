@@ -224,14 +224,18 @@ impl DriveMachine {
 }
 
 /// The controlword that moves a drive in `state` one step towards operation
-/// enabled (shutdown → switch on → enable operation). A fault is reset only
-/// when `may_reset_fault`, by a rising edge of bit 7 after a word without
-/// it (`last_word`). `None` state (no statusword yet): shutdown, which is
-/// harmless in every state.
-pub fn enabling_controlword(state: Option<DriveState>, last_word: u16, may_reset_fault: bool) -> u16 {
+/// enabled (shutdown → switch on → enable operation). Until the drive has
+/// been seen in ready to switch on (`seen_ready`), a drive found switched on
+/// or enabled is shut down first: every enable then follows a switch on the
+/// bridge sent from a state it saw, never a stale statusword. A fault is
+/// reset only when `may_reset_fault`, by a rising edge of bit 7 after a
+/// word without it (`last_word`). `None` state (no statusword yet):
+/// shutdown, which is harmless in every state.
+pub fn enabling_controlword(state: Option<DriveState>, last_word: u16, seen_ready: bool, may_reset_fault: bool) -> u16 {
     match state {
         None | Some(DriveState::NotReadyToSwitchOn) | Some(DriveState::SwitchOnDisabled) => cw::SHUTDOWN,
         Some(DriveState::ReadyToSwitchOn) => cw::SWITCH_ON,
+        Some(DriveState::SwitchedOn) | Some(DriveState::OperationEnabled) if !seen_ready => cw::SHUTDOWN,
         Some(DriveState::SwitchedOn) | Some(DriveState::OperationEnabled) => cw::ENABLE_OPERATION,
         // Out of a quick stop only through switch on disabled (transition 12).
         Some(DriveState::QuickStopActive) => cw::DISABLE_VOLTAGE,
@@ -386,10 +390,12 @@ mod tests {
         for start in DriveState::ALL {
             let mut m = at(start);
             let mut last = 0x0000;
+            let mut seen_ready = false;
             let mut words = Vec::new();
             for _ in 0..10 {
                 m.tick(true);
-                let w = enabling_controlword(Some(m.state), last, true);
+                seen_ready |= m.state == S::ReadyToSwitchOn;
+                let w = enabling_controlword(Some(m.state), last, seen_ready, true);
                 words.push(w);
                 m.on_controlword(w);
                 last = w;
@@ -398,25 +404,36 @@ mod tests {
                 }
             }
             assert_eq!(m.state, S::OperationEnabled, "from {start:?}: {words:04X?}");
-            if let Some(i) = words.iter().position(|w| *w == cw::ENABLE_OPERATION) {
-                assert!(
-                    start == S::SwitchedOn || start == S::OperationEnabled || words[..i].contains(&cw::SWITCH_ON),
-                    "from {start:?}: {words:04X?}"
-                );
-            }
+            // Every start, even switched on or enabled: (shutdown,) switch on, then enable.
+            let i = words.iter().position(|w| *w == cw::ENABLE_OPERATION).unwrap();
+            let on = words[..i]
+                .iter()
+                .rposition(|w| *w == cw::SWITCH_ON)
+                .expect("switch on first");
+            assert!(
+                start == S::ReadyToSwitchOn || words[..on].contains(&cw::SHUTDOWN),
+                "from {start:?}: {words:04X?}"
+            );
         }
+        // Found enabled (a restart): shut down first, not kept enabled.
+        assert_eq!(
+            enabling_controlword(Some(S::OperationEnabled), 0x000F, false, true),
+            0x0006
+        );
+        assert_eq!(enabling_controlword(Some(S::SwitchedOn), 0x0006, false, true), 0x0006);
+        assert_eq!(enabling_controlword(Some(S::SwitchedOn), 0x0007, true, true), 0x000F);
         // A fault that may not be reset stays: the word never has bit 7.
         let mut m = at(S::Fault);
         for _ in 0..5 {
-            let w = enabling_controlword(Some(m.state), 0, false);
+            let w = enabling_controlword(Some(m.state), 0, true, false);
             assert_eq!(w & cw::FAULT_RESET, 0);
             m.on_controlword(w);
         }
         assert_eq!(m.state, S::Fault);
         // Without a statusword: shutdown (harmless everywhere).
-        assert_eq!(enabling_controlword(None, 0, true), 0x0006);
+        assert_eq!(enabling_controlword(None, 0, false, true), 0x0006);
         // Bit 7 alternates so every reset is a new edge.
-        assert_eq!(enabling_controlword(Some(S::Fault), 0x0080, true), 0x0000);
-        assert_eq!(enabling_controlword(Some(S::Fault), 0x0000, true), 0x0080);
+        assert_eq!(enabling_controlword(Some(S::Fault), 0x0080, false, true), 0x0000);
+        assert_eq!(enabling_controlword(Some(S::Fault), 0x0000, false, true), 0x0080);
     }
 }

@@ -600,3 +600,42 @@ fn garbage_from_a_drive_id_is_an_error_not_a_value() {
     p.drain_reports(&mut r);
     assert_eq!(r[0].message, "node 5 EMCY 0x4310 (temperature), error register 0x08");
 }
+
+/// A restart while the drive is still enabled (after a bus fault, a
+/// `reset` of the other wheel's fault): the statusword the bridge sees first
+/// is from before its shutdown. It must not count as enabled: the drive is
+/// shut down and goes through switch on and enable again, at zero target.
+#[test]
+fn a_drive_found_enabled_is_shut_down_first_and_a_stale_statusword_never_enables() {
+    let mut p = Cia402Protocol::new(settings());
+    enable(&mut p);
+    // Restart (bridge start-up again) while the drives stay enabled.
+    configure(&mut p);
+    for id in [3, 5] {
+        p.decode(&heartbeat(id, NmtState::Operational)).unwrap();
+    }
+    let run = MotorSpeeds {
+        left_radps: 10.0,
+        right_radps: 10.0,
+    };
+    let mut words = Vec::new();
+    for sw in [0x0027, 0x0027, 0x0021, 0x0021, 0x0023, 0x0027] {
+        let m = p.decode(&tpdo1(3, sw, 0)).unwrap();
+        let running = matches!(m, Some(DriveMessage::State { running: true, .. }));
+        let per = period(&mut p, run, SetpointMode::Run);
+        words.push((sw, per[0].1, per[0].2, running));
+    }
+    assert_eq!(
+        words,
+        [
+            // Stale "operation enabled": not running, shut down.
+            (0x0027, 0x0006, 0, false),
+            (0x0027, 0x0006, 0, false),
+            (0x0021, 0x0007, 0, false),
+            (0x0021, 0x0007, 0, false),
+            (0x0023, 0x000F, 0, false),
+            // Operation enabled after the bridge's own enable: running, 95 rpm.
+            (0x0027, 0x000F, 95, true),
+        ]
+    );
+}
