@@ -90,8 +90,9 @@ if jump:
             e["t_before_fix"] = e["t"]
             e["t"] = e["t_before"]  # the moment of the step, on the old time line
 
-# The ODrive part of the run, then the CiA 402 part (from the event co_start).
-co_start = next((e["t"] for e in events if e["mode"] == "co_start"), float("inf"))
+# The ODrive part of the run, then the CiA 402 part (from the event co_bridge:
+# the cia402 bridge starts before its drive).
+co_start = next((e["t"] for e in events if e["mode"] == "co_bridge"), float("inf"))
 frames = []  # (t, node, cmd, decoded dict): ODrive
 co_raw = [r for r in raw if r[0] >= co_start]
 nonfinite = []
@@ -213,7 +214,8 @@ def log_stamps(name, pattern):
     return [float(m.group(1)) for m in re.finditer(pattern, open(p, errors="replace").read())]
 
 
-def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True, t0=None, log_pred=None):
+def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True, t0=None, log_pred=None,
+              extra_ok=True):
     e = ev(mode)
     if e is None and t0 is None:
         row(fault, expected, limit, None, "case did not run", False)
@@ -224,7 +226,7 @@ def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=
     rep = reported(t0, t0 + 3.0, diag_name, diag_pred) if diag_name else True
     if not rep and log_pred is not None and log_pred(t0):
         rep, how = True, how + " (not in the 1 Hz diagnostics; in the log)"
-    ok = dt is not None and dt <= limit and rep is not None
+    ok = dt is not None and dt <= limit and rep is not None and extra_ok
     if recover and end_mode:
         e2 = ev(end_mode)
         t_end = max(e2["t"], tz or e2["t"]) if e2 else None
@@ -436,9 +438,7 @@ else:
         tz = stop_case("co_fault", f"cia402: drive fault, left node (statusword fault, 0x603F 0x{err:04X}{'' if was else '; NOT moving before'})",
                        "zero target velocity, latched (onset: first TPDO1 with the fault)", tx_period + MARGIN_S, "CAN bridge",
                        lambda d: "drive_fault" in d["values"].get("stop_reasons", ""), "bridge diagnostics drive_fault",
-                       recover=False, t0=onset)
-        if not was:
-            ROWS[-1]["ok"] = False
+                       recover=False, t0=onset, extra_ok=was)
     co_recovery("cia402: drive fault: recovery (fault reset 0x0080)", tz, "co_axis_reset")
 
     # Heartbeat loss: onset = the last heartbeat of the left node before a gap > 1 s.
@@ -454,13 +454,13 @@ else:
         tz = stop_case("co_hb", f"cia402: heartbeat loss ({silence:.2f} s without 0x700 + id){'' if was else '; NOT moving before'}",
                        "zero target velocity, latched (onset: last heartbeat before the gap)", hb_timeout + tx_period + MARGIN_S,
                        "CAN bridge", lambda d: "heartbeat_lost" in d["values"].get("stop_reasons", ""),
-                       "bridge diagnostics heartbeat_lost", recover=False, t0=t0)
-        if not was:
-            ROWS[-1]["ok"] = False
+                       "bridge diagnostics heartbeat_lost", recover=False, t0=t0, extra_ok=was)
     co_recovery("cia402: heartbeat loss: recovery", tz, "co_hb_reset")
 
-    # Reboot + SDO silence: onset = the boot-up message (0x700 + id, 0x00).
-    boot = next((t for t, n, d in co_frames(0x700, None, co_ev["t"] + 1.0) if d == b"\x00"), None)
+    # Reboot + SDO silence: onset = the reboot's boot-up message (0x700 + id,
+    # 0x00); the first ones are the drive's power-on.
+    boots = [t for t, n, d in co_frames(0x700, None, co_ev["t"]) if d == b"\x00"]
+    boot = next((t for t in boots if t > boots[0] + 5.0), None) if boots else None
     if boot is None:
         row("cia402: drive reboot while driving", "stop", None, None, "case did not run (no boot-up)", False)
     else:
@@ -469,9 +469,7 @@ else:
                   "zero target velocity at once, the drive is started again", tx_period + MARGIN_S, "CAN bridge",
                   lambda d: "drive_starting" in d["values"].get("stop_reasons", ""),
                   "bridge diagnostics drive_starting, log 'booted'", recover=False, t0=boot,
-                  log_pred=lambda t0: log_has("bridge.log", "booted (boot-up message)"))
-        if not was:
-            ROWS[-1]["ok"] = False
+                  log_pred=lambda t0: log_has("bridge.log", "booted (boot-up message)"), extra_ok=was)
         # SDO timeout at start-up: the first request after the boot-up that got no answer,
         # and the client's abort (0x80 ... 0x05040000) after sdo_timeout_s.
         req = co_frames(0x600, None, boot)
@@ -505,9 +503,8 @@ else:
                   "zero target velocity until the bus is back and quiet for bus_recovery_s, then restarted",
                   tx_period + MARGIN_S, "CAN bridge", lambda d: "bus_error" in d["values"].get("stop_reasons", ""),
                   "bridge diagnostics bus_error", end_mode="co_busoff",
-                  log_pred=lambda t0: log_has("bridge.log", 'BusError { description: "bus-off", fatal: true }'))
-        if not was:
-            ROWS[-1]["ok"] = False
+                  log_pred=lambda t0: log_has("bridge.log", 'BusError { description: "bus-off", fatal: true }'),
+                  extra_ok=was)
     check(not co_bad, f"cia402: every frame after co_start is a CiA 301 service of ours or of nodes {sorted(CO_NODES)} "
                       f"with its length ({len(co_raw)} frames; unexpected {co_bad[:5]})")
     check(len(co_rpdo) > 500, f"cia402: {len(co_rpdo)} RPDO1 setpoints decoded (integers: never a NaN)")

@@ -165,32 +165,41 @@ say "bus-off done"
 
 # -- CiA 402: the ODrive drive and bridge make way for a bridge with
 # protocol cia402 (/can_bridge_co) and then a CANopen drive (two virtual
-# CiA 402 nodes, config/can_bridge.yaml's cia402 section). The bridge is up
-# before the drive, so the drive's clock (its faults are scheduled from its
-# start) does not depend on the ROS node's start-up time under emulation:
-# a drive fault (0x603F 0x2310) on the left node at 8 s (reset at 11 s),
-# heartbeat silence at 15 s for 2 s (reset at 19.5 s), a reboot of both
-# nodes at 23 s with the SDO server silent for 2.5 s (the restart's SDO
-# times out), and a bus-off at 32 s. Onsets are taken from the bus.
+# CiA 402 nodes, config/can_bridge.yaml's cia402 section), with its faults
+# scheduled from its start: a drive fault (0x603F 0x2310) on the left node
+# at 8 s, heartbeat silence at 16 s for 2 s, a reboot of both nodes at 26 s
+# with the SDO server silent for 2.5 s (the restart's SDO times out). The
+# resets and the bus-off follow what the bridge reports (under emulation
+# process start-up times vary by seconds). Onsets are taken from the bus.
+bridge_count() { count "$1" "$OUT/bridge.log"; }
+wait_bridge() { # pattern count_before timeout_s
+  for _ in $(seq $(( $3 * 10 ))); do [ "$(bridge_count "$1")" -gt "$2" ] && return 0; sleep 0.1; done
+  echo "faults: no new '$1' in bridge.log after $3 s"; tail -5 "$OUT/bridge.log"; return 1
+}
 kill -INT "$bridge"; wait "$bridge" || true
 kill -INT "$drive"; wait "$drive" || true
-n_co=$(count "can_bridge_co: bridging" "$OUT/bridge.log")
+n=$(bridge_count "can_bridge_co: bridging")
+event co_bridge
 start_bridge can_bridge_co
-for _ in $(seq 600); do [ "$(count "can_bridge_co: bridging" "$OUT/bridge.log")" -gt "$n_co" ] && break; sleep 0.1; done
-r=$(ready_count)
+wait_bridge "can_bridge_co: bridging" "$n" 60
+r=$(ready_count); n_fault=$(bridge_count "DriveFaultLatched {"); n_hb=$(bridge_count "HeartbeatLostLatched {")
+n_boot=$(bridge_count "booted (boot-up message)")
 event co_start
 "$BIN/virtual_drive" --interface vcan0 --protocol cia402 --config config/can_bridge.yaml --watchdog-s "$WATCHDOG_S" \
-  --fault axis_error@8:0x2310:left --fault heartbeat_silence@15+2 --fault reboot@23 --fault sdo_silence@23+2.5 \
+  --fault axis_error@8:0x2310:left --fault heartbeat_silence@16+2 --fault reboot@26 --fault sdo_silence@26+2.5 \
   > "$OUT/drive_co.log" 2>&1 &
 drive=$!; PIDS+=("$drive")
-t_co=$(date +%s.%N)
 wait_ready_after "$r" 20
-since() { awk -v a="$t_co" -v b="$(date +%s.%N)" -v s="$1" 'BEGIN { d = s - (b - a); if (d > 0) printf "%.2f", d; else print 0 }'; }
-sleep "$(since 11)"
-reset_bridge co_axis_reset can_bridge_co
-sleep "$(since 19.5)"
-reset_bridge co_hb_reset can_bridge_co
-sleep "$(since 32)"
+wait_bridge "DriveFaultLatched {" "$n_fault" 30
+sleep 2; reset_bridge co_axis_reset can_bridge_co
+wait_bridge "HeartbeatLostLatched {" "$n_hb" 30
+sleep 2.5; r=$(ready_count); reset_bridge co_hb_reset can_bridge_co
+wait_ready_after "$r" 20
+# The power-on boot-up was one per node; the reboot's come next.
+r=$(ready_count)
+wait_bridge "booted (boot-up message)" "$(( n_boot + 2 ))" 30
+wait_ready_after "$r" 30
+sleep 3
 $ROSPY tests/faults/bus_error.py vcan0 busoff "$EV" co_busoff
 sleep 3
 event co_end
