@@ -555,7 +555,8 @@ impl CoNode {
         for f in self.outbox.drain(..) {
             let is_hb = f.id == nmt::COB_HEARTBEAT_BASE + u32::from(self.id);
             let is_pdo = f.id & !0x7F == pdo::COB_TPDO1_BASE || f.id & !0x7F == pdo::COB_TPDO2_BASE;
-            if !(is_hb && mute_heartbeat) && !(is_pdo && mute_feedback) {
+            let muted = (is_hb && mute_heartbeat) || (is_pdo && mute_feedback);
+            if !muted {
                 out.push(f);
             }
         }
