@@ -28,6 +28,7 @@ die() { echo "can_group: $*" >&2; exit 1; }
 command -v cargo >/dev/null || die "cargo not found (install Rust ≥ 1.85 with rustup)"
 command -v candump >/dev/null || die "candump not found: run tests/vm/setup-host.sh"
 python3 -c 'import cantools' 2>/dev/null || die "python3 cannot import cantools: run tests/vm/setup-host.sh"
+python3 -c 'import canopen' 2>/dev/null || die "python3 cannot import canopen (the CiA 402 drive of tests/can/cia402_drive.py): run tests/vm/setup-host.sh"
 
 TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 # The harness shares the repository read-write at the same path (even under

@@ -5,8 +5,10 @@
 # and oldbf_node on vcan0 and injects, in turn: oldbf_node SIGKILL, absurd
 # and NaN /cmd_vel straight to the bridge, frozen / out-of-order / all-NaN /
 # all-inf / all-zero scans, a wall-clock step back, can_bridge_node SIGKILL,
-# an axis error and heartbeat silence in the drive, a bus-off error frame,
-# and a roscore restart. Each is timed from its onset to zero setpoints on
+# an axis error and heartbeat silence in the drive, a bus-off error frame;
+# then, with a CANopen CiA 402 drive and bridge (protocol cia402): a drive
+# fault, heartbeat loss, a drive reboot whose SDO server stays silent (SDO
+# timeout at start-up), a bus-off; and a roscore restart. Each is timed from its onset to zero setpoints on
 # vcan0 (tests/faults/analyze.py) against a limit derived from config/.
 # Results: target/faults/results.md (a passing copy: docs/results/faults.md).
 #
@@ -31,10 +33,13 @@ load = lambda n: yaml.safe_load(open(f"{root}/config/{n}"))
 bridge = {**load("can_bridge.yaml"), **load("can_bridge_node.yaml")}
 bridge["protocol"] = "odrive"
 bridge["interface"] = "vcan0"
+# The CiA 402 cases: the same bridge parameters with protocol cia402, for a
+# second bridge node (can_bridge_co) that replaces the ODrive one in the run.
+co = dict(bridge, protocol="cia402")
 node = {**load("oldbf.yaml"), **load("oldbf_node.yaml")}
 node["node"]["nominal_source"] = "constant"
 node["node"]["publish_markers"] = False
-yaml.safe_dump({"can_bridge_node": bridge, "oldbf_node": node}, open(out, "w"))
+yaml.safe_dump({"can_bridge_node": bridge, "can_bridge_co": co, "oldbf_node": node}, open(out, "w"))
 PY
 echo "faults_group: prepared in $(( $(date +%s) - t0 )) s; booting the guest"
 t1=$(date +%s)

@@ -24,7 +24,7 @@ ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 FUZZ="$ROOT/fuzz"
 CARGO_FUZZ_VERSION=0.13.1
 SMOKE_S=${FUZZ_SMOKE_S:-15}
-read -r -a TARGETS <<< "${FUZZ_TARGETS:-scan_pipeline carmen_parse can_decode_generic can_decode_odrive config_parse}"
+read -r -a TARGETS <<< "${FUZZ_TARGETS:-scan_pipeline carmen_parse can_decode_generic can_decode_odrive can_decode_cia402 config_parse}"
 
 die() { echo "fuzz_group: $*" >&2; exit 1; }
 t0=$(date +%s)

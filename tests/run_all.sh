@@ -20,10 +20,12 @@
 #         workspace, rviz under Xvfb)
 #   can   the CAN bridge in a real Linux kernel: one QEMU guest boot with
 #         vcan0 (this machine's kernel has no CAN) runs the vcan test
-#         groups and the candump + python cantools decoding checks
-#         (tests/can_group.sh; installs can-utils, cantools, the guest kernel)
+#         groups, the candump + python cantools decoding checks and the
+#         cia402 protocol against python-canopen CiA 402 drives
+#         (tests/can_group.sh; installs can-utils, cantools, canopen, the guest kernel)
 #   e2e   one guest boot: roscore + simulator + filter + CAN bridge + virtual
-#         drive on vcan0, the loop closed through CAN (tests/e2e_group.sh)
+#         drive on vcan0, the loop closed through CAN, generic then cia402
+#         (tests/e2e_group.sh)
 #   soak  the short soak: random worlds with moving obstacles for a stretch of
 #         simulated time; no panic, no NaN, resident memory flat
 #         (tests/soak_group.sh; the full hour is `oldbf soak`, see README)

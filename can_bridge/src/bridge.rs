@@ -43,7 +43,7 @@ use crate::diagnostics::{BridgeEvent, BridgeState, BridgeStatus, Counters, Drive
 use crate::kinematics::{DiffDrive, MotorSpeeds, Twist, Wheel, WheelSpeeds};
 use crate::limits::{clamp_twist, saturate_wheels, RampLimiter};
 use crate::odometry::Odometry;
-use crate::protocol::{DriveMessage, FrameBatch, Protocol, SetpointMode};
+use crate::protocol::{DriveMessage, FrameBatch, Protocol, ProtocolReport, SetpointMode};
 use crate::time::{Clock, Timestamp};
 use crate::tx_queue::{TxKind, TxQueue};
 use std::collections::VecDeque;
@@ -357,6 +357,7 @@ impl<B: CanBus> Bridge<B> {
         self.now = now;
         self.update_bus_fault(now);
         self.update_phase(now);
+        self.poll_protocol(now);
         self.update_reasons(now);
         if now >= self.next_tx {
             self.transmit_setpoints(now);
@@ -494,6 +495,7 @@ impl<B: CanBus> Bridge<B> {
             | BridgeEvent::HeartbeatLostLatched { .. }
             | BridgeEvent::BusError { .. }
             | BridgeEvent::EstopLatched
+            | BridgeEvent::DriveReport { .. }
             | BridgeEvent::TxQueueFull => log::warn!("{event:?}"),
             _ => log::info!("{event:?}"),
         }
@@ -507,6 +509,21 @@ impl<B: CanBus> Bridge<B> {
         });
     }
 
+    /// The protocol's own frames (CiA 402 SDO start-up, heartbeat) and reports.
+    fn poll_protocol(&mut self, now: Timestamp) {
+        self.batch.clear();
+        self.protocol.poll(now, &mut self.batch);
+        if !self.batch.is_empty() {
+            let r = self.tx.push(self.batch.as_slice(), TxKind::Control, now);
+            self.count_push(r, now);
+        }
+        let mut reports = Vec::new();
+        self.protocol.drain_reports(&mut reports);
+        for ProtocolReport { wheel, message } in reports {
+            self.push_event(now, BridgeEvent::DriveReport { wheel, message });
+        }
+    }
+
     fn on_drive_message(&mut self, msg: DriveMessage, now: Timestamp) {
         match msg {
             DriveMessage::Status {
@@ -515,11 +532,21 @@ impl<B: CanBus> Bridge<B> {
                 running,
                 estopped,
                 raw_state,
+            }
+            | DriveMessage::State {
+                wheels,
+                error_code,
+                running,
+                estopped,
+                raw_state,
             } => {
+                let live = matches!(msg, DriveMessage::Status { .. });
                 for w in Wheel::BOTH {
                     if wheels.covers(w) {
                         let l = &mut self.links[w.index()];
-                        l.last_status = Some(now);
+                        if live {
+                            l.last_status = Some(now);
+                        }
                         l.error_code = error_code;
                         l.running = running;
                         l.estopped = estopped;
@@ -539,6 +566,7 @@ impl<B: CanBus> Bridge<B> {
                     self.push_event(now, BridgeEvent::OdometryReset);
                 }
             }
+            DriveMessage::Handled { .. } => {}
         }
     }
 

@@ -133,6 +133,9 @@ impl Rig {
                     }
                 }
             }
+            // CiA 402 needs a drive that answers SDO: tests/closed_loop.rs runs it
+            // against the virtual drive; protocol/cia402/tests.rs by hand.
+            ProtocolKind::Cia402 => unreachable!("the rig plays generic and ODrive drives"),
         }
     }
 
@@ -668,6 +671,7 @@ fn a_watchdog_error_caused_by_a_communication_loss_is_cleared_by_the_restart() {
         r.drive_error = match r.protocol {
             ProtocolKind::Odrive => odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED,
             ProtocolKind::Generic => generic::ERR_WATCHDOG,
+            ProtocolKind::Cia402 => unreachable!("the rig plays generic and ODrive drives"),
         };
         r.started = false;
         r.heartbeat = true;
@@ -713,6 +717,7 @@ fn heartbeat_silence_latches_until_reset_and_a_fresh_command() {
                 .ok()
                 .flatten()
                 .is_some_and(|(_, sp)| sp.vel_radps != 0.0),
+            ProtocolKind::Cia402 => unreachable!("the rig plays generic and ODrive drives"),
         });
         assert!(!moving, "no motion before the reset");
         // Reset: restart, then the old command is not followed...

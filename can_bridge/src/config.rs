@@ -6,6 +6,9 @@
 //! file is embedded as the defaults, so the binaries run from any directory.
 
 use crate::kinematics::DiffDrive;
+use crate::protocol::cia402::pdo::PdoPlan;
+use crate::protocol::cia402::units::{Scaling, VelocityUnit};
+use crate::protocol::cia402::{Cia402Protocol, Cia402Settings, PdoMapping};
 use crate::protocol::generic::{GenericProtocol, MAX_BASE_ID, VEL_LIMIT_RADPS};
 use crate::protocol::odrive::{OdriveProtocol, MAX_NODE_ID};
 use crate::protocol::{Protocol, ProtocolKind};
@@ -32,6 +35,7 @@ pub struct BridgeConfig {
     pub limits: LimitsConfig,
     pub generic: GenericConfig,
     pub odrive: OdriveConfig,
+    pub cia402: Cia402Config,
 }
 
 /// Rates and timeouts.
@@ -95,6 +99,72 @@ pub struct OdriveConfig {
     pub torque_ff_nm: f64,
 }
 
+/// CANopen CiA 402 settings (`can_bridge/README.md`, "CANopen CiA 402").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cia402Config {
+    pub left_node_id: u32,
+    pub right_node_id: u32,
+    /// Encoder counts per motor revolution (0x6064).
+    pub counts_per_motor_rev: u32,
+    /// Unit of 0x60FF / 0x606C.
+    pub velocity_unit: VelocityUnit,
+    /// One velocity LSB in that unit.
+    pub velocity_resolution: f64,
+    /// 0x6083 at the motor (rad/s²).
+    pub profile_accel_radps2: f64,
+    /// 0x6084 at the motor (rad/s²).
+    pub profile_decel_radps2: f64,
+    /// 0x6085 at the motor (rad/s²).
+    pub quick_stop_decel_radps2: f64,
+    pub pdo_mapping: PdoMapping,
+    /// The bridge sends SYNC after each period's RPDOs.
+    pub sync_producer: bool,
+    /// Without SYNC: the drives' TPDO event timer (ms).
+    pub tpdo_event_ms: u32,
+    /// Written to each drive's 0x1017 (ms); 0 = not written.
+    pub drive_heartbeat_ms: u32,
+    /// The bridge's node id (its heartbeat COB-ID 0x700 + id).
+    pub bridge_node_id: u32,
+    /// The bridge's heartbeat period (ms); 0 = none.
+    pub bridge_heartbeat_ms: u32,
+    /// Written to each drive's 0x1016:01 (ms); 0 = not written.
+    pub drive_consumer_heartbeat_ms: u32,
+    /// An SDO response later than this fails the start-up (s).
+    pub sdo_timeout_s: f64,
+}
+
+impl Cia402Config {
+    /// Conversions for these units.
+    pub fn scaling(&self) -> Scaling {
+        Scaling::new(self.velocity_unit, self.velocity_resolution, self.counts_per_motor_rev)
+    }
+
+    /// The protocol's settings (`validate` first: out-of-range values saturate).
+    pub fn settings(&self) -> Cia402Settings {
+        let sc = self.scaling();
+        let u16_of = |v: u32| u16::try_from(v).unwrap_or(u16::MAX);
+        let u8_of = |v: u32| u8::try_from(v).unwrap_or(u8::MAX);
+        Cia402Settings {
+            nodes: [u8_of(self.left_node_id), u8_of(self.right_node_id)],
+            scaling: sc,
+            profile_accel: sc.accel_to_drive(self.profile_accel_radps2).unwrap_or(1),
+            profile_decel: sc.accel_to_drive(self.profile_decel_radps2).unwrap_or(1),
+            quick_stop_decel: sc.accel_to_drive(self.quick_stop_decel_radps2).unwrap_or(1),
+            mapping: self.pdo_mapping,
+            plan: PdoPlan {
+                sync: self.sync_producer,
+                tpdo_event_ms: u16_of(self.tpdo_event_ms),
+            },
+            drive_heartbeat_ms: u16_of(self.drive_heartbeat_ms),
+            bridge_node_id: u8_of(self.bridge_node_id),
+            bridge_heartbeat_ms: u16_of(self.bridge_heartbeat_ms),
+            drive_consumer_heartbeat_ms: u16_of(self.drive_consumer_heartbeat_ms),
+            sdo_timeout: crate::time::saturating_duration(self.sdo_timeout_s),
+        }
+    }
+}
+
 impl BridgeConfig {
     /// The kinematics these values describe.
     pub fn diff_drive(&self) -> DiffDrive {
@@ -122,6 +192,7 @@ impl BridgeConfig {
                 self.odrive.right_node_id,
                 self.odrive.torque_ff_nm,
             )),
+            ProtocolKind::Cia402 => Box::new(Cia402Protocol::new(self.cia402.settings())),
         }
     }
 
@@ -202,11 +273,104 @@ impl BridgeConfig {
             "different from odrive.left_node_id",
         );
         c.range("odrive.torque_ff_nm", o.torque_ff_nm, "[-100, 100] Nm");
+        self.validate_cia402(&mut c);
         if c.errors.is_empty() {
             Ok(())
         } else {
             Err(c.errors)
         }
+    }
+}
+
+impl BridgeConfig {
+    fn validate_cia402(&self, c: &mut Check) {
+        let p = &self.cia402;
+        let f = |v: u32| f64::from(v);
+        c.range("cia402.left_node_id", f(p.left_node_id), "[1, 127]");
+        c.range("cia402.right_node_id", f(p.right_node_id), "[1, 127]");
+        c.rule(
+            p.left_node_id != p.right_node_id,
+            "cia402.right_node_id",
+            format!("{}", p.right_node_id),
+            "different from cia402.left_node_id",
+        );
+        c.range(
+            "cia402.counts_per_motor_rev",
+            f(p.counts_per_motor_rev),
+            "[1, 16777216]",
+        );
+        c.range("cia402.velocity_resolution", p.velocity_resolution, "(0, 1000]");
+        let sc = p.scaling();
+        if self.protocol == ProtocolKind::Cia402 && sc.units_per_radps().is_finite() {
+            let max = self.limits.max_wheel_speed_radps * self.kinematics.gear_ratio * sc.units_per_radps();
+            c.rule(
+                max.is_nan() || max <= f64::from(i32::MAX),
+                "limits.max_wheel_speed_radps",
+                format!("{}", self.limits.max_wheel_speed_radps),
+                "times kinematics.gear_ratio, in drive velocity units, within the i32 of 0x60FF",
+            );
+        }
+        for (key, v) in [
+            ("cia402.profile_accel_radps2", p.profile_accel_radps2),
+            ("cia402.profile_decel_radps2", p.profile_decel_radps2),
+            ("cia402.quick_stop_decel_radps2", p.quick_stop_decel_radps2),
+        ] {
+            let before = c.errors.len();
+            c.range(key, v, "(0, 1000000] rad/s²");
+            if c.errors.len() == before {
+                c.rule(
+                    sc.accel_to_drive(v).is_some(),
+                    key,
+                    format!("{v}"),
+                    "at least one drive acceleration unit, and within the u32 of 0x6083-0x6085",
+                );
+            }
+        }
+        c.range("cia402.tpdo_event_ms", f(p.tpdo_event_ms), "[1, 65535] ms");
+        let fb_ms = self.timing.feedback_timeout_s * 1000.0;
+        c.rule(
+            p.sync_producer || fb_ms.is_nan() || f(p.tpdo_event_ms) < fb_ms,
+            "cia402.tpdo_event_ms",
+            format!("{}", p.tpdo_event_ms),
+            "below timing.feedback_timeout_s (without SYNC the feedback comes at this period)",
+        );
+        c.range("cia402.drive_heartbeat_ms", f(p.drive_heartbeat_ms), "[0, 65535] ms");
+        let hb_ms = self.timing.heartbeat_timeout_s * 1000.0;
+        c.rule(
+            hb_ms.is_nan() || f(p.drive_heartbeat_ms) <= hb_ms / 2.0,
+            "cia402.drive_heartbeat_ms",
+            format!("{}", p.drive_heartbeat_ms),
+            "at most half of timing.heartbeat_timeout_s",
+        );
+        c.range("cia402.bridge_node_id", f(p.bridge_node_id), "[1, 127]");
+        c.rule(
+            p.bridge_node_id != p.left_node_id && p.bridge_node_id != p.right_node_id,
+            "cia402.bridge_node_id",
+            format!("{}", p.bridge_node_id),
+            "different from both drives' node ids",
+        );
+        c.range("cia402.bridge_heartbeat_ms", f(p.bridge_heartbeat_ms), "[0, 65535] ms");
+        c.range(
+            "cia402.drive_consumer_heartbeat_ms",
+            f(p.drive_consumer_heartbeat_ms),
+            "[0, 65535] ms",
+        );
+        c.rule(
+            p.drive_consumer_heartbeat_ms == 0
+                || (p.bridge_heartbeat_ms > 0 && p.drive_consumer_heartbeat_ms > p.bridge_heartbeat_ms),
+            "cia402.drive_consumer_heartbeat_ms",
+            format!("{}", p.drive_consumer_heartbeat_ms),
+            "0, or longer than a non-zero cia402.bridge_heartbeat_ms",
+        );
+        c.range("cia402.sdo_timeout_s", p.sdo_timeout_s, "(0, 10] s");
+        c.rule(
+            p.sdo_timeout_s.is_nan()
+                || self.timing.startup_timeout_s.is_nan()
+                || p.sdo_timeout_s < self.timing.startup_timeout_s,
+            "cia402.sdo_timeout_s",
+            format!("{}", p.sdo_timeout_s),
+            "shorter than timing.startup_timeout_s",
+        );
     }
 }
 
@@ -380,7 +544,7 @@ mod tests {
                 "no range: {line}"
             );
         }
-        assert_eq!(leaves, 22, "every key of BridgeConfig is in the shipped file");
+        assert_eq!(leaves, 38, "every key of BridgeConfig is in the shipped file");
     }
 
     #[test]
@@ -445,6 +609,87 @@ mod tests {
             load_config_str(&text, "f.yaml").is_ok(),
             "floats on ODrive have the range"
         );
+    }
+
+    /// The CiA 402 rules that involve two keys, each naming the key to change.
+    #[test]
+    fn cia402_cross_key_rules() {
+        let cia = |t: String| t.replace("protocol: generic", "protocol: cia402");
+        let case = |key: &str, value: &str, rule: &str| {
+            let e = load_config_str(&cia(with(key, value)), "f.yaml").unwrap_err();
+            assert_eq!(e.keys(), [key], "{key} = {value}: {e}");
+            assert!(e.to_string().contains(rule), "{key} = {value}: {e}");
+        };
+        case("cia402.right_node_id", "1", "different from cia402.left_node_id");
+        case("cia402.bridge_node_id", "2", "different from both drives' node ids");
+        // heartbeat_timeout_s 0.5: at most 250 ms.
+        case(
+            "cia402.drive_heartbeat_ms",
+            "251",
+            "at most half of timing.heartbeat_timeout_s",
+        );
+        assert!(load_config_str(&cia(with("cia402.drive_heartbeat_ms", "250")), "f").is_ok());
+        case(
+            "cia402.drive_consumer_heartbeat_ms",
+            "100",
+            "longer than a non-zero cia402.bridge_heartbeat_ms",
+        );
+        let t = with("cia402.bridge_heartbeat_ms", "0");
+        let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["cia402.drive_consumer_heartbeat_ms"]);
+        let t: String = serde_yaml::to_string(&{
+            let mut v: serde_yaml::Value = serde_yaml::from_str(&t).unwrap();
+            v["cia402"]["drive_consumer_heartbeat_ms"] = 0.into();
+            v
+        })
+        .unwrap();
+        assert!(
+            load_config_str(&cia(t), "f").is_ok(),
+            "no heartbeat, nobody watching it"
+        );
+        // startup_timeout_s 2.0.
+        case("cia402.sdo_timeout_s", "2.0", "shorter than timing.startup_timeout_s");
+        // 0.01 rad/s² is 0.095 rpm/s: rounds to 0.
+        case(
+            "cia402.profile_accel_radps2",
+            "0.01",
+            "at least one drive acceleration unit",
+        );
+        // Without SYNC the feedback comes at the event timer: below feedback_timeout_s (0.2 s).
+        let e = load_config_str(
+            &cia(with("cia402.tpdo_event_ms", "200")).replace("sync_producer: true", "sync_producer: false"),
+            "f.yaml",
+        )
+        .unwrap_err();
+        assert_eq!(e.keys(), ["cia402.tpdo_event_ms"], "{e}");
+        assert!(
+            load_config_str(&cia(with("cia402.tpdo_event_ms", "200")), "f").is_ok(),
+            "SYNC: unused"
+        );
+        // 7 rad/s × 1000 (gear) × 9549.3 units per rad/s at 0.001 rpm = 6.7e7: fits; at 1e-5 rpm it does not.
+        let t =
+            with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
+        let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
+        assert!(
+            load_config_str(&t, "f").is_ok(),
+            "only checked when cia402 is the protocol"
+        );
+    }
+
+    /// The EPOS example is complete and valid; its units by hand: 14 rad/s
+    /// at the wheel × 26 = 364 rad/s at the motor = 3476 rpm; 2000 rad/s² =
+    /// 19099 rpm/s.
+    #[test]
+    fn the_epos_example_is_valid() {
+        let text = include_str!("../../config/can_bridge_cia402_epos.yaml");
+        let c = load_config_str(text, "config/can_bridge_cia402_epos.yaml").unwrap();
+        assert_eq!(c.protocol, ProtocolKind::Cia402);
+        let s = c.cia402.settings();
+        let motor = c.limits.max_wheel_speed_radps * c.kinematics.gear_ratio;
+        assert_eq!(s.scaling.velocity_to_drive(motor), 3476);
+        assert_eq!(s.profile_accel, 19099);
+        assert_eq!(s.nodes, [1, 2]);
     }
 
     #[test]

@@ -159,6 +159,12 @@ pub enum BridgeEvent {
     },
     /// Odometry re-baselined after an implausible position jump.
     OdometryReset,
+    /// The protocol reports something about a drive (CiA 402: an SDO abort
+    /// or timeout at start-up, an EMCY, a fault, a reboot).
+    DriveReport {
+        wheel: Option<Wheel>,
+        message: String,
+    },
 }
 
 /// An event with its time (s on the bridge's clock).

@@ -20,11 +20,19 @@
 //!   without error and in velocity mode), Estop (error ESTOP_REQUESTED,
 //!   idle). A closed-loop request while the input velocity is non-zero is
 //!   counted as a start-up order violation.
+//! * cia402: one CANopen node per wheel ([`cia402`]): SDO server, NMT,
+//!   heartbeat producer and consumer, PDOs from the mapped dictionary,
+//!   SYNC, the CiA 402 state machine and profile velocity ramps. The
+//!   watchdog is an RPDO timeout (error 0x8250); faults add `sdo_silence`
+//!   (SDO requests unanswered) and `reboot` (boot-up, dictionary defaults).
 //!
 //! The type is pure (time is an argument); [`run_virtual_drive`] runs it on a bus.
 
 use crate::bus::{BusEvent, CanBus, CanFrame, RxFilter, SendError};
 use crate::kinematics::Wheel;
+pub mod cia402;
+
+use crate::protocol::cia402::units::{Scaling, VelocityUnit};
 use crate::protocol::generic::{self, GenericIds};
 use crate::protocol::odrive::{self, Command};
 use crate::protocol::ProtocolKind;
@@ -63,6 +71,10 @@ pub struct VirtualDriveConfig {
     pub feedback_rate_hz: f64,
     /// Scheduled faults (times from the drive's start).
     pub faults: Vec<FaultSpec>,
+    /// CiA 402: the units of the drive's velocity and position objects.
+    pub cia402_scaling: Scaling,
+    /// CiA 402: the bridge's node id (whose heartbeat 0x1016:01 may watch).
+    pub cia402_bridge_node_id: u8,
 }
 
 impl Default for VirtualDriveConfig {
@@ -79,6 +91,8 @@ impl Default for VirtualDriveConfig {
             heartbeat_rate_hz: 10.0,
             feedback_rate_hz: 100.0,
             faults: Vec::new(),
+            cia402_scaling: Scaling::new(VelocityUnit::Rpm, 1.0, 4096),
+            cia402_bridge_node_id: 127,
         }
     }
 }
@@ -113,7 +127,12 @@ impl VirtualDriveConfig {
         if self.generic_base_id > generic::MAX_BASE_ID {
             return Err(format!("generic base id 0x{:X} > 0x7ED", self.generic_base_id));
         }
-        if self.left_node_id > odrive::MAX_NODE_ID || self.right_node_id > odrive::MAX_NODE_ID {
+        if self.protocol == ProtocolKind::Cia402 {
+            let ok = |n: u32| (1..=127).contains(&n);
+            if !ok(self.left_node_id) || !ok(self.right_node_id) || !ok(u32::from(self.cia402_bridge_node_id)) {
+                return Err("CANopen node ids must be in [1, 127]".into());
+            }
+        } else if self.left_node_id > odrive::MAX_NODE_ID || self.right_node_id > odrive::MAX_NODE_ID {
             return Err("node ids must be in [0, 63]".into());
         }
         if self.left_node_id == self.right_node_id {
@@ -139,6 +158,11 @@ pub enum FaultKind {
     FeedbackDelay { delay_s: f64 },
     /// The drive stops sending for good, as if killed.
     Exit,
+    /// CiA 402: SDO requests get no answer while active.
+    SdoSilence,
+    /// CiA 402: the node(s) reboot (boot-up message, dictionary defaults,
+    /// switch on disabled), as after a power glitch.
+    Reboot { wheel: Option<Wheel> },
 }
 
 /// A fault at a time (from the drive's start), optionally for a duration.
@@ -223,9 +247,22 @@ impl FromStr for FaultSpec {
                 }
             }
             "exit" => no_args(FaultKind::Exit)?,
+            "sdo_silence" => no_args(FaultKind::SdoSilence)?,
+            "reboot" => {
+                let wheel = match args.first().copied() {
+                    None | Some("both") => None,
+                    Some("left") => Some(Wheel::Left),
+                    Some("right") => Some(Wheel::Right),
+                    Some(w) => return Err(format!("fault `{s}`: wheel `{w}` is not left, right or both")),
+                };
+                if args.len() > 1 {
+                    return Err(format!("fault `{s}`: reboot takes at most a wheel"));
+                }
+                FaultKind::Reboot { wheel }
+            }
             k => {
                 return Err(format!(
-                    "fault `{s}`: unknown kind `{k}`; allowed: axis_error, heartbeat_silence, feedback_silence, silence, feedback_delay, exit"
+                    "fault `{s}`: unknown kind `{k}`; allowed: axis_error, heartbeat_silence, feedback_silence, silence, feedback_delay, exit, sdo_silence, reboot"
                 ))
             }
         };
@@ -298,13 +335,32 @@ pub struct VirtualDrive {
     applied: Vec<bool>,
     exited: bool,
     stats: DriveStats,
+    /// CiA 402 nodes (left, right); empty for the other protocols.
+    co: Vec<cia402::CoNode>,
 }
 
 impl VirtualDrive {
     /// A drive powered up at `now`, idle, without error.
     pub fn new(cfg: VirtualDriveConfig, now: Timestamp) -> Self {
         let n = cfg.faults.len();
+        let co = if cfg.protocol == ProtocolKind::Cia402 {
+            let hb_ms = (1000.0 / cfg.heartbeat_rate_hz).round().clamp(1.0, 65535.0) as u16;
+            let ev_ms = (1000.0 / cfg.feedback_rate_hz).round().clamp(1.0, 65535.0) as u16;
+            Wheel::BOTH
+                .iter()
+                .map(|w| {
+                    let id = match w {
+                        Wheel::Left => cfg.left_node_id,
+                        Wheel::Right => cfg.right_node_id,
+                    };
+                    cia402::CoNode::new(id.clamp(1, 127) as u8, *w, hb_ms, ev_ms, now)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Self {
+            co,
             cfg,
             axes: [Axis::default(); 2],
             start: now,
@@ -362,7 +418,27 @@ impl VirtualDrive {
                     })
                     .collect()
             }
+            ProtocolKind::Cia402 => {
+                let mut v = vec![
+                    RxFilter::standard(crate::protocol::cia402::nmt::COB_NMT),
+                    RxFilter::standard(crate::protocol::cia402::nmt::COB_SYNC),
+                    RxFilter::standard(
+                        crate::protocol::cia402::nmt::COB_HEARTBEAT_BASE + u32::from(self.cfg.cia402_bridge_node_id),
+                    ),
+                ];
+                for n in &self.co {
+                    let id = u32::from(n.id);
+                    v.push(RxFilter::standard(crate::protocol::cia402::sdo::COB_RX_BASE + id));
+                    v.push(RxFilter::standard(crate::protocol::cia402::pdo::COB_RPDO1_BASE + id));
+                }
+                v
+            }
         }
+    }
+
+    /// The CiA 402 node of a wheel (protocol cia402 only).
+    pub fn cia402_node(&self, w: Wheel) -> Option<&cia402::CoNode> {
+        self.co.get(w.index())
     }
 
     /// Snapshot of one axis.
@@ -379,7 +455,14 @@ impl VirtualDrive {
 
     /// What the drive received so far.
     pub fn stats(&self) -> DriveStats {
-        self.stats
+        let mut s = self.stats;
+        for n in &self.co {
+            s.setpoints_accepted += n.stats.rpdos;
+            s.estops += n.stats.quick_stops;
+            s.clear_requests += n.stats.fault_resets;
+            s.closed_loop_with_nonzero_input += n.stats.enabled_with_nonzero_target;
+        }
+        s
     }
 
     /// The drive stopped for good (fault `exit`).
@@ -408,14 +491,34 @@ impl VirtualDrive {
         match self.cfg.protocol {
             ProtocolKind::Generic => self.generic_state == generic::STATE_ENABLED,
             ProtocolKind::Odrive => self.axes[w.index()].running,
+            ProtocolKind::Cia402 => {
+                self.co[w.index()].machine.state == crate::protocol::cia402::state_machine::DriveState::OperationEnabled
+            }
         }
     }
 
     fn error(&self, w: Wheel) -> u32 {
-        self.axes[w.index()].error
+        match self.cfg.protocol {
+            ProtocolKind::Cia402 => {
+                let n = &self.co[w.index()];
+                if matches!(
+                    n.machine.state,
+                    crate::protocol::cia402::state_machine::DriveState::Fault
+                        | crate::protocol::cia402::state_machine::DriveState::FaultReactionActive
+                ) {
+                    u32::from(n.error_code())
+                } else {
+                    0
+                }
+            }
+            _ => self.axes[w.index()].error,
+        }
     }
 
     fn target(&self, w: Wheel) -> f64 {
+        if self.cfg.protocol == ProtocolKind::Cia402 {
+            return self.co[w.index()].demand_radps;
+        }
         if self.running(w) {
             self.axes[w.index()]
                 .input
@@ -438,6 +541,14 @@ impl VirtualDrive {
         match self.cfg.protocol {
             ProtocolKind::Generic => self.handle_generic(f, now),
             ProtocolKind::Odrive => self.handle_odrive(f, now),
+            ProtocolKind::Cia402 => {
+                let t_s = (now - self.start).as_secs_f64();
+                let sdo_silent = self.fault_active(t_s, |k| *k == FaultKind::SdoSilence).is_some();
+                let bridge = self.cfg.cia402_bridge_node_id;
+                for n in &mut self.co {
+                    n.handle(f, now, sdo_silent, bridge);
+                }
+            }
         }
     }
 
@@ -578,6 +689,14 @@ impl VirtualDrive {
             let h = (now - t).min(PHYSICS_STEP);
             let hs = h.as_secs_f64();
             for w in Wheel::BOTH {
+                if self.cfg.protocol == ProtocolKind::Cia402 {
+                    // The profile generator: the demand ramps to the target.
+                    let n = &mut self.co[w.index()];
+                    let (target, rate) = n.profile(&self.cfg.cia402_scaling);
+                    let step = rate * hs;
+                    let d = (target - n.demand_radps).clamp(-step, step);
+                    n.demand_radps = (n.demand_radps + d).clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps);
+                }
                 let target = self.target(w);
                 let a = &mut self.axes[w.index()];
                 let want = if self.cfg.time_constant_s > 0.0 {
@@ -596,7 +715,7 @@ impl VirtualDrive {
         self.last_advance = self.last_advance.max(now);
     }
 
-    fn apply_scheduled(&mut self, t_s: f64) {
+    fn apply_scheduled(&mut self, t_s: f64, now: Timestamp) {
         for i in 0..self.cfg.faults.len() {
             let f = self.cfg.faults[i];
             if self.applied[i] || t_s < f.start_s {
@@ -608,6 +727,13 @@ impl VirtualDrive {
                     log::warn!("injecting axis error 0x{code:X} on {wheel:?}");
                     match self.cfg.protocol {
                         ProtocolKind::Generic => self.generic_set_error(code),
+                        ProtocolKind::Cia402 => {
+                            for n in &mut self.co {
+                                if wheel.is_none_or(|x| x == n.wheel) {
+                                    n.fault(u16::try_from(code).unwrap_or(0x1000));
+                                }
+                            }
+                        }
                         ProtocolKind::Odrive => {
                             for w in Wheel::BOTH {
                                 if wheel.is_none_or(|x| x == w) {
@@ -617,6 +743,15 @@ impl VirtualDrive {
                                     a.input = 0.0;
                                 }
                             }
+                        }
+                    }
+                }
+                FaultKind::Reboot { wheel } => {
+                    self.applied[i] = true;
+                    log::warn!("rebooting {wheel:?}");
+                    for n in &mut self.co {
+                        if wheel.is_none_or(|x| x == n.wheel) {
+                            n.boot(now);
                         }
                     }
                 }
@@ -642,6 +777,8 @@ impl VirtualDrive {
                     self.generic_set_error(generic::ERR_WATCHDOG);
                 }
             }
+            // CiA 402: the nodes' RPDO timeout, in `step`.
+            ProtocolKind::Cia402 => {}
             ProtocolKind::Odrive => {
                 for w in Wheel::BOTH {
                     let a = &mut self.axes[w.index()];
@@ -664,12 +801,34 @@ impl VirtualDrive {
         }
         self.advance(now);
         let t_s = (now - self.start).as_secs_f64();
-        self.apply_scheduled(t_s);
+        self.apply_scheduled(t_s, now);
         if self.exited {
             return;
         }
         self.watchdog(now);
         let silent = self.fault_active(t_s, |k| *k == FaultKind::Silence).is_some();
+        if self.cfg.protocol == ProtocolKind::Cia402 {
+            let mute_hb = silent || self.fault_active(t_s, |k| *k == FaultKind::HeartbeatSilence).is_some();
+            let mute_fb = silent || self.fault_active(t_s, |k| *k == FaultKind::FeedbackSilence).is_some();
+            let wd = crate::time::saturating_duration(self.cfg.watchdog_s);
+            let scaling = self.cfg.cia402_scaling;
+            for w in Wheel::BOTH {
+                let (pos, vel) = (self.axes[w.index()].pos, self.axes[w.index()].vel);
+                let before = out.len();
+                if let Some(why) = self.co[w.index()].step(now, &scaling, pos, vel, wd, mute_hb, mute_fb, out) {
+                    log::warn!("{} node: {why} expired, fault", w.name());
+                    self.stats.watchdog_trips += 1;
+                }
+                for f in &out[before..] {
+                    match f.id & !0x7F {
+                        0x700 => self.stats.heartbeats_sent += 1,
+                        0x280 => self.stats.feedback_sent += 1,
+                        _ => {}
+                    }
+                }
+            }
+            return;
+        }
         if now >= self.next_heartbeat {
             self.next_heartbeat = next_grid(self.next_heartbeat, now, self.cfg.heartbeat_rate_hz);
             let muted = silent || self.fault_active(t_s, |k| *k == FaultKind::HeartbeatSilence).is_some();
@@ -722,6 +881,8 @@ impl VirtualDrive {
                 out.push(generic::encode_status(self.generic_ids(), &s));
                 self.stats.heartbeats_sent += 1;
             }
+            // CiA 402 nodes send their own (in `step`).
+            ProtocolKind::Cia402 => {}
             ProtocolKind::Odrive => {
                 for w in Wheel::BOTH {
                     let a = &self.axes[w.index()];
@@ -752,6 +913,7 @@ impl VirtualDrive {
                     a.feedback_counter = a.feedback_counter.wrapping_add(1);
                     out.push(generic::encode_feedback(ids, w, &fb));
                 }
+                ProtocolKind::Cia402 => {}
                 ProtocolKind::Odrive => out.push(odrive::encoder_estimates(node, a.pos / TAU, a.vel / TAU)),
             }
             self.stats.feedback_sent += 1;
@@ -760,6 +922,10 @@ impl VirtualDrive {
 
     /// When [`step`](Self::step) next has frames to send.
     pub fn next_deadline(&self) -> Timestamp {
+        if self.cfg.protocol == ProtocolKind::Cia402 {
+            let now = self.last_advance;
+            return self.co.iter().map(|n| n.next_deadline(now)).min().unwrap_or(now);
+        }
         let mut t = self.next_heartbeat.min(self.next_feedback);
         if let Some((due, _)) = self.delayed.front() {
             t = t.min(*due);

@@ -39,6 +39,22 @@ const ROWS: &[(&str, &str)] = &[
     ("odrive.left_node_id", "64"),
     ("odrive.right_node_id", "0"),
     ("odrive.torque_ff_nm", "101"),
+    ("cia402.left_node_id", "0"),
+    ("cia402.right_node_id", "128"),
+    ("cia402.counts_per_motor_rev", "0"),
+    ("cia402.velocity_unit", "rad_per_s"),
+    ("cia402.velocity_resolution", "0"),
+    ("cia402.profile_accel_radps2", "0"),
+    ("cia402.profile_decel_radps2", "-1"),
+    ("cia402.quick_stop_decel_radps2", "1000001"),
+    ("cia402.pdo_mapping", "automatic"),
+    ("cia402.sync_producer", "maybe"),
+    ("cia402.tpdo_event_ms", "0"),
+    ("cia402.drive_heartbeat_ms", "65536"),
+    ("cia402.bridge_node_id", "1"),
+    ("cia402.bridge_heartbeat_ms", "-1"),
+    ("cia402.drive_consumer_heartbeat_ms", "50"),
+    ("cia402.sdo_timeout_s", "0"),
 ];
 
 fn tmp(name: &str, doc: &Value) -> PathBuf {

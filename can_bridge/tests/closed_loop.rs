@@ -32,7 +32,7 @@ fn square_corner(protocol: ProtocolKind) -> Sim {
 
 #[test]
 fn odometry_through_the_virtual_drive_gives_the_commanded_pose() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let sim = square_corner(protocol);
         let o = sim.bridge.odometry();
         let p = o.pose;
@@ -40,7 +40,9 @@ fn odometry_through_the_virtual_drive_gives_the_commanded_pose() {
             (p.x_m - 0.4).abs() < 2e-3 && (p.y_m - 0.4).abs() < 2e-3 && (p.theta_rad - FRAC_PI_2).abs() < 5e-3,
             "{protocol:?}: {p:?}"
         );
-        assert!(o.updates > 900, "feedback pairs at 100 Hz: {o:?}");
+        // Feedback pairs at 100 Hz (CiA 402: TPDO2 after each SYNC, 50 Hz).
+        let want = if protocol == ProtocolKind::Cia402 { 450 } else { 900 };
+        assert!(o.updates > want, "{protocol:?}: {o:?}");
         assert_eq!(o.resets, 0);
         // The drive's own positions agree: each wheel turned (0.8 m ± the turn)/r × gear.
         let l = sim.drive.axis(Wheel::Left).pos_rad;
@@ -52,7 +54,7 @@ fn odometry_through_the_virtual_drive_gives_the_commanded_pose() {
 
 #[test]
 fn setpoints_on_the_wire_equal_the_kinematics() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
@@ -67,17 +69,21 @@ fn setpoints_on_the_wire_equal_the_kinematics() {
         // (0.2 ∓ 0.5·0.08)/0.033 × 10, right motor reversed.
         let want_l = 10.0 * 0.16 / 0.033;
         let want_r = -10.0 * 0.24 / 0.033;
-        let tol = |w: f64| w.abs() * 1e-6 + 1e-5;
+        // CiA 402 carries integer rpm (EPOS units): ±0.5 rpm = 0.052 rad/s.
+        let tol = |w: f64| match protocol {
+            ProtocolKind::Cia402 => 0.5 * std::f64::consts::TAU / 60.0 + 1e-9,
+            _ => w.abs() * 1e-6 + 1e-5,
+        };
         assert!((l.unwrap() - want_l).abs() < tol(want_l), "{protocol:?} {l:?}");
         assert!((r.unwrap() - want_r).abs() < tol(want_r), "{protocol:?} {r:?}");
         // The drive follows.
-        assert!((sim.drive.axis(Wheel::Left).vel_radps - want_l).abs() < 1e-3);
+        assert!((sim.drive.axis(Wheel::Left).vel_radps - want_l).abs() < tol(want_l) + 1e-3);
     }
 }
 
 #[test]
 fn drive_killed_stops_the_bridge_within_the_heartbeat_timeout() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
@@ -107,7 +113,7 @@ fn drive_killed_stops_the_bridge_within_the_heartbeat_timeout() {
 
 #[test]
 fn axis_error_in_a_heartbeat_stops_and_latches() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
@@ -143,7 +149,7 @@ fn axis_error_in_a_heartbeat_stops_and_latches() {
 
 #[test]
 fn heartbeat_silence_stops_latched_until_reset_then_a_fresh_command_resumes() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
@@ -176,7 +182,7 @@ fn heartbeat_silence_stops_latched_until_reset_then_a_fresh_command_resumes() {
 
 #[test]
 fn the_drives_own_watchdog_idles_it_when_the_bridge_dies() {
-    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+    for protocol in ALL {
         let c = bridge_config(protocol);
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
@@ -227,4 +233,290 @@ fn the_odrive_startup_never_asks_for_closed_loop_with_a_nonzero_input() {
     }
     assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
     assert!(sim.drive.stats().estops >= 6);
+}
+
+// ------------------------------------------------------------------ CiA 402
+
+use can_bridge::diagnostics::BridgeEvent;
+use can_bridge::protocol::cia402::pdo::{self as co_pdo, obj};
+use can_bridge::protocol::cia402::sdo::{self as co_sdo, ObjectAddr};
+use can_bridge::protocol::cia402::state_machine::DriveState;
+use can_bridge::{BusEvent, CanBus, CanErrorFrame, CanFrame, Timestamp};
+
+fn cia402_sim_with(c: can_bridge::BridgeConfig, faults: Vec<can_bridge::virtual_drive::FaultSpec>) -> Sim {
+    let mut d = drive_config(&c);
+    d.faults = faults;
+    Sim::new(c, d)
+}
+
+fn cia402_sim() -> Sim {
+    cia402_sim_with(bridge_config(ProtocolKind::Cia402), Vec::new())
+}
+
+/// (time, node, controlword, target) of every RPDO1 on the wire.
+fn rpdos(sim: &Sim) -> Vec<(Timestamp, u32, u16, i32)> {
+    let mut out = Vec::new();
+    let mut t = Timestamp::ZERO;
+    for f in sim.tap.wire_log() {
+        // The wire log has no times: SYNC closes each period.
+        if f.id == 0x080 {
+            t = t + std::time::Duration::from_millis(20);
+        }
+        if f.id & !0x7F == 0x200 {
+            let r = co_pdo::decode_rpdo1(&f).unwrap();
+            out.push((t, f.id & 0x7F, r.controlword, r.target_velocity));
+        }
+    }
+    out
+}
+
+fn reports(sim: &mut Sim) -> Vec<String> {
+    sim.bridge
+        .drain_events()
+        .into_iter()
+        .filter_map(|e| match e.event {
+            BridgeEvent::DriveReport { message, .. } => Some(message),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn cia402_startup_writes_the_configuration_and_enables_only_at_zero() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
+    for w in Wheel::BOTH {
+        let n = sim.drive.cia402_node(w).unwrap();
+        assert_eq!(n.machine.state, DriveState::OperationEnabled);
+        // Values by hand: 1000 rad/s² = 9549 rpm/s, 2000 → 19099; 127 << 16 | 300.
+        let want = [
+            (obj::MODES_OF_OPERATION, 3),
+            (obj::PROFILE_ACCELERATION, 9549),
+            (obj::PROFILE_DECELERATION, 9549),
+            (obj::QUICK_STOP_DECELERATION, 19099),
+            (obj::PRODUCER_HEARTBEAT, 100),
+            (obj::CONSUMER_HEARTBEAT_1, 0x007F_012C),
+            (obj::RPDO1_TYPE, 1),
+            (obj::TPDO1_TYPE, 1),
+            (ObjectAddr::new(0x1A01, 1), 0x6064_0020),
+            (ObjectAddr::new(0x1A00, 0), 3),
+        ];
+        for (a, v) in want {
+            assert_eq!(n.object(a), Some(v), "{w:?} {a}");
+        }
+    }
+    // Per node: NMT pre-operational, then SDO only, NMT start after the last SDO.
+    let log = sim.tap.wire_log();
+    for node in [1u8, 2] {
+        let pre = log
+            .iter()
+            .position(|f| f.id == 0 && f.data[..2] == [0x80, node])
+            .unwrap();
+        let first_sdo = log.iter().position(|f| f.id == 0x600 + u32::from(node)).unwrap();
+        let last_sdo = log.iter().rposition(|f| f.id == 0x600 + u32::from(node)).unwrap();
+        let start = log
+            .iter()
+            .position(|f| f.id == 0 && f.data[..2] == [0x01, node])
+            .unwrap();
+        assert!(
+            pre < first_sdo && last_sdo < start,
+            "node {node}: {pre} {first_sdo} {last_sdo} {start}"
+        );
+    }
+    // Controlwords: shutdown, switch on, enable operation, each at zero target.
+    for node in [1, 2] {
+        let words: Vec<(u16, i32)> = rpdos(&sim).iter().filter(|r| r.1 == node).map(|r| (r.2, r.3)).collect();
+        let first_enable = words.iter().position(|w| w.0 == 0x000F).unwrap();
+        assert!(words[..first_enable].contains(&(0x0006, 0)) && words[..first_enable].contains(&(0x0007, 0)));
+        assert_eq!(words[first_enable].1, 0);
+        assert!(words[..first_enable].iter().all(|w| w.1 == 0));
+    }
+    // Motion, e-stops and resets: never enabled with a non-zero target.
+    for _ in 0..3 {
+        sim.stream(Twist::new(0.2, 0.3), 0.5);
+        let t = sim.t;
+        sim.bridge.estop(t);
+        sim.run_s(0.3);
+        let t = sim.t;
+        sim.bridge.reset(t);
+        sim.run_s(0.5);
+    }
+    assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
+    assert_eq!(sim.drive.stats().estops, 6, "one quick stop per node per e-stop");
+    assert_wire_is_clean(&sim.tap.wire_log(), ProtocolKind::Cia402);
+}
+
+#[test]
+fn cia402_estop_quick_stops_the_drive_at_0x6085() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    let v0 = sim.drive.axis(Wheel::Left).vel_radps;
+    assert!(v0 > 50.0, "{v0}");
+    let t = sim.t;
+    sim.bridge.estop(t);
+    let n = sim.tap.wire_log().len();
+    sim.run_s(0.001);
+    let after: Vec<CanFrame> = sim.tap.wire_log()[n - 3..].to_vec();
+    assert!(
+        after
+            .iter()
+            .any(|f| f.id == 0x201 && f.data[..6] == [0x02, 0, 0, 0, 0, 0]),
+        "{after:?}"
+    );
+    let mut slow = None;
+    for i in 0..600 {
+        sim.run_s(0.001);
+        if slow.is_none() && sim.drive.axis(Wheel::Left).vel_radps.abs() < 1.0 {
+            slow = Some(f64::from(i + 1) * 1e-3);
+        }
+    }
+    // The demand ramps down at 2000 rad/s² (0x6085) in v0 / 2000 s; the
+    // motor (first-order lag, τ = 0.05 s) follows within τ ln(v0 / 1 rad/s).
+    let s = slow.expect("slowed down");
+    let bound = v0 / 2000.0 + 0.05 * (v0 / 1.0).ln() + 0.02;
+    assert!(s < bound, "{s} s from {v0} rad/s, bound {bound}");
+    assert!(sim.drive.stats().estops >= 2);
+    assert_eq!(
+        sim.drive.cia402_node(Wheel::Left).unwrap().machine.state,
+        DriveState::SwitchOnDisabled
+    );
+}
+
+#[test]
+fn cia402_sdo_timeout_at_startup_is_reported_and_retried() {
+    let faults = vec!["sdo_silence@0+1".parse().unwrap()];
+    let mut sim = cia402_sim_with(bridge_config(ProtocolKind::Cia402), faults);
+    sim.run_s(1.0);
+    let r = reports(&mut sim);
+    assert!(
+        r.iter()
+            .any(|m| m == "node 1 start-up failed: SDO 0x1000:00: no response within 200 ms"),
+        "{r:?}"
+    );
+    assert_eq!(sim.bridge.state(), BridgeState::Starting, "{:?}", sim.bridge.reasons());
+    // startup_timeout_s (2 s) after the first attempt: retried, and it works.
+    sim.run_s(2.0);
+    assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
+    assert!(rpdos(&sim).iter().all(|r| r.3 == 0));
+    sim.stream(Twist::new(0.1, 0.0), 0.3);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+}
+
+#[test]
+fn cia402_sdo_abort_at_startup_latches_a_drive_fault_with_its_code() {
+    // The drive answers nothing; the test answers the device type, then aborts the next write.
+    let faults = vec!["sdo_silence@0+3".parse().unwrap()];
+    let mut sim = cia402_sim_with(bridge_config(ProtocolKind::Cia402), faults);
+    let mut answered = 0;
+    for _ in 0..300 {
+        sim.run_s(0.001);
+        for f in sim.tap.wire_log().into_iter().skip(answered) {
+            answered += 1;
+            if f.id != 0x601 {
+                continue;
+            }
+            let r = match co_sdo::decode_request(&f).unwrap() {
+                co_sdo::SdoRequest::Upload { addr } => co_sdo::SdoResponse::Uploaded {
+                    addr,
+                    value: co_sdo::SdoValue::u32(0x0002_0192),
+                },
+                co_sdo::SdoRequest::Download { addr, .. } => co_sdo::SdoResponse::Abort {
+                    addr,
+                    code: co_sdo::abort::INVALID_VALUE,
+                },
+                _ => continue,
+            };
+            sim.tap.send(&co_sdo::encode_response(1, &r)).unwrap();
+        }
+    }
+    let r = reports(&mut sim);
+    assert!(
+        r.iter().any(|m| m
+            == "node 1 start-up failed: SDO 0x1017:00 aborted by the drive: 0x06090030 (invalid value for parameter)"),
+        "{r:?}"
+    );
+    sim.run_s(2.0);
+    assert!(sim.has_reason("drive_fault"), "{:?}", sim.bridge.reasons());
+    let e = sim.bridge.status(sim.t);
+    assert_eq!(e.left.error_code, 0x0609_0030);
+    assert!(rpdos(&sim).iter().all(|r| r.3 == 0 && r.2 != 0x000F));
+    // Latched until reset; after the reset (the drive answers again) it starts.
+    sim.stream(Twist::new(0.1, 0.0), 1.0);
+    assert!(sim.has_reason("drive_fault"));
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.1, 0.0), 1.0);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+}
+
+#[test]
+fn cia402_reboot_while_driving_stops_within_a_period_and_restarts() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+    let t = sim.t;
+    sim.drive.inject(
+        FaultKind::Reboot {
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
+    let n = rpdos(&sim).len();
+    sim.stream(Twist::new(0.2, 0.0), 0.045);
+    // The boot-up is seen at once; the next period's RPDOs are zero.
+    let after = rpdos(&sim);
+    assert!(after[n..].iter().skip(2).all(|r| r.3 == 0), "{:?}", &after[n..]);
+    assert!(reports(&mut sim)
+        .iter()
+        .any(|m| m == "node 2 booted (boot-up message): restarting it"));
+    // Restarted (SDO, enable) and driving again with the fresh commands.
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+}
+
+#[test]
+fn cia402_bus_off_stops_and_recovers() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    let t = sim.t;
+    sim.bridge
+        .handle_bus_event(BusEvent::Error(CanErrorFrame::bus_off()), t);
+    sim.stream(Twist::new(0.2, 0.0), 0.03);
+    assert!(sim.has_reason("bus_error"));
+    assert_eq!(sim.bridge.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
+    let n = rpdos(&sim).len();
+    sim.stream(Twist::new(0.2, 0.0), 0.3);
+    assert!(rpdos(&sim)[n..].iter().all(|r| r.3 == 0));
+    // Drive frames show the bus is back: bus_recovery_s (0.5 s), restart, fresh commands.
+    sim.stream(Twist::new(0.2, 0.0), 1.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+}
+
+#[test]
+fn cia402_without_sync_and_with_a_preconfigured_mapping() {
+    let mut c = bridge_config(ProtocolKind::Cia402);
+    c.cia402.sync_producer = false;
+    c.cia402.pdo_mapping = can_bridge::protocol::cia402::PdoMapping::Preconfigured;
+    c.limits.wheel_accel_radps2 = 30.0;
+    c.limits.wheel_decel_radps2 = 30.0;
+    let mut sim = cia402_sim_with(c, Vec::new());
+    sim.run_s(0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
+    sim.stream(Twist::new(0.2, 0.0), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    let p = sim.bridge.odometry().pose;
+    assert!((p.x_m - 0.4).abs() < 2e-3 && p.y_m.abs() < 1e-3, "{p:?}");
+    let log = sim.tap.wire_log();
+    assert!(!log.iter().any(|f| f.id == 0x080), "no SYNC");
+    // No PDO configuration written: no SDO to 0x14xx-0x1Axx.
+    assert!(!log
+        .iter()
+        .filter(|f| f.id == 0x601)
+        .any(|f| (0x1400..=0x1BFF).contains(&u16::from_le_bytes([f.data[1], f.data[2]]))));
+    assert!(sim.bridge.odometry().updates > 250, "TPDO2 every 10 ms");
 }

@@ -10,6 +10,7 @@ mod common;
 
 use can_bridge::kinematics::WheelSpeeds;
 use can_bridge::limits::{clamp_twist, max_change, saturate_wheels, RampLimiter};
+use can_bridge::protocol::cia402::{self, pdo, sdo, state_machine};
 use can_bridge::protocol::generic::{self, GenericIds};
 use can_bridge::protocol::{odrive, DriveMessage, Protocol};
 use can_bridge::virtual_drive::VirtualDrive;
@@ -64,7 +65,7 @@ proptest! {
 
     #[test]
     fn no_input_ever_yields_a_bad_setpoint_on_the_wire(
-        protocol in prop_oneof![Just(ProtocolKind::Generic), Just(ProtocolKind::Odrive)],
+        protocol in prop_oneof![Just(ProtocolKind::Generic), Just(ProtocolKind::Odrive), Just(ProtocolKind::Cia402)],
         ops in proptest::collection::vec(op(), 1..60),
     ) {
         let mut c = bridge_config(protocol);
@@ -75,7 +76,8 @@ proptest! {
         let period = 1.0 / c.timing.tx_rate_hz;
         let d = drive_config(&c);
         let mut sim = Sim::new(c, d);
-        sim.run_s(0.3);
+        // CiA 402 starts over SDO (~0.25 s here): ready before the ops.
+        sim.run_s(0.5);
         for o in &ops {
             match *o {
                 Op::Command(v, w) => { let t = sim.t; let _ = sim.bridge.command(Twist::new(v, w), t); }
@@ -91,12 +93,18 @@ proptest! {
         let mut it = speeds.iter();
         while let (Some(&(0, ml)), Some(&(1, mr))) = (it.next(), it.next()) {
             let w = kin.to_wheel(can_bridge::MotorSpeeds { left_radps: ml, right_radps: mr });
-            let eps = 1e-4; // quantization (1e-5 rad/s at the motor) and f32 (ODrive)
+            // Quantization: 1e-5 rad/s at the motor and f32 (ODrive); CiA 402:
+            // half an rpm LSB (2π/120 rad/s) at the motor, over the gear.
+            let eps = match protocol {
+                ProtocolKind::Cia402 => std::f64::consts::TAU / 120.0 / kin.gear_ratio + 1e-9,
+                _ => 1e-4,
+            };
             prop_assert!(w.left_radps.abs() <= lim.max_wheel_speed_radps + eps, "{w:?}");
             prop_assert!(w.right_radps.abs() <= lim.max_wheel_speed_radps + eps, "{w:?}");
             let t = kin.twist(w);
-            prop_assert!(t.linear_mps.abs() <= lim.v_max_mps + 1e-5, "{t:?}");
-            prop_assert!(t.angular_radps.abs() <= lim.omega_max_radps + 1e-4, "{t:?}");
+            let r = kin.wheel_radius_m;
+            prop_assert!(t.linear_mps.abs() <= lim.v_max_mps + 1e-5 + eps * r, "{t:?}");
+            prop_assert!(t.angular_radps.abs() <= lim.omega_max_radps + 1e-4 + 2.0 * eps * r / kin.wheel_separation_m, "{t:?}");
             let stop = w.left_radps == 0.0 && w.right_radps == 0.0;
             if !stop {
                 for (a, b) in [(prev.left_radps, w.left_radps), (prev.right_radps, w.right_radps)] {
@@ -167,19 +175,105 @@ proptest! {
         let f = CanFrame { id, extended: false, data, len };
         let mut g = generic::GenericProtocol::new(0x100);
         let mut o = odrive::OdriveProtocol::new(0, 1, 0.0);
-        for p in [&mut g as &mut dyn Protocol, &mut o] {
+        let mut co = cia402::Cia402Protocol::new(can_bridge::config::default_config().cia402.settings());
+        for p in [&mut g as &mut dyn Protocol, &mut o, &mut co] {
             if let Ok(Some(DriveMessage::Feedback { motor_pos_rad, motor_vel_radps, .. })) = p.decode(&f) {
                 prop_assert!(motor_pos_rad.is_finite() && motor_vel_radps.is_finite());
             }
         }
         // The virtual drive swallows garbage too.
-        for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
-            let cfg = can_bridge::virtual_drive::VirtualDriveConfig { protocol, ..Default::default() };
+        for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive, ProtocolKind::Cia402] {
+            let (left_node_id, right_node_id) = if protocol == ProtocolKind::Cia402 { (1, 2) } else { (0, 1) };
+            let cfg = can_bridge::virtual_drive::VirtualDriveConfig { protocol, left_node_id, right_node_id, ..Default::default() };
             let mut d = VirtualDrive::new(cfg, can_bridge::Timestamp::ZERO);
             d.handle_frame(&f, can_bridge::Timestamp::from_secs_f64(0.01));
             let mut out = Vec::new();
             d.step(can_bridge::Timestamp::from_secs_f64(0.02), &mut out);
             prop_assert!(d.axis(can_bridge::Wheel::Left).vel_radps.is_finite());
+        }
+    }
+
+    #[test]
+    fn cia402_sdo_frames_round_trip(
+        index in any::<u16>(), sub in any::<u8>(), node in 1u8..=127, len in 1u8..=4, raw in any::<u32>(), code in any::<u32>(),
+    ) {
+        let addr = sdo::ObjectAddr::new(index, sub);
+        let mask = if len == 4 { u32::MAX } else { (1u32 << (8 * u32::from(len))) - 1 };
+        let value = sdo::SdoValue { bytes: (raw & mask).to_le_bytes(), len };
+        for req in [
+            sdo::SdoRequest::Download { addr, value },
+            sdo::SdoRequest::Upload { addr },
+            sdo::SdoRequest::Abort { addr, code },
+        ] {
+            let f = sdo::encode_request(node, &req);
+            prop_assert_eq!((f.id, f.len), (0x600 + u32::from(node), 8));
+            prop_assert_eq!(sdo::decode_request(&f), Ok(req));
+        }
+        for resp in [
+            sdo::SdoResponse::DownloadDone { addr },
+            sdo::SdoResponse::Uploaded { addr, value },
+            sdo::SdoResponse::Abort { addr, code },
+        ] {
+            let f = sdo::encode_response(node, &resp);
+            prop_assert_eq!(f.id, 0x580 + u32::from(node));
+            prop_assert_eq!(sdo::decode_response(&f), Ok(resp));
+        }
+    }
+
+    #[test]
+    fn cia402_pdos_round_trip(node in 1u8..=127, cw in any::<u16>(), v in any::<i32>(), sw in any::<u16>(), err in any::<u16>(), mode in any::<i8>(), pos in any::<i32>()) {
+        let r = pdo::Rpdo1 { controlword: cw, target_velocity: v };
+        prop_assert_eq!(pdo::decode_rpdo1(&pdo::encode_rpdo1(node, &r)), Ok(r));
+        let t1 = pdo::Tpdo1 { statusword: sw, error_code: err, mode_display: mode };
+        prop_assert_eq!(pdo::decode_tpdo1(&pdo::encode_tpdo1(node, &t1)), Ok(t1));
+        let t2 = pdo::Tpdo2 { position: pos, velocity: v };
+        prop_assert_eq!(pdo::decode_tpdo2(&pdo::encode_tpdo2(node, &t2)), Ok(t2));
+    }
+
+    /// Any statusword decodes to the state whose Table 5 pattern it matches
+    /// under that state's mask (0x4F or 0x6F), or to none.
+    #[test]
+    fn cia402_statusword_decoding_agrees_with_the_masks(word in any::<u16>()) {
+        use state_machine::DriveState as S;
+        let matches: Vec<S> = S::ALL
+            .into_iter()
+            .filter(|s| {
+                let mask = match s {
+                    S::NotReadyToSwitchOn | S::SwitchOnDisabled | S::FaultReactionActive | S::Fault => 0x004F,
+                    _ => 0x006F,
+                };
+                word & mask == s.statusword_bits()
+            })
+            .collect();
+        prop_assert!(matches.len() <= 1, "{word:#06X}: {matches:?}");
+        prop_assert_eq!(S::from_statusword(word), matches.first().copied());
+    }
+
+    /// Whatever the controlwords, the drive's machine reaches operation
+    /// enabled only by enable operation (0x0F pattern) from ready to switch
+    /// on / switched on, and leaves fault only by a bit-7 edge.
+    #[test]
+    fn cia402_drive_machine_enables_only_by_the_rules(words in proptest::collection::vec(any::<u16>(), 1..80), faults in any::<u64>()) {
+        use state_machine::{decode_controlword, Command, DriveMachine, DriveState as S};
+        let mut m = DriveMachine::new();
+        m.tick(true);
+        let mut last = 0u16;
+        for (i, w) in words.into_iter().enumerate() {
+            if faults >> (i % 64) & 1 == 1 && i % 7 == 0 {
+                m.fault();
+                m.tick(true);
+            }
+            let before = m.state;
+            m.on_controlword(w);
+            let after = m.state;
+            if after == S::OperationEnabled && before != S::OperationEnabled {
+                prop_assert!(matches!(before, S::ReadyToSwitchOn | S::SwitchedOn), "{before:?} 0x{w:04X}");
+                prop_assert_eq!(decode_controlword(w), Some(Command::EnableOperation));
+            }
+            if before == S::Fault && after != S::Fault {
+                prop_assert!(w & 0x80 != 0 && last & 0x80 == 0, "0x{last:04X} -> 0x{w:04X}");
+            }
+            last = w;
         }
     }
 }

@@ -1,7 +1,9 @@
 //! The bridge state machine (`can_bridge::Bridge` on a `FakeBus`) driven by
 //! fuzz bytes: received frames (arbitrary and well-formed ones), kernel
 //! error frames, commands, clock ticks, e-stop and reset, failing sends,
-//! in any order. Shared by both protocol targets.
+//! in any order. Shared by the three protocol targets (CiA 402: the fuzz
+//! input may also answer the bridge's last SDO request correctly, so the
+//! start-up can finish and the bridge reach operation enabled).
 //!
 //! Asserts: no panic; every frame the bridge puts on the bus is a valid
 //! frame that the drive side decodes, with a finite speed within the
@@ -15,6 +17,7 @@ use can_bridge::bus::{BusEvent, CanErrorFrame, CanFrame, SendError};
 use can_bridge::config::default_config;
 use can_bridge::diagnostics::StopReason;
 use can_bridge::fake_bus::FakeBus;
+use can_bridge::protocol::cia402::{nmt, pdo, sdo, state_machine::cw};
 use can_bridge::protocol::{generic, odrive, ProtocolKind};
 use can_bridge::{Bridge, BridgeConfig, Timestamp, Twist};
 use std::time::Duration;
@@ -56,14 +59,111 @@ fn drive_id_frame(u: &mut Unstructured<'_>, cfg: &BridgeConfig) -> Result<CanFra
             };
             odrive::arb_id(node, u32::from(u.arbitrary::<u8>()? % 32))
         }
+        ProtocolKind::Cia402 => {
+            let node = if u.arbitrary::<bool>()? {
+                cfg.cia402.left_node_id
+            } else {
+                cfg.cia402.right_node_id
+            };
+            [0x080, 0x180, 0x280, 0x580, 0x700][usize::from(u.arbitrary::<u8>()? % 5)] + node
+        }
     };
     Ok(f)
 }
 
+/// A CiA 402 drive frame that makes sense: a heartbeat, a TPDO1 in some
+/// state, TPDO2, or the right answer to the bridge's last SDO request.
+fn well_formed_cia402(
+    u: &mut Unstructured<'_>,
+    cfg: &BridgeConfig,
+    last_sdo: &[Option<CanFrame>; 2],
+) -> Result<CanFrame> {
+    let k = usize::from(u.arbitrary::<bool>()?);
+    let node = [cfg.cia402.left_node_id, cfg.cia402.right_node_id][k] as u8;
+    Ok(match u.arbitrary::<u8>()? % 8 {
+        0 => {
+            let state = [
+                nmt::NmtState::Operational,
+                nmt::NmtState::Operational,
+                nmt::NmtState::PreOperational,
+                nmt::NmtState::BootUp,
+            ][usize::from(u.arbitrary::<u8>()? % 4)];
+            nmt::heartbeat(node, state)
+        }
+        1 | 2 => {
+            let states = [
+                0x0027,
+                0x0027,
+                0x0040,
+                0x0021,
+                0x0023,
+                0x0008,
+                0x0007,
+                u.arbitrary::<u16>()?,
+            ];
+            pdo::encode_tpdo1(
+                node,
+                &pdo::Tpdo1 {
+                    statusword: states[usize::from(u.arbitrary::<u8>()? % 8)],
+                    error_code: if u.arbitrary::<u8>()? % 4 == 0 {
+                        u.arbitrary()?
+                    } else {
+                        0
+                    },
+                    mode_display: if u.arbitrary::<u8>()? % 8 == 0 {
+                        u.arbitrary()?
+                    } else {
+                        3
+                    },
+                },
+            )
+        }
+        3 => pdo::encode_tpdo2(
+            node,
+            &pdo::Tpdo2 {
+                position: u.arbitrary()?,
+                velocity: u.arbitrary()?,
+            },
+        ),
+        _ => match last_sdo[k].map(|f| sdo::decode_request(&f)) {
+            Some(Ok(sdo::SdoRequest::Upload { addr })) => sdo::encode_response(
+                node,
+                &sdo::SdoResponse::Uploaded {
+                    addr,
+                    value: sdo::SdoValue::u32(if u.arbitrary::<u8>()? % 8 == 0 {
+                        u.arbitrary()?
+                    } else {
+                        0x0002_0192
+                    }),
+                },
+            ),
+            Some(Ok(sdo::SdoRequest::Download { addr, .. })) if u.arbitrary::<u8>()? % 8 == 0 => sdo::encode_response(
+                node,
+                &sdo::SdoResponse::Abort {
+                    addr,
+                    code: u.arbitrary()?,
+                },
+            ),
+            Some(Ok(sdo::SdoRequest::Download { addr, .. })) => {
+                sdo::encode_response(node, &sdo::SdoResponse::DownloadDone { addr })
+            }
+            _ => nmt::heartbeat(node, nmt::NmtState::Operational),
+        },
+    })
+}
+
 /// A well-formed drive frame (status or feedback with valid CRC), so the
 /// bridge gets to run and send non-zero speeds.
-fn well_formed(u: &mut Unstructured<'_>, cfg: &BridgeConfig, counter: &mut u8) -> Result<CanFrame> {
+fn well_formed(
+    u: &mut Unstructured<'_>,
+    cfg: &BridgeConfig,
+    counter: &mut u8,
+    last_sdo: &[Option<CanFrame>; 2],
+) -> Result<CanFrame> {
     *counter = counter.wrapping_add(1);
+    if cfg.protocol == ProtocolKind::Cia402 {
+        return well_formed_cia402(u, cfg, last_sdo);
+    }
     let healthy = u.arbitrary::<u8>()? % 4 != 0;
     let right = u.arbitrary::<bool>()?;
     Ok(match cfg.protocol {
@@ -114,6 +214,7 @@ fn well_formed(u: &mut Unstructured<'_>, cfg: &BridgeConfig, counter: &mut u8) -
                 odrive::encoder_estimates(node, f64_of(u)?, f64_of(u)?)
             }
         }
+        ProtocolKind::Cia402 => unreachable!("handled above"),
     })
 }
 
@@ -143,6 +244,20 @@ fn config(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<BridgeConfig> 
         cfg.timing.tx_rate_hz = 1000.0;
         cfg.timing.cmd_timeout_s = 10.0;
     }
+    if flags & 16 != 0 {
+        cfg.cia402.left_node_id = 127;
+        cfg.cia402.right_node_id = 1;
+        cfg.cia402.bridge_node_id = 64;
+        cfg.cia402.sync_producer = false;
+        cfg.cia402.pdo_mapping = can_bridge::protocol::cia402::PdoMapping::Preconfigured;
+    }
+    if flags & 32 != 0 {
+        cfg.cia402.velocity_unit = can_bridge::protocol::cia402::units::VelocityUnit::CountsPerS;
+        cfg.cia402.velocity_resolution = 0.1;
+        cfg.cia402.counts_per_motor_rev = 1;
+        cfg.cia402.bridge_heartbeat_ms = 0;
+        cfg.cia402.drive_consumer_heartbeat_ms = 0;
+    }
     if cfg.validate().is_err() {
         cfg = default_config();
         cfg.protocol = kind;
@@ -162,6 +277,7 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
     let mut now = Timestamp::from_secs_f64(1.0);
     let mut bridge = Bridge::new(cfg.clone(), bus.clone(), now).expect("validated config");
     let mut counter = 0u8;
+    let mut last_sdo = [None; 2];
     let ops = 1 + usize::from(u.arbitrary::<u8>()?) % MAX_OPS;
     for _ in 0..ops {
         if u.is_empty() {
@@ -171,7 +287,7 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
             0 => bridge.handle_bus_event(BusEvent::Frame(any_frame(u)?), now),
             1 | 2 => bridge.handle_bus_event(BusEvent::Frame(drive_id_frame(u, &cfg)?), now),
             3..=5 => {
-                let f = well_formed(u, &cfg, &mut counter)?;
+                let f = well_formed(u, &cfg, &mut counter, &last_sdo)?;
                 bus.inject_frame(f);
                 bridge.poll_bus(now);
             }
@@ -208,7 +324,14 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
                 bridge.tick(now);
             }
         }
-        check_sent(&bus, &cfg, &bridge);
+        for f in check_sent(&bus, &cfg, &bridge) {
+            if let Some(k) = [cfg.cia402.left_node_id, cfg.cia402.right_node_id]
+                .iter()
+                .position(|n| f.id == sdo::COB_RX_BASE + n)
+            {
+                last_sdo[k] = Some(f);
+            }
+        }
     }
     bus.set_send_error(None);
     bridge.shutdown(now);
@@ -222,17 +345,23 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
     Ok(())
 }
 
-/// Checks every frame sent since the last call.
-fn check_sent(bus: &FakeBus, cfg: &BridgeConfig, bridge: &Bridge<FakeBus>) {
+/// Checks every frame sent since the last call; returns them.
+fn check_sent(bus: &FakeBus, cfg: &BridgeConfig, bridge: &Bridge<FakeBus>) -> Vec<CanFrame> {
     let max_wheel = cfg.limits.max_wheel_speed_radps;
     let max_motor = max_wheel * cfg.kinematics.gear_ratio;
     let estop = bridge.reasons().contains(&StopReason::Estop);
-    for f in bus.take_sent() {
+    let sent = bus.take_sent();
+    for &f in &sent {
         assert!(f.is_valid(), "invalid frame sent: {f:?}");
         if let Some(v) = sent_speed(&f, cfg) {
             assert!(v.is_finite(), "non-finite speed in {f:?}");
-            // 1e-5 rad/s: the generic Vel field's resolution; f32 rounding for ODrive.
-            let tol = 1e-5 + max_motor * 1e-6;
+            // 1e-5 rad/s: the generic Vel field's resolution; f32 rounding for ODrive;
+            // half a drive velocity unit for CiA 402.
+            let half_lsb = match cfg.protocol {
+                ProtocolKind::Cia402 => 0.5 / cfg.cia402.scaling().units_per_radps(),
+                _ => 0.0,
+            };
+            let tol = 1e-5 + max_motor * 1e-6 + half_lsb;
             assert!(
                 v.abs() <= max_motor + tol,
                 "motor speed {v} rad/s beyond {max_motor} in {f:?}"
@@ -261,6 +390,7 @@ fn check_sent(bus: &FakeBus, cfg: &BridgeConfig, bridge: &Bridge<FakeBus>) {
         w.max_abs() <= max_wheel * (1.0 + 1e-12),
         "setpoint {w:?} beyond {max_wheel}"
     );
+    sent
 }
 
 /// The motor speed (rad/s) a sent frame asks for, if it carries one; panics
@@ -290,6 +420,40 @@ fn sent_speed(f: &CanFrame, cfg: &BridgeConfig) -> Option<f64> {
                 }
                 Some(_) => None,
                 None => panic!("sent frame {f:?} is no ODrive command"),
+            }
+        }
+        ProtocolKind::Cia402 => {
+            let c = &cfg.cia402;
+            let ours = |n: u32| n == c.left_node_id || n == c.right_node_id;
+            match (f.id & !0x7F, f.id & 0x7F) {
+                (0x000, 0) => {
+                    assert!(nmt::decode_nmt(f).is_some_and(|(_, n)| ours(u32::from(n))), "NMT {f:?}");
+                    None
+                }
+                (0x080, 0) => {
+                    assert!(c.sync_producer && f.len == 0, "SYNC {f:?}");
+                    None
+                }
+                (0x600, n) if ours(n) => {
+                    sdo::decode_request(f).unwrap_or_else(|e| panic!("the drive rejects SDO {f:?}: {e}"));
+                    None
+                }
+                (0x700, n) if n == c.bridge_node_id => {
+                    assert_eq!((f.len, f.data[0]), (1, 0x05), "bridge heartbeat {f:?}");
+                    None
+                }
+                (0x200, n) if ours(n) => {
+                    let r = pdo::decode_rpdo1(f).unwrap_or_else(|e| panic!("RPDO1 {f:?}: {e}"));
+                    // Motion only with enable operation.
+                    assert!(
+                        r.target_velocity == 0 || r.controlword == cw::ENABLE_OPERATION,
+                        "target {} with controlword 0x{:04X}",
+                        r.target_velocity,
+                        r.controlword
+                    );
+                    Some(c.scaling().velocity_from_drive(r.target_velocity))
+                }
+                _ => panic!("sent frame {f:?} is no CANopen frame of the bridge"),
             }
         }
     }

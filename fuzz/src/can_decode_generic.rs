@@ -71,6 +71,7 @@ fn decoders(data: &[u8]) {
                 ..
             })) => assert!(motor_pos_rad.is_finite() && motor_vel_radps.is_finite()),
             Ok(Some(DriveMessage::Status { raw_state, .. })) => assert!(raw_state <= generic::STATE_FAULT),
+            Ok(Some(other)) => panic!("the generic protocol never produces {other:?}"),
             Ok(None) | Err(_) => {}
         }
     }

@@ -60,6 +60,7 @@ fn decoders(data: &[u8]) {
             Ok(Some(DriveMessage::Status { wheels, .. })) => {
                 let _ = wheels;
             }
+            Ok(Some(other)) => panic!("CANSimple never produces {other:?}"),
             Ok(None) | Err(_) => {}
         }
         if let Ok(Some(odrive::Command::SetInputVel { vel_turns_per_s, .. })) = odrive::decode_command(&f) {

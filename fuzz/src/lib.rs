@@ -5,6 +5,7 @@
 //! promises (finite commands inside the limits, validated configs, ...).
 
 pub mod can_decode;
+pub mod can_decode_cia402;
 pub mod can_decode_generic;
 pub mod can_decode_odrive;
 pub mod carmen_parse;

@@ -24,6 +24,7 @@ import os
 import re
 import signal
 import statistics
+import struct
 import subprocess
 import sys
 import tempfile
@@ -53,6 +54,11 @@ L_M, R_M, GEAR = 0.16, 0.033, 10.0
 DIR_L, DIR_R = 1.0, -1.0
 V_MAX, W_MAX, WHEEL_MAX = 0.5, 5.0, 30.0
 TX_RATE_HZ = 50.0
+# CiA 402 (EPOS-like units: rpm, 4096 counts per motor turn).
+CO_NODES = (1, 2)
+CO_COUNTS = 4096
+CO_ACCEL, CO_QS = 1000.0, 2000.0  # motor rad/s²
+CO_DRIVE_HB_MS, CO_BRIDGE_ID, CO_BRIDGE_HB_MS, CO_CONSUMER_MS = 100, 127, 100, 300
 
 
 def motor_speeds(v, w):
@@ -91,6 +97,23 @@ odrive:
   left_node_id: 3
   right_node_id: 5
   torque_ff_nm: 0.05
+cia402:
+  left_node_id: {CO_NODES[0]}
+  right_node_id: {CO_NODES[1]}
+  counts_per_motor_rev: {CO_COUNTS}
+  velocity_unit: rpm
+  velocity_resolution: 1.0
+  profile_accel_radps2: {CO_ACCEL}
+  profile_decel_radps2: {CO_ACCEL}
+  quick_stop_decel_radps2: {CO_QS}
+  pdo_mapping: configure
+  sync_producer: true
+  tpdo_event_ms: 10
+  drive_heartbeat_ms: {CO_DRIVE_HB_MS}
+  bridge_node_id: {CO_BRIDGE_ID}
+  bridge_heartbeat_ms: {CO_BRIDGE_HB_MS}
+  drive_consumer_heartbeat_ms: {CO_CONSUMER_MS}
+  sdo_timeout_s: 0.5
 """)
 
 
@@ -118,8 +141,9 @@ def rcv_count(iface):
         return 0
 
 
-def run_session(bins, protocol, script_text, drive_args, tmp):
-    """candump + virtual_drive + can_bridge_cli --script; returns (frames, cli json lines, wall s)."""
+def run_session(bins, protocol, script_text, drive_args, tmp, drive_cmd=None):
+    """candump + a drive (virtual_drive, or `drive_cmd`: started, then awaited until it prints
+    "ready") + can_bridge_cli --script; returns (frames, cli json lines, wall s)."""
     cfg = os.path.join(tmp, f"{protocol}.yaml")
     write_config(cfg, protocol)
     script = os.path.join(tmp, f"{protocol}.script")
@@ -128,15 +152,24 @@ def run_session(bins, protocol, script_text, drive_args, tmp):
     dump = os.path.join(tmp, f"{protocol}.candump")
     t0 = time.monotonic()
     before = rcv_count("vcan0")
-    cd = subprocess.Popen(["candump", "-L", "vcan0"], stdout=open(dump, "w"), stderr=subprocess.STDOUT)
+    cd = subprocess.Popen(["candump", "-r", "8388608", "-L", "vcan0"], stdout=open(dump, "w"), stderr=subprocess.STDOUT)
     for _ in range(200):
         if rcv_count("vcan0") > before:
             break
         time.sleep(0.025)
-    drive = subprocess.Popen(
-        [os.path.join(bins, "virtual_drive"), "--config", cfg, "--time-constant-s", "0.02"] + drive_args,
-        stdout=subprocess.DEVNULL, stderr=open(os.path.join(tmp, f"{protocol}.drive.log"), "w"))
-    time.sleep(0.3)
+    drive_log = os.path.join(tmp, f"{protocol}.drive.log")
+    if drive_cmd is None:
+        drive = subprocess.Popen(
+            [os.path.join(bins, "virtual_drive"), "--config", cfg, "--time-constant-s", "0.02"] + drive_args,
+            stdout=subprocess.DEVNULL, stderr=open(drive_log, "w"))
+        time.sleep(0.3)
+    else:
+        drive = subprocess.Popen(drive_cmd, stdout=subprocess.PIPE, stderr=open(drive_log, "w"), text=True)
+        # python-canopen's import takes seconds under emulation: wait for it, loudly.
+        line = drive.stdout.readline()
+        if "ready" not in line:
+            drive.kill()
+            raise RuntimeError(f"{drive_cmd[1]} did not start: {line!r}; {open(drive_log).read()[-800:]}")
     cli = subprocess.run(
         [os.path.join(bins, "can_bridge_cli"), "--config", cfg, "--script", script, "--status-rate-hz", "2"],
         capture_output=True, text=True, timeout=120)
@@ -457,6 +490,246 @@ def check_odrive(bins, tmp):
           f"{len(hb)} heartbeats, {len(enc)} encoder estimates")
 
 
+# ----------------------------------------------------------------- cia402
+CO_SCRIPT = """# cia402 protocol check against python-canopen drives
+0.0 0.2 0.5 every 0.05 until 2.5
+2.5 0 0 every 0.05 until 3.0
+3.0 reset
+3.4 -0.1 0.3 every 0.05 until 4.4
+4.4 0 0 every 0.05 until 4.6
+4.6 estop
+4.7 0.2 0.5 every 0.05 until 5.0
+5.1 reset
+5.5 0.1 0.0 every 0.05 until 6.0
+6.0 0 0 every 0.05 until 6.2
+6.2 quit
+"""
+CO_RPM_PER_RADPS = 60.0 / TAU
+CO_FAULT_CODE = 0x2310  # CiA 402: continuous over-current
+
+
+def round_half_away(x):
+    return int(math.floor(abs(x) + 0.5)) * (1 if x >= 0 else -1)
+
+
+def co_expected_writes():
+    """The SDO writes of one start-up, by hand from the config above and CiA 301/402."""
+    accel = round_half_away(CO_ACCEL * CO_RPM_PER_RADPS)  # 9549 rpm/s
+    qs = round_half_away(CO_QS * CO_RPM_PER_RADPS)  # 19099 rpm/s
+    return {
+        (0x1017, 0): CO_DRIVE_HB_MS,
+        (0x1016, 1): (CO_BRIDGE_ID << 16) | CO_CONSUMER_MS,
+        (0x6060, 0): 3,
+        (0x6083, 0): accel, (0x6084, 0): accel, (0x6085, 0): qs,
+        (0x1600, 1): 0x60400010, (0x1600, 2): 0x60FF0020, (0x1600, 0): 2,
+        (0x1A00, 1): 0x60410010, (0x1A00, 2): 0x603F0010, (0x1A00, 3): 0x60610008, (0x1A00, 0): 3,
+        (0x1A01, 1): 0x60640020, (0x1A01, 2): 0x606C0020, (0x1A01, 0): 2,
+        (0x1400, 2): 1, (0x1800, 2): 1, (0x1801, 2): 1,
+    }
+
+
+def co_state(sw):
+    """CiA 402 Table 5."""
+    if sw & 0x4F == 0x08:
+        return "fault"
+    if sw & 0x6F == 0x27:
+        return "operation_enabled"
+    if sw & 0x4F == 0x40:
+        return "switch_on_disabled"
+    return {0x21: "ready_to_switch_on", 0x23: "switched_on", 0x07: "quick_stop_active"}.get(sw & 0x6F, "other")
+
+
+def check_cia402(bins, tmp):
+    import canopen  # noqa: F401 (the independent drive's library; its version goes in the report)
+    eds = os.path.join(ROOT, "can_bridge", "eds", "oldbf_cia402_drive.eds")
+    report = os.path.join(tmp, "cia402_drive.json")
+    drive_cmd = [sys.executable, os.path.join(ROOT, "tests", "can", "cia402_drive.py"), "--channel", "vcan0",
+                 "--eds", eds, "--nodes", str(CO_NODES[0]), str(CO_NODES[1]), "--out", report,
+                 "--fault-node", str(CO_NODES[0]), "--fault-code", hex(CO_FAULT_CODE), "--fault-after-s", "0.6"]
+    frames, lines, wall = run_session(bins, "cia402", CO_SCRIPT, [], tmp, drive_cmd=drive_cmd)
+    RESULTS["cia402_session_s"] = round(wall, 2)
+    check(os.path.exists(report), "cia402: the python-canopen drives ran and wrote their report",
+          f"python-canopen {canopen.__version__}, EDS can_bridge/eds/oldbf_cia402_drive.eds")
+    rep = json.load(open(report)) if os.path.exists(report) else {"axes": [], "faulted": False}
+    nodes = {n: i for i, n in enumerate(CO_NODES)}
+
+    # 1. Every frame is one CiA 301 service of ours or of the two drives, with its length.
+    ev, bad = [], []
+    for ts, ident, ext, data in frames:
+        base, node = ident & ~0x7F, ident & 0x7F
+        kind = None
+        if ext:
+            pass
+        elif ident == 0x000 and len(data) == 2:
+            kind = "nmt"
+        elif ident == 0x080 and len(data) == 0:
+            kind = "sync"
+        elif ident == 0x700 + CO_BRIDGE_ID and len(data) == 1:
+            kind = "bridge_hb"
+        elif node in nodes:
+            kind = {(0x080, 8): "emcy", (0x180, 5): "tpdo1", (0x280, 8): "tpdo2", (0x200, 6): "rpdo1",
+                    (0x580, 8): "sdo_resp", (0x600, 8): "sdo_req", (0x700, 1): "hb"}.get((base, len(data)))
+        if kind is None:
+            bad.append(f"0x{ident:X}#{data.hex()}")
+            continue
+        ev.append((ts, kind, node, data))
+    check(not bad and len(ev) > 500, "cia402: every frame is NMT, SYNC, heartbeat, SDO, EMCY or a PDO of nodes 1/2 with its length",
+          f"{len(ev)} frames; unexpected {bad[:5]}")
+
+    def u16(d, at):
+        return struct.unpack_from("<H", d, at)[0]
+
+    def i32(d, at):
+        return struct.unpack_from("<i", d, at)[0]
+
+    rpdo = [(t, n, u16(d, 0), i32(d, 2)) for t, k, n, d in ev if k == "rpdo1"]
+    tpdo1 = [(t, n, u16(d, 0), u16(d, 2), struct.unpack_from("<b", d, 4)[0]) for t, k, n, d in ev if k == "tpdo1"]
+    nmt = [(t, d[0], d[1]) for t, k, _, d in ev if k == "nmt"]
+
+    # 2. The first start-up: NMT pre-operational, SDO (each answered before the next), NMT start.
+    want = co_expected_writes()
+    details, ok = [], True
+    for node in CO_NODES:
+        pre = next((t for t, c, n in nmt if c == 0x80 and n == node), None)
+        start = next((t for t, c, n in nmt if c == 0x01 and n == node), None)
+        sdo = [(t, k, d) for t, k, n, d in ev if n == node and k in ("sdo_req", "sdo_resp") and start and t <= start]
+        writes, unanswered, aborts, upload = {}, 0, [], None
+        for j, (t, k, d) in enumerate(sdo):
+            addr = (u16(d, 1), d[3])
+            if k == "sdo_req":
+                nxt = sdo[j + 1] if j + 1 < len(sdo) else None
+                if nxt is None or nxt[1] != "sdo_resp" or (u16(nxt[2], 1), nxt[2][3]) != addr:
+                    unanswered += 1
+                if d[0] in (0x23, 0x27, 0x2B, 0x2F):
+                    size = 4 - ((d[0] >> 2) & 3)
+                    writes[addr] = int.from_bytes(d[4:4 + size], "little", signed=addr == (0x6060, 0))
+                elif d[0] == 0x40:
+                    upload = addr
+            elif d[0] == 0x80:
+                aborts.append(f"0x{addr[0]:04X}:{addr[1]:02X} 0x{struct.unpack_from('<I', d, 4)[0]:08X}")
+        wrong = {f"0x{a[0]:04X}:{a[1]:02X}": (writes.get(a), v) for a, v in want.items() if writes.get(a) != v}
+        good = (pre is not None and start is not None and sdo and sdo[0][0] > pre and not unanswered and not aborts
+                and not wrong and upload == (0x1000, 0))
+        ok &= bool(good)
+        details.append(f"node {node}: {len([x for x in sdo if x[1] == 'sdo_req'])} SDO requests, unanswered {unanswered}, "
+                       f"aborts {aborts}, mismatches {wrong}, read {None if upload is None else f'0x{upload[0]:04X}:{upload[1]:02X}'}")
+    check(ok, "cia402: start-up = NMT pre-operational, read 0x1000, expedited writes (0x1017, 0x1016:01, 0x6060 = 3, "
+              "0x6083/4/5 = 9549/9549/19099 rpm/s, PDO mapping and types), each answered by python-canopen, then NMT start",
+          "; ".join(details))
+
+    # 3. The python-canopen drives hold what the bridge wrote (their SDO server accepted it).
+    ok, details = True, []
+    for ax in rep["axes"]:
+        got = ax["written"]
+        miss = {k: v for (i, s), v in want.items() for k in [f"0x{i:04X}:{s:02X}"] if got.get(k) != v}
+        ok &= not miss and ax["counters"]["pdo_reads"] >= 1
+        details.append(f"node {ax['node']}: mismatches {miss}, PDO maps read back {ax['counters']['pdo_reads']} times, "
+                       f"{ax['counters']['rpdos']} RPDOs, {ax['counters']['syncs']} SYNCs")
+    check(ok and len(rep["axes"]) == 2, "cia402: python-canopen's dictionaries hold the written values; its PDO maps come from them",
+          "; ".join(details))
+
+    # 4. Enabling: shutdown, switch on, enable operation, zero target until operation enabled.
+    ok, details = True, []
+    for node in CO_NODES:
+        r = [x for x in rpdo if x[1] == node]
+        enables = [j for j in range(len(r)) if r[j][2] == 0x000F and (j == 0 or r[j - 1][2] != 0x000F)]
+        for j in enables:
+            # Since the last stop point: quick stop, fault reset, or the end of the previous enabled run.
+            k = max([m for m in range(j) if r[m][2] in (0x0002, 0x0080, 0x000F)], default=-1)
+            seq = [x[2] for x in r[k + 1:j]]
+            good = (0x0006 in seq and 0x0007 in seq
+                    and len(seq) - 1 - seq[::-1].index(0x0006) < len(seq) - 1 - seq[::-1].index(0x0007))
+            good &= all(x[3] == 0 for x in r[k + 1:j + 1])
+            # Zero until the drive's statusword says operation enabled.
+            t_on = next((t for t, n, sw, _, _ in tpdo1 if n == node and t > r[j][0] and co_state(sw) == "operation_enabled"), None)
+            moving_early = [x for x in r[j:] if x[3] != 0 and (t_on is None or x[0] < t_on)]
+            good &= not moving_early
+            ok &= good
+            details.append(f"node {node} enable #{enables.index(j) + 1}: words {[hex(x) for x in seq[-4:]]}, early motion {len(moving_early)}")
+        ok &= len(enables) >= 3
+    enabled_nonzero = sum(ax["counters"]["enabled_with_nonzero_target"] for ax in rep["axes"])
+    check(ok and enabled_nonzero == 0, "cia402: controlword 0x0006 -> 0x0007 -> 0x000F at zero target velocity; "
+          "no motion before the statusword says operation enabled (boot, after the fault reset, after the e-stop reset)",
+          "; ".join(details) + f"; drive counted {enabled_nonzero} enables with a non-zero target")
+
+    # 5. Target velocities = kinematics x gear x 60/2π, rounded (rpm).
+    ok, details = True, []
+    for node, wheel in nodes.items():
+        vals = [x[3] for x in rpdo if x[1] == node]
+        nz = [(k, n) for k, n, _ in runs(vals) if k != 0]
+        exp = [round_half_away(motor_speeds(v, w)[wheel] * CO_RPM_PER_RADPS) for v, w in ((0.2, 0.5), (-0.1, 0.3), (0.1, 0.0))]
+        got = [k for k, n in nz if n >= 5]
+        good = exp[0] in got and exp[1] in got and exp[2] in got and set(got) <= set(exp)
+        ok &= good
+        details.append(f"node {node}: runs {got}, want {exp} rpm")
+    check(ok, "cia402: target velocity 0x60FF = direction x gear x wheel speed x 60/2π rpm, rounded (3 segments)",
+          "; ".join(details))
+
+    # 6. The drive fault: zero at once, reported, latched until reset; then fault reset (bit 7 edge).
+    t_fault = next((t for t, n, sw, err, _ in tpdo1 if n == CO_NODES[0] and co_state(sw) == "fault"), None)
+    fault_err = next((err for t, n, sw, err, _ in tpdo1 if n == CO_NODES[0] and co_state(sw) == "fault"), None)
+    ok = rep.get("faulted") and t_fault is not None
+    if ok:
+        T = 1.0 / TX_RATE_HZ
+        after = [x for x in rpdo if x[0] > t_fault + 2 * T]
+        first_reset = next((x for x in rpdo if x[0] > t_fault and x[2] == 0x0080), None)
+        until = first_reset[0] if first_reset else float("inf")
+        moving = [x for x in after if x[0] < until and x[3] != 0]
+        ev_names = [l.get("event") for l in lines if l.get("type") == "event"]
+        latched = [l for l in lines if l.get("event") == "drive_fault_latched"]
+        emcy = [d for t, k, n, d in ev if k == "emcy" and n == CO_NODES[0]]
+        reported = any("fault, error code 0x2310" in (l.get("message") or "") for l in lines)
+        ok = (fault_err == CO_FAULT_CODE and not moving and first_reset is not None and latched
+              and latched[0]["error_code"] == CO_FAULT_CODE and emcy and u16(emcy[0], 0) == CO_FAULT_CODE and reported
+              and "reset" in ev_names)
+        # Back to operation enabled after the reset: a new enable sequence on node 1.
+        re_enable = first_reset is not None and any(x[0] > first_reset[0] and x[1] == CO_NODES[0] and x[2] == 0x000F for x in rpdo)
+        ok &= re_enable
+        check(ok, "cia402: drive fault (statusword fault, 0x603F 0x2310, EMCY) -> zero targets within 2 periods, "
+                  "drive_fault latched and reported, no fault reset until ~reset, then 0x0080 and a new enable sequence",
+              f"fault at {t_fault:.3f}; non-zero targets after {len(moving)}; EMCY {[hex(u16(d, 0)) for d in emcy]}; "
+              f"latched {[(l['wheel'], hex(l['error_code'])) for l in latched]}; first fault reset "
+              f"{None if first_reset is None else round(first_reset[0] - t_fault, 3)} s after the fault; re-enabled {re_enable}")
+    else:
+        check(False, "cia402: drive fault injected by the python drive", f"faulted {rep.get('faulted')}, seen {t_fault}")
+
+    # 7. E-stop: quick stop (0x0002) to both nodes, zero until the restart after reset.
+    qs = [x for x in rpdo if x[2] == 0x0002]
+    ok = {x[1] for x in qs} == set(CO_NODES)
+    if ok:
+        t_qs = qs[0][0]
+        nxt = next((x[0] for x in rpdo if x[0] > t_qs and x[2] == 0x000F), float("inf"))
+        moving = [x for x in rpdo if t_qs <= x[0] < nxt and x[3] != 0]
+        quick = sum(ax["counters"]["quick_stops"] for ax in rep["axes"])
+        ok = not moving and nxt < float("inf") and quick >= 2
+        check(ok, "cia402: e-stop = controlword quick stop 0x0002 to both nodes (python drives: quick stop active), "
+                  "zero targets until the enable sequence after reset",
+              f"{len(qs)} quick-stop RPDOs, non-zero before the restart {len(moving)}, drive quick stops {quick}")
+    else:
+        check(False, "cia402: e-stop sends quick stop to both nodes", f"{len(qs)} frames")
+
+    # 8. Shutdown, SYNC, heartbeats.
+    last = {n: [x for x in rpdo if x[1] == n][-1:] for n in CO_NODES}
+    ok = all(v and v[0][2] == 0x0006 and v[0][3] == 0 for v in last.values())
+    check(ok, "cia402: shutdown = controlword 0x0006 with target 0 to each node (last RPDO)",
+          f"{ {n: (hex(v[0][2]), v[0][3]) if v else None for n, v in last.items()} }")
+    seq = [(k, n) for _, k, n, _ in ev if k in ("rpdo1", "sync")]
+    bad_sync = sum(1 for j, (k, _) in enumerate(seq) if k == "sync" and
+                   (j < 2 or {seq[j - 1], seq[j - 2]} != {("rpdo1", CO_NODES[0]), ("rpdo1", CO_NODES[1])}))
+    hb = [t for t, k, _, d in ev if k == "bridge_hb" and d[0] == 0x05]
+    iv = [b - a for a, b in zip(hb, hb[1:])]
+    mean_ms = statistics.mean(iv) * 1e3 if iv else 0.0
+    drive_hb = {n: sum(1 for t, k, m, _ in ev if k == "hb" and m == n) for n in CO_NODES}
+    ok = bad_sync == 0 and len(hb) > 20 and abs(mean_ms - CO_BRIDGE_HB_MS) < 0.1 * CO_BRIDGE_HB_MS and min(drive_hb.values()) > 20
+    check(ok, "cia402: SYNC right after each period's two RPDOs; the bridge's heartbeat 0x77F (operational) every 100 ms; "
+              "the drives' heartbeats (0x1017 = 100 ms)",
+          f"{bad_sync} misplaced SYNC; bridge heartbeat mean period {mean_ms:.1f} ms over {len(hb)}; drive heartbeats {drive_hb}")
+    final = [l for l in lines if l.get("type") == "final"]
+    odo = final[0].get("odometry") if final else None
+    check(bool(odo) and odo["updates"] > 50 and all(math.isfinite(v) for v in odo["pose"].values()),
+          "cia402: odometry from TPDO2 (0x6064 counts, 0x606C rpm) integrates", f"{odo}")
+
+
 def check_stdin(bins, tmp):
     """The interactive path: commands typed on stdin, JSON lines out."""
     cfg = os.path.join(tmp, "stdin.yaml")
@@ -496,6 +769,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin-dir", required=True, help="directory with can_bridge_cli and virtual_drive")
     ap.add_argument("--summary", help="write a JSON summary here")
+    ap.add_argument("--only", nargs="*", help="run only these checks (generic, odrive, cia402, stdin)")
     a = ap.parse_args()
     for b in ("can_bridge_cli", "virtual_drive"):
         if not os.access(os.path.join(a.bin_dir, b), os.X_OK):
@@ -504,7 +778,10 @@ def main():
         check(False, "vcan0 exists (run inside tests/vm/run-in-vm.sh)")
     if not FAILS:
         with tempfile.TemporaryDirectory() as tmp:
-            for name, fn in (("generic", check_generic), ("odrive", check_odrive), ("stdin", check_stdin)):
+            for name, fn in (("generic", check_generic), ("odrive", check_odrive), ("cia402", check_cia402),
+                             ("stdin", check_stdin)):
+                if a.only and name not in a.only:
+                    continue
                 try:
                     fn(a.bin_dir, tmp)
                 except Exception as e:  # noqa: BLE001

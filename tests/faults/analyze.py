@@ -17,6 +17,7 @@ import json
 import math
 import os
 import re
+import struct
 import sys
 
 import cantools
@@ -61,16 +62,42 @@ def check(ok, what):
 
 
 # ---------------------------------------------------------------- capture
-frames = []  # (t, node, cmd, decoded dict)
+raw = []  # [t, can_id, data]
+dropped = 0  # candump -d: frames the kernel dropped from candump's socket
+for line in open(os.path.join(OUT, "candump.log")):
+    d = re.search(r"DROPCOUNT: dropped (\d+)", line)
+    if d:
+        dropped += int(d.group(1))
+    m = re.match(r"\((\d+\.\d+)\) \S+ ([0-9A-F]+)#([0-9A-F]*)", line.strip())
+    if m:
+        raw.append([float(m.group(1)), int(m.group(2), 16), bytes.fromhex(m.group(3))])
+
+events = [json.loads(l) for l in open(os.path.join(OUT, "events.jsonl")) if l.strip()]
+# Undo the clock step: J seconds added to everything after it.
+jump = next((e for e in events if e["mode"] == "clock_jump"), None)
+J = jump.get("J", jump["t_before"] - jump["t"]) if jump else 0.0  # exact: from realtime - monotonic
+if jump:
+    idx = next((i for i in range(1, len(raw)) if raw[i][0] < raw[i - 1][0] - 5.0), None)
+    if idx is not None:
+        for f in raw[idx:]:
+            f[0] += J
+    after = False
+    for e in events:
+        if after:
+            e["t"] += J
+        if e is jump:
+            after = True
+            e["t_before_fix"] = e["t"]
+            e["t"] = e["t_before"]  # the moment of the step, on the old time line
+
+# The ODrive part of the run, then the CiA 402 part (from the event co_bridge:
+# the cia402 bridge starts before its drive).
+co_start = next((e["t"] for e in events if e["mode"] == "co_bridge"), float("inf"))
+frames = []  # (t, node, cmd, decoded dict): ODrive
+co_raw = [r for r in raw if r[0] >= co_start]
 nonfinite = []
 undecodable = 0
-raw_times = []
-for line in open(os.path.join(OUT, "candump.log")):
-    m = re.match(r"\((\d+\.\d+)\) \S+ ([0-9A-F]+)#([0-9A-F]*)", line.strip())
-    if not m:
-        continue
-    t, can_id, data = float(m.group(1)), int(m.group(2), 16), bytes.fromhex(m.group(3))
-    raw_times.append(t)
+for t, can_id, data in (r for r in raw if r[0] < co_start):
     if can_id & 0x20000000:
         continue  # an injected error frame
     node, cmd = can_id >> 5, can_id & 0x1F
@@ -93,23 +120,6 @@ for line in open(os.path.join(OUT, "candump.log")):
             nonfinite.append((t, hex(can_id), k, v))
     frames.append([t, node, cmd, d])
 
-events = [json.loads(l) for l in open(os.path.join(OUT, "events.jsonl")) if l.strip()]
-# Undo the clock step: J seconds added to everything after it.
-jump = next((e for e in events if e["mode"] == "clock_jump"), None)
-J = jump.get("J", jump["t_before"] - jump["t"]) if jump else 0.0  # exact: from realtime - monotonic
-if jump:
-    idx = next((i for i in range(1, len(frames)) if frames[i][0] < frames[i - 1][0] - 5.0), None)
-    if idx is not None:
-        for f in frames[idx:]:
-            f[0] += J
-    after = False
-    for e in events:
-        if after:
-            e["t"] += J
-        if e is jump:
-            after = True
-            e["t_before_fix"] = e["t"]
-            e["t"] = e["t_before"]  # the moment of the step, on the old time line
 diag = [json.loads(l) for l in open(os.path.join(OUT, "diag.jsonl")) if l.strip()] if os.path.exists(os.path.join(OUT, "diag.jsonl")) else []
 # Diagnostics: the recorder writes in arrival order; undo the step the same way.
 if jump:
@@ -123,9 +133,34 @@ def ev(mode):
     return next((e for e in events if e["mode"] == mode), None)
 
 
+# CiA 402 (after co_start): RPDO1 = controlword u16, target velocity i32 (rpm
+# at the motor, config cia402.velocity_unit); the node ids from the config.
+co_cfg = bridge_cfg["cia402"]
+CO_NODES = {co_cfg["left_node_id"]: 0, co_cfg["right_node_id"]: 1}
+co_rpdo = []  # (t, wheel index, controlword, target)
+co_bad = []
+for t, can_id, data in co_raw:
+    if can_id & 0x20000000:
+        continue
+    base, n = can_id & ~0x7F, can_id & 0x7F
+    ok_len = {0x000: 2, 0x080: 0 if n == 0 else 8, 0x180: 5, 0x280: 8, 0x200: 6, 0x580: 8, 0x600: 8, 0x700: 1}.get(base)
+    if ok_len is None or len(data) != ok_len or (n not in CO_NODES and can_id not in (0x000, 0x080, 0x700 + co_cfg["bridge_node_id"])):
+        co_bad.append(f"0x{can_id:X}#{data.hex()}")
+        continue
+    if base == 0x200:
+        cw, target = struct.unpack_from("<Hi", data)
+        co_rpdo.append((t, CO_NODES[n], cw, target))
+
+
 def setpoints(t0, t1):
-    """Set_Input_Vel frames (t, node, turns/s) in [t0, t1)."""
-    return [(f[0], f[1], f[3].get("Input_Vel")) for f in frames if f[2] == 0x0D and t0 <= f[0] < t1]
+    """Velocity setpoints (t, wheel index, motor turns/s) in [t0, t1): ODrive
+    Set_Input_Vel (node ids 0/1), then CiA 402 RPDO1 targets (rpm / 60)."""
+    out = [(f[0], f[1], f[3].get("Input_Vel")) for f in frames if f[2] == 0x0D and t0 <= f[0] < t1]
+    return out + [(t, w, v / 60.0) for t, w, _, v in co_rpdo if t0 <= t < t1]
+
+
+def u16(d, at):
+    return struct.unpack_from("<H", d, at)[0]
 
 
 def first_zero_pair(t0, t1=float("inf")):
@@ -179,7 +214,8 @@ def log_stamps(name, pattern):
     return [float(m.group(1)) for m in re.finditer(pattern, open(p, errors="replace").read())]
 
 
-def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True, t0=None, log_pred=None):
+def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=None, recover=True, t0=None, log_pred=None,
+              extra_ok=True):
     e = ev(mode)
     if e is None and t0 is None:
         row(fault, expected, limit, None, "case did not run", False)
@@ -190,7 +226,7 @@ def stop_case(mode, fault, expected, limit, diag_name, diag_pred, how, end_mode=
     rep = reported(t0, t0 + 3.0, diag_name, diag_pred) if diag_name else True
     if not rep and log_pred is not None and log_pred(t0):
         rep, how = True, how + " (not in the 1 Hz diagnostics; in the log)"
-    ok = dt is not None and dt <= limit and rep is not None
+    ok = dt is not None and dt <= limit and rep is not None and extra_ok
     if recover and end_mode:
         e2 = ev(end_mode)
         t_end = max(e2["t"], tz or e2["t"]) if e2 else None
@@ -355,9 +391,128 @@ if e:
         None, None if tz is None else tz - up["t"],
         f"loss logged by both: {lost}; restart logged by both: {restarted}; exit codes {codes}; time = roscore started again -> zero (includes the master's start-up, {fmt(t_up)} s until rostopic could list topics, and the nodes' 1 s probe)", ok)
 
+# ---------------------------------------------------------------- CiA 402 cases
+co_ev = ev("co_start")
+CO_LEFT = co_cfg["left_node_id"]
+sdo_timeout = co_cfg["sdo_timeout_s"]
+startup_timeout = bridge_cfg["timing"]["startup_timeout_s"]
+
+
+def co_frames(base, node=None, t0=0.0, t1=float("inf")):
+    return [(t, i & 0x7F, d) for t, i, d in co_raw
+            if i & ~0x7F == base and (node is None or i & 0x7F == node) and t0 <= t < t1]
+
+
+def moving_before(t0, window=1.0):
+    return any(v != 0 for t, _, _, v in co_rpdo if t0 - window <= t < t0)
+
+
+def co_recovery(label, tz, reset_mode):
+    """Zero until the reset, a fault reset / new enable after it, then moving."""
+    r = ev(reset_mode)
+    if tz is None or r is None:
+        row(label, "no motion until ~reset, then moving", None, None, "case did not run", False)
+        return
+    moved = [x for x in co_rpdo if tz < x[0] < r["t"] and x[3] != 0]
+    tm = first_moving(r["t"])
+    enable = next((t for t, w, cw, _ in co_rpdo if t > r["t"] and cw == 0x000F), None)
+    ok = not moved and tm is not None and enable is not None and enable <= tm
+    row(label, "no motion until ~reset (commands fresh all along), then shutdown -> switch on -> enable operation, moving", None,
+        None if tm is None else tm - r["t"],
+        f"zero for {fmt(r['t'] - tz)} s until the reset; enable operation {fmt(None if enable is None else enable - r['t'])} s "
+        f"after it; measured = reset -> moving", ok)
+
+
+if co_ev is None:
+    row("cia402 cases", "run", None, None, "case did not run", False)
+else:
+    # Drive fault: onset = the first TPDO1 of the left node whose statusword says fault.
+    tp1 = [(t, n, struct.unpack_from("<HH", d)) for t, n, d in co_frames(0x180, CO_LEFT, co_ev["t"])]
+    onset = next((t for t, n, (sw, err) in tp1 if sw & 0x4F == 0x08), None)
+    err = next((err for t, n, (sw, err) in tp1 if sw & 0x4F == 0x08), None)
+    tz = None
+    if onset is None:
+        row("cia402: drive fault (left node)", "stop, latched", None, None, "case did not run (no fault statusword)", False)
+    else:
+        was = moving_before(onset)
+        tz = stop_case("co_fault", f"cia402: drive fault, left node (statusword fault, 0x603F 0x{err:04X}{'' if was else '; NOT moving before'})",
+                       "zero target velocity, latched (onset: first TPDO1 with the fault)", tx_period + MARGIN_S, "CAN bridge",
+                       lambda d: "drive_fault" in d["values"].get("stop_reasons", ""), "bridge diagnostics drive_fault",
+                       recover=False, t0=onset, extra_ok=was)
+    co_recovery("cia402: drive fault: recovery (fault reset 0x0080)", tz, "co_axis_reset")
+
+    # Heartbeat loss: onset = the last heartbeat of the left node before a gap > 1 s.
+    hb = co_frames(0x700, CO_LEFT, co_ev["t"])
+    gap = next((i for i in range(1, len(hb)) if hb[i][0] - hb[i - 1][0] > 1.0), None)
+    tz = None
+    if gap is None:
+        row("cia402: heartbeat loss", "stop, latched", None, None, "case did not run (no gap in the heartbeats)", False)
+    else:
+        silence = hb[gap][0] - hb[gap - 1][0]
+        t0 = hb[gap - 1][0]
+        was = moving_before(t0)
+        tz = stop_case("co_hb", f"cia402: heartbeat loss ({silence:.2f} s without 0x700 + id){'' if was else '; NOT moving before'}",
+                       "zero target velocity, latched (onset: last heartbeat before the gap)", hb_timeout + tx_period + MARGIN_S,
+                       "CAN bridge", lambda d: "heartbeat_lost" in d["values"].get("stop_reasons", ""),
+                       "bridge diagnostics heartbeat_lost", recover=False, t0=t0, extra_ok=was)
+    co_recovery("cia402: heartbeat loss: recovery", tz, "co_hb_reset")
+
+    # Reboot + SDO silence: onset = the reboot's boot-up message (0x700 + id,
+    # 0x00); the first ones are the drive's power-on.
+    boots = [t for t, n, d in co_frames(0x700, None, co_ev["t"]) if d == b"\x00"]
+    boot = next((t for t in boots if t > boots[0] + 5.0), None) if boots else None
+    if boot is None:
+        row("cia402: drive reboot while driving", "stop", None, None, "case did not run (no boot-up)", False)
+    else:
+        was = moving_before(boot)
+        stop_case("co_reboot", "cia402: drive reboot while driving (boot-up message)" + ("" if was else "; NOT moving before"),
+                  "zero target velocity at once, the drive is started again", tx_period + MARGIN_S, "CAN bridge",
+                  lambda d: "drive_starting" in d["values"].get("stop_reasons", ""),
+                  "bridge diagnostics drive_starting, log 'booted'", recover=False, t0=boot,
+                  log_pred=lambda t0: log_has("bridge.log", "booted (boot-up message)"), extra_ok=was)
+        # SDO timeout at start-up: the first request after the boot-up that got no answer,
+        # and the client's abort (0x80 ... 0x05040000) after sdo_timeout_s.
+        req = co_frames(0x600, None, boot)
+        resp = co_frames(0x580, None, boot)
+        unanswered = next(((t, n, d) for t, n, d in req if d[0] != 0x80
+                           and not any(n2 == n and t < t2 < t + sdo_timeout + 1.0 and d2[1:4] == d[1:4] for t2, n2, d2 in resp)), None)
+        if unanswered is None:
+            row("cia402: SDO timeout at start-up", "reported, retried", None, None, "case did not run (every SDO answered)", False)
+        else:
+            t_req, n_req, d_req = unanswered
+            abort = next((t for t, n, d in req if n == n_req and t > t_req and d[0] == 0x80 and d[1:4] == d_req[1:4]
+                          and struct.unpack_from("<I", d, 4)[0] == 0x05040000), None)
+            moved = [x for x in co_rpdo if boot < x[0] and x[3] != 0]
+            t_move = moved[0][0] if moved else None
+            sdo_reported = log_has("bridge.log", "no response within")
+            ok = (abort is not None and abort - t_req <= sdo_timeout + MARGIN_S and sdo_reported and t_move is not None
+                  and not [x for x in co_rpdo if boot + tx_period + MARGIN_S < x[0] < t_req + sdo_timeout and x[3] != 0])
+            row("cia402: SDO timeout at start-up (SDO server silent 2.5 s after the reboot)",
+                "no motion; the bridge aborts the transfer (0x05040000) and reports it; start-up retried after startup_timeout_s",
+                sdo_timeout + MARGIN_S, None if abort is None else abort - t_req,
+                f"measured: unanswered request 0x{u16(d_req, 1):04X}:{d_req[3]:02X} -> client abort on the bus; bridge log "
+                f"'no response within' {sdo_reported}; moving again {fmt(None if t_move is None else t_move - boot)} s after the boot-up "
+                f"(silence 2.5 s + retries every startup_timeout_s {startup_timeout} s)", ok)
+
+    e = ev("co_busoff")
+    if e is None:
+        row("cia402: bus-off", "stop", None, None, "case did not run", False)
+    else:
+        was = moving_before(e["t"])
+        stop_case("co_busoff", "cia402: bus-off error frame on vcan0" + ("" if was else "; NOT moving before"),
+                  "zero target velocity until the bus is back and quiet for bus_recovery_s, then restarted",
+                  tx_period + MARGIN_S, "CAN bridge", lambda d: "bus_error" in d["values"].get("stop_reasons", ""),
+                  "bridge diagnostics bus_error", end_mode="co_busoff",
+                  log_pred=lambda t0: log_has("bridge.log", 'BusError { description: "bus-off", fatal: true }'),
+                  extra_ok=was)
+    check(not co_bad, f"cia402: every frame after co_start is a CiA 301 service of ours or of nodes {sorted(CO_NODES)} "
+                      f"with its length ({len(co_raw)} frames; unexpected {co_bad[:5]})")
+    check(len(co_rpdo) > 500, f"cia402: {len(co_rpdo)} RPDO1 setpoints decoded (integers: never a NaN)")
+
+check(dropped == 0, f"candump kept every frame (the kernel dropped {dropped} from its socket)")
 check(not nonfinite, f"no NaN or infinite value in any of {len(frames)} frames on vcan0" + (f": {nonfinite[:3]}" if nonfinite else ""))
 check(undecodable == 0, f"every frame decodes with ODrive's DBC (Estop, Clear_Errors by id and length; {undecodable} did not: {unknown_ids})")
-for name in ("oldbf_node.log", "bridge.log", "drive1.log", "drive2.log", "drive3.log"):
+for name in ("oldbf_node.log", "bridge.log", "drive1.log", "drive2.log", "drive3.log", "drive_co.log"):
     check(not log_has(name, "panicked"), f"no panic in {name}")
 
 # ---------------------------------------------------------------- table
@@ -373,7 +528,8 @@ limits = (f"Limits from config: cmd_timeout_s {cmd_timeout}, tx period {tx_perio
           f"ramp to zero {ramp:.3f} s ({wheel_nom:.2f} rad/s at {lim['wheel_decel_radps2']} rad/s²), drive watchdog {drive_watchdog} s, "
           f"heartbeat period {hb_period} s, + {MARGIN_S} s for emulation. Measured: injection -> first pair of zero "
           f"Set_Input_Vel frames on vcan0 (candump time stamps), QEMU TCG guest on a 2-core shared VM. "
-          f"{len(frames)} frames checked, {len(nonfinite)} non-finite.")
+          f"{len(frames)} frames checked, {len(nonfinite)} non-finite. CiA 402 rows: the first pair of zero target "
+          f"velocities (RPDO1 0x60FF of both nodes) after the onset; sdo_timeout_s {sdo_timeout}, startup_timeout_s {startup_timeout}.")
 text = "\n".join(lines) + "\n\n" + limits + "\n"
 open(os.path.join(OUT, "results.md"), "w").write(text)
 json.dump({"rows": ROWS, "frames": len(frames), "nonfinite": len(nonfinite), "fails": FAILS}, open(os.path.join(OUT, "results.json"), "w"), indent=1)

@@ -5,6 +5,8 @@
 #   -> setpoint frames on vcan0 -> virtual_drive -> feedback frames
 #   -> can_bridge_node odometry -> the simulated robot moves by it.
 # paper_line must reach its goal with 0 collisions; candump shows the frames.
+# Two runs in this one boot: the generic protocol, then CANopen CiA 402
+# (sim_can.launch protocol:=cia402: the virtual drive plays two CiA 402 nodes).
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd -P)
 OUT=$ROOT/target/e2e
@@ -27,32 +29,42 @@ rostopic list > /dev/null 2>&1 || fail "roscore did not come up"
 rosparam set /run_id "$(cat /proc/sys/kernel/random/uuid)"
 echo "e2e: roscore up after $(( $(date +%s) - t0 )) s"
 
-candump -t a -n 200000 vcan0 > "$OUT/candump.log" 2>&1 &
-dump=$!
-setsid roslaunch --wait oldbf_ros sim_can.launch > "$OUT/launch.log" 2>&1 &
-launch=$!
-rc=0
-summary=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 300) || rc=$?
-kill -INT -- -"$launch" 2>/dev/null || true
-for _ in $(seq 100); do kill -0 "$launch" 2>/dev/null || break; sleep 0.1; done
-kill "$dump" 2>/dev/null || true
-kill -INT -- -"$core" 2>/dev/null || true
-echo "e2e: summary after $(( $(date +%s) - t0 )) s: $summary"
-[ "$rc" = 0 ] || { tail -40 "$OUT/launch.log"; fail "no final summary from the simulator"; }
-
-frames() { grep -c " vcan0  $1 " "$OUT/candump.log" || true; }
-setpoints_left=$(frames 101); setpoints_right=$(frames 102); feedback_left=$(frames 111); status=$(frames 110)
-echo "e2e: frames on vcan0: setpoints 0x101 $setpoints_left, 0x102 $setpoints_right, feedback 0x111 $feedback_left, drive status 0x110 $status"
 ok=true
-if $ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); sys.exit(0 if d['reached_goal'] and d['collisions'] == 0 else 1)" "$summary"; then
-  echo "PASS: paper_line through CAN reached its goal with 0 collisions"
-else
-  echo "FAIL: paper_line through CAN: $summary"; ok=false
-fi
-if [ "$setpoints_left" -gt 1000 ] && [ "$setpoints_right" -gt 1000 ] && [ "$feedback_left" -gt 1000 ]; then
-  echo "PASS: the loop ran over CAN (setpoint and feedback frames on vcan0)"
-else
-  echo "FAIL: too few CAN frames"; ok=false
-fi
-if grep -q "cannot reach the ROS master\|panicked" "$OUT/launch.log"; then echo "FAIL: errors in the launch log"; ok=false; fi
+# run_case PROTOCOL SETPOINT_ID_L SETPOINT_ID_R FEEDBACK_ID_L STATUS_ID
+run_case() {
+  local proto=$1 sl=$2 sr=$3 fb=$4 st=$5 dump=$OUT/candump_$1.log t1
+  t1=$(date +%s)
+  candump -t a -n 200000 vcan0 > "$dump" 2>&1 &
+  local dump_pid=$!
+  setsid roslaunch --wait oldbf_ros sim_can.launch protocol:="$proto" > "$OUT/launch_$proto.log" 2>&1 &
+  local launch=$!
+  local rc=0 summary
+  summary=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 300) || rc=$?
+  kill -INT -- -"$launch" 2>/dev/null || true
+  for _ in $(seq 100); do kill -0 "$launch" 2>/dev/null || break; sleep 0.1; done
+  kill "$dump_pid" 2>/dev/null || true
+  echo "e2e[$proto]: summary after $(( $(date +%s) - t1 )) s: $summary"
+  if [ "$rc" != 0 ]; then tail -40 "$OUT/launch_$proto.log"; echo "FAIL: $proto: no final summary from the simulator"; ok=false; return; fi
+  frames() { grep -c " vcan0  $1 " "$dump" || true; }
+  local n_sl n_sr n_fb n_st
+  n_sl=$(frames "$sl"); n_sr=$(frames "$sr"); n_fb=$(frames "$fb"); n_st=$(frames "$st")
+  echo "e2e[$proto]: frames on vcan0: setpoints $sl $n_sl, $sr $n_sr, feedback $fb $n_fb, drive status $st $n_st"
+  if $ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); sys.exit(0 if d['reached_goal'] and d['collisions'] == 0 else 1)" "$summary"; then
+    echo "PASS: $proto: paper_line through CAN reached its goal with 0 collisions ($($ROSPY -c "import json,sys; d=json.loads(sys.argv[1]); r=d['robots'][0]; print(f\"time to goal {r.get('time_to_goal_s'):.1f} s, min clearance {r.get('min_clearance_m'):.3f} m\")" "$summary"))"
+  else
+    echo "FAIL: $proto: paper_line through CAN: $summary"; ok=false
+  fi
+  if [ "$n_sl" -gt 1000 ] && [ "$n_sr" -gt 1000 ] && [ "$n_fb" -gt 1000 ] && [ "$n_st" -gt 10 ]; then
+    echo "PASS: $proto: the loop ran over CAN (setpoint, feedback and status frames on vcan0)"
+  else
+    echo "FAIL: $proto: too few CAN frames"; ok=false
+  fi
+  if grep -q "cannot reach the ROS master\|panicked" "$OUT/launch_$proto.log"; then echo "FAIL: $proto: errors in the launch log"; ok=false; fi
+}
+# generic: setpoints 0x101/0x102, feedback 0x111, status 0x110.
+run_case generic 101 102 111 110
+# cia402 (config/can_bridge.yaml, nodes 1 and 2): RPDO1 0x201/0x202, TPDO2 0x281, TPDO1 0x181.
+run_case cia402 201 202 281 181
+kill -INT -- -"$core" 2>/dev/null || true
+echo "e2e: both runs done after $(( $(date +%s) - t0 )) s"
 $ok

@@ -44,8 +44,8 @@ wait_diag() { # name_part count_before timeout_s
 }
 count() { local n; n=$(grep -c -- "$1" "$2" 2>/dev/null) || true; echo "${n:-0}"; }
 diag_count() { count "$1" "$OUT/diag.jsonl"; }
-reset_bridge() { # mode
-  $ROSPY tests/faults/reset.py /can_bridge_node/reset "$EV" "$1" >> "$OUT/reset.log" 2>&1 || say "reset $1 failed (see reset.log)"
+reset_bridge() { # mode [node name]
+  $ROSPY tests/faults/reset.py "/${2:-can_bridge_node}/reset" "$EV" "$1" >> "$OUT/reset.log" 2>&1 || say "reset $1 failed (see reset.log)"
 }
 ready_count() { count '"event":"drive_ready"' "$OUT/bridge.log"; }
 wait_ready_after() { # count_before timeout_s
@@ -66,8 +66,8 @@ start_drive() { # n extra-args...
     --watchdog-s "$WATCHDOG_S" "$@" > "$OUT/drive$n.log" 2>&1 &
   drive=$!; PIDS+=("$drive")
 }
-start_bridge() {
-  "$BIN/can_bridge_node" __name:=can_bridge_node >> "$OUT/bridge.log" 2>&1 &
+start_bridge() { # [node name]
+  "$BIN/can_bridge_node" __name:="${1:-can_bridge_node}" >> "$OUT/bridge.log" 2>&1 &
   bridge=$!; PIDS+=("$bridge")
 }
 start_node() {
@@ -78,7 +78,10 @@ start_node() {
 start_core
 say "roscore up"
 rosparam load "$OUT/params.yaml" /
-candump -L vcan0 > "$OUT/candump.log" 2>&1 &
+# A large receive buffer: under emulation candump falls behind the CiA 402
+# traffic (7 frames a period) and the kernel drops what its socket cannot hold
+# (-d reports it as DROPCOUNT lines).
+candump -d -r 8388608 -L vcan0 > "$OUT/candump.log" 2>&1 &
 PIDS+=($!)
 start_drive 1
 start_bridge
@@ -159,6 +162,48 @@ say "drive faults done"
 $ROSPY tests/faults/bus_error.py vcan0 busoff "$EV"
 sleep 3
 say "bus-off done"
+
+# -- CiA 402: the ODrive drive and bridge make way for a bridge with
+# protocol cia402 (/can_bridge_co) and then a CANopen drive (two virtual
+# CiA 402 nodes, config/can_bridge.yaml's cia402 section), with its faults
+# scheduled from its start: a drive fault (0x603F 0x2310) on the left node
+# at 8 s, heartbeat silence at 24 s for 2 s, a reboot of both nodes at 40 s
+# with the SDO server silent for 2.5 s (the restart's SDO times out). The
+# resets and the bus-off follow what the bridge reports (under emulation
+# process start-up times vary by seconds). Onsets are taken from the bus.
+bridge_count() { count "$1" "$OUT/bridge.log"; }
+wait_bridge() { # pattern count_before timeout_s
+  for _ in $(seq $(( $3 * 10 ))); do [ "$(bridge_count "$1")" -gt "$2" ] && return 0; sleep 0.1; done
+  echo "faults: no new '$1' in bridge.log after $3 s"; tail -5 "$OUT/bridge.log"; return 1
+}
+kill -INT "$bridge"; wait "$bridge" || true
+kill -INT "$drive"; wait "$drive" || true
+n=$(bridge_count "can_bridge_co: bridging")
+event co_bridge
+start_bridge can_bridge_co
+wait_bridge "can_bridge_co: bridging" "$n" 60
+r=$(ready_count); n_fault=$(bridge_count "DriveFaultLatched {"); n_hb=$(bridge_count "HeartbeatLostLatched {")
+n_boot=$(bridge_count "booted (boot-up message)")
+event co_start
+"$BIN/virtual_drive" --interface vcan0 --protocol cia402 --config config/can_bridge.yaml --watchdog-s "$WATCHDOG_S" \
+  --fault axis_error@8:0x2310:left --fault heartbeat_silence@24+2 --fault reboot@40 --fault sdo_silence@40+2.5 \
+  > "$OUT/drive_co.log" 2>&1 &
+drive=$!; PIDS+=("$drive")
+wait_ready_after "$r" 20
+wait_bridge "DriveFaultLatched {" "$n_fault" 30
+sleep 2; reset_bridge co_axis_reset can_bridge_co
+wait_bridge "HeartbeatLostLatched {" "$n_hb" 30
+sleep 2.5; r=$(ready_count); reset_bridge co_hb_reset can_bridge_co
+wait_ready_after "$r" 20
+# The power-on boot-up was one per node; the reboot's come next.
+r=$(ready_count)
+wait_bridge "booted (boot-up message)" "$(( n_boot + 2 ))" 30
+wait_ready_after "$r" 30
+sleep 3
+$ROSPY tests/faults/bus_error.py vcan0 busoff "$EV" co_busoff
+sleep 3
+event co_end
+say "cia402 faults done"
 
 # -- roscore killed, then started again: the nodes report the loss and run
 # on; the new master (new PID): they exit 1 with a clear message (rosrust

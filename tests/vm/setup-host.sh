@@ -2,7 +2,8 @@
 # tests/vm/setup-host.sh — idempotently install what the CAN tests need on the
 # host (the guest chroots into the host root, so these are what it runs):
 #   * apt: can-utils (candump/cansend/...), xz-utils (kernel extraction)
-#   * pip: cantools (DBC decoding), for the python3 found on PATH
+#   * pip: cantools (DBC decoding) and canopen (the independent CiA 402
+#     drive of tests/can/cia402_drive.py), for the python3 found on PATH
 #   * the VM assets: tests/vm/run-in-vm.sh --setup
 # Run as root (CI does). Safe to re-run: each step is skipped when satisfied.
 set -Eeuo pipefail
@@ -53,6 +54,14 @@ else
   log "pip: done in $(elapsed "$t") s"
 fi
 log "pip: cantools $("$PY" -c 'import cantools; print(cantools.__version__)')"
+if "$PY" -c 'import canopen' 2>/dev/null; then
+  log "pip: canopen already importable by $PY"
+else
+  log "pip: installing canopen for $PY"
+  "$PY" -m pip install --quiet canopen
+  "$PY" -c 'import canopen' || { echo "setup-host: ERROR: canopen still not importable by $PY" >&2; exit 1; }
+fi
+log "pip: canopen $("$PY" -c 'import canopen; print(canopen.__version__)')"
 
 # ------------------------------------------------------------------ VM assets
 t=$(now)

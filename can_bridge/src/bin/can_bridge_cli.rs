@@ -45,7 +45,7 @@ struct Args {
     #[arg(long, value_name = "IFACE")]
     interface: Option<String>,
     /// Drive protocol, overriding the configuration's `protocol`.
-    #[arg(long, value_name = "generic|odrive")]
+    #[arg(long, value_name = "generic|odrive|cia402")]
     protocol: Option<ProtocolKind>,
     /// Timed command script instead of stdin.
     #[arg(long, value_name = "FILE")]

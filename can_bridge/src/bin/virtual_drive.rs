@@ -16,7 +16,8 @@ use std::time::Duration;
 
 /// A simulated motor drive (two axes: left and right wheel) on a SocketCAN interface.
 ///
-/// It speaks the generic protocol (can_bridge/dbc/oldbf_generic.dbc) or ODrive CANSimple, follows
+/// It speaks the generic protocol (can_bridge/dbc/oldbf_generic.dbc), ODrive CANSimple or CANopen
+/// CiA 402 (one node per axis: SDO, NMT, heartbeats, PDOs, SYNC, profile velocity), follows
 /// velocity setpoints with a first-order lag under its own speed and acceleration limits, sends
 /// heartbeats/status and encoder feedback, and goes idle with a watchdog error when no valid
 /// setpoint arrives for --watchdog-s. Speeds and positions are at the motor shaft.
@@ -29,6 +30,12 @@ use std::time::Duration;
 ///   silence@T[+D]                           nothing sent at all (still listening)
 ///   feedback_delay@T[+D]:S                  feedback frames leave S seconds late
 ///   exit@T                                  stop sending and exit, as if killed
+///   sdo_silence@T[+D]                       cia402: SDO requests get no answer
+///   reboot@T[:left|right|both]              cia402: the node(s) reboot (boot-up, defaults)
+///
+/// cia402: the axis error CODE is the 0x603F error code (e.g. 0x2310, overcurrent); the watchdog is
+/// an RPDO timeout (0x8250); --heartbeat-rate-hz and --feedback-rate-hz are the defaults of 0x1017
+/// and of the TPDO event timers; node ids, units and the bridge's node id come from --config.
 ///
 /// With --status-rate-hz > 0 the axes' true state is printed on stdout as JSON lines (motor rad,
 /// rad/s); a final line is printed at exit. Logs go to stderr (RUST_LOG=info|debug).
@@ -42,15 +49,15 @@ struct Args {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Protocol [default: generic, or the configuration's].
-    #[arg(long, value_name = "generic|odrive")]
+    #[arg(long, value_name = "generic|odrive|cia402")]
     protocol: Option<ProtocolKind>,
     /// Generic protocol base id, decimal or 0x hex [default: 0x100, or the configuration's].
     #[arg(long, value_name = "ID", value_parser = parse_id)]
     base_id: Option<u32>,
-    /// ODrive node id of the left axis, 0-63 [default: 0, or the configuration's].
+    /// ODrive (0-63) or CANopen (1-127) node id of the left axis [default: 0, or the configuration's].
     #[arg(long, value_name = "N")]
     left_node: Option<u32>,
-    /// ODrive node id of the right axis, 0-63 [default: 1, or the configuration's].
+    /// ODrive (0-63) or CANopen (1-127) node id of the right axis [default: 1, or the configuration's].
     #[arg(long, value_name = "N")]
     right_node: Option<u32>,
     /// First-order lag time constant τ (s); 0 = instant (within the accel limit).
@@ -133,13 +140,22 @@ fn run(args: Args) -> Result<i32> {
                 return Ok(2);
             }
         };
-        cfg.protocol = b.protocol;
+        cfg.protocol = args.protocol.unwrap_or(b.protocol);
         cfg.generic_base_id = b.generic.base_id;
-        cfg.left_node_id = b.odrive.left_node_id;
-        cfg.right_node_id = b.odrive.right_node_id;
+        (cfg.left_node_id, cfg.right_node_id) = match cfg.protocol {
+            ProtocolKind::Cia402 => (b.cia402.left_node_id, b.cia402.right_node_id),
+            _ => (b.odrive.left_node_id, b.odrive.right_node_id),
+        };
+        cfg.cia402_scaling = b.cia402.scaling();
+        cfg.cia402_bridge_node_id = u8::try_from(b.cia402.bridge_node_id).unwrap_or(0);
     }
     if let Some(p) = args.protocol {
         cfg.protocol = p;
+    }
+    if cfg.protocol == ProtocolKind::Cia402 && args.config.is_none() && args.left_node.is_none() {
+        // The shipped configuration's CANopen ids (ODrive's defaults 0/1 are not node ids).
+        let b = can_bridge::config::default_config();
+        (cfg.left_node_id, cfg.right_node_id) = (b.cia402.left_node_id, b.cia402.right_node_id);
     }
     if let Some(b) = args.base_id {
         cfg.generic_base_id = b;

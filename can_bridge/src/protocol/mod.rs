@@ -7,11 +7,13 @@
 //! [`crate::bridge::Bridge`]'s job. The same modules also hold the drive's
 //! side of each layout, used by [`crate::virtual_drive`].
 
+pub mod cia402;
 pub mod generic;
 pub mod odrive;
 
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::{MotorSpeeds, Wheel};
+use crate::time::Timestamp;
 use serde::{Deserialize, Serialize};
 
 /// Which protocol a configuration selects.
@@ -22,14 +24,17 @@ pub enum ProtocolKind {
     Generic,
     /// ODrive CANSimple, one node per wheel.
     Odrive,
+    /// CANopen CiA 402 (profile velocity), one node per wheel.
+    Cia402,
 }
 
 impl ProtocolKind {
-    /// `generic` or `odrive`.
+    /// `generic`, `odrive` or `cia402`.
     pub fn name(self) -> &'static str {
         match self {
             ProtocolKind::Generic => "generic",
             ProtocolKind::Odrive => "odrive",
+            ProtocolKind::Cia402 => "cia402",
         }
     }
 }
@@ -40,12 +45,14 @@ impl std::str::FromStr for ProtocolKind {
         match s {
             "generic" => Ok(ProtocolKind::Generic),
             "odrive" => Ok(ProtocolKind::Odrive),
-            _ => Err(format!("unknown protocol `{s}`; allowed: generic, odrive")),
+            "cia402" => Ok(ProtocolKind::Cia402),
+            _ => Err(format!("unknown protocol `{s}`; allowed: generic, odrive, cia402")),
         }
     }
 }
 
-/// The most frames one call produces (ODrive start-up: 4 per node).
+/// The most frames one call produces (ODrive start-up: 4 per node; CiA 402
+/// poll: a heartbeat and, per node, an SDO abort and the next request).
 pub const FRAME_BATCH_CAPACITY: usize = 8;
 
 /// A fixed-capacity list of frames (no allocation per period).
@@ -154,6 +161,18 @@ pub enum DriveMessage {
         /// The raw state value, for reports.
         raw_state: u8,
     },
+    /// The same as `Status`, without being a sign of life: the drive's state
+    /// at once (CiA 402 TPDO1), while only heartbeats prove the link.
+    State {
+        wheels: Wheels,
+        error_code: u32,
+        running: bool,
+        estopped: bool,
+        raw_state: u8,
+    },
+    /// A frame the protocol consumed itself (an SDO response, an EMCY):
+    /// traffic from the drive, nothing for the bridge's state.
+    Handled { wheel: Wheel },
     /// Measured motor position and speed of one wheel.
     Feedback {
         wheel: Wheel,
@@ -179,9 +198,17 @@ pub enum DecodeError {
     Invalid { id: u32, what: &'static str },
 }
 
+/// Something the protocol wants reported (an SDO abort, an EMCY, a drive
+/// that rebooted): an event, not a state of its own.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ProtocolReport {
+    pub wheel: Option<Wheel>,
+    pub message: String,
+}
+
 /// The bridge's side of a drive protocol.
 pub trait Protocol: Send {
-    /// `generic` or `odrive`.
+    /// Which protocol.
     fn kind(&self) -> ProtocolKind;
 
     /// Exactly the ids the drive(s) send that this protocol decodes; the bus
@@ -198,6 +225,14 @@ pub trait Protocol: Send {
 
     /// Frames that stop the drive for good: zero, then disable.
     fn shutdown(&mut self, out: &mut FrameBatch);
+
+    /// Frames the protocol sends on its own schedule (CiA 402: the SDO
+    /// start-up steps, NMT start, the bridge's heartbeat); called on every
+    /// tick. Sent in order, as a group.
+    fn poll(&mut self, _now: Timestamp, _out: &mut FrameBatch) {}
+
+    /// Moves the pending reports to `out`.
+    fn drain_reports(&mut self, _out: &mut Vec<ProtocolReport>) {}
 
     /// Decodes a received frame: `Ok(None)` if the id is not one of ours.
     fn decode(&mut self, frame: &CanFrame) -> Result<Option<DriveMessage>, DecodeError>;
@@ -232,6 +267,7 @@ mod tests {
     fn protocol_names_parse() {
         assert_eq!("odrive".parse::<ProtocolKind>(), Ok(ProtocolKind::Odrive));
         assert_eq!("generic".parse::<ProtocolKind>().unwrap().name(), "generic");
+        assert_eq!("cia402".parse::<ProtocolKind>(), Ok(ProtocolKind::Cia402));
         assert!("canopen".parse::<ProtocolKind>().is_err());
     }
 }

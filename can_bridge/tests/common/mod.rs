@@ -7,7 +7,7 @@ use can_bridge::bridge::Bridge;
 use can_bridge::config::{default_config, BridgeConfig};
 use can_bridge::fake_bus::FakeBus;
 use can_bridge::protocol::generic::{self, GenericIds};
-use can_bridge::protocol::odrive;
+use can_bridge::protocol::{cia402, odrive};
 use can_bridge::virtual_drive::{VirtualDrive, VirtualDriveConfig};
 use can_bridge::{BusEvent, CanBus, CanFrame, ProtocolKind, Timestamp, Twist};
 use std::time::Duration;
@@ -27,14 +27,23 @@ pub fn bridge_config(protocol: ProtocolKind) -> BridgeConfig {
 }
 
 pub fn drive_config(c: &BridgeConfig) -> VirtualDriveConfig {
+    let (left_node_id, right_node_id) = match c.protocol {
+        ProtocolKind::Cia402 => (c.cia402.left_node_id, c.cia402.right_node_id),
+        _ => (c.odrive.left_node_id, c.odrive.right_node_id),
+    };
     VirtualDriveConfig {
         protocol: c.protocol,
         generic_base_id: c.generic.base_id,
-        left_node_id: c.odrive.left_node_id,
-        right_node_id: c.odrive.right_node_id,
+        left_node_id,
+        right_node_id,
+        cia402_scaling: c.cia402.scaling(),
+        cia402_bridge_node_id: c.cia402.bridge_node_id as u8,
         ..Default::default()
     }
 }
+
+/// Every protocol.
+pub const ALL: [ProtocolKind; 3] = [ProtocolKind::Generic, ProtocolKind::Odrive, ProtocolKind::Cia402];
 
 pub struct Sim {
     pub bridge: Bridge<FakeBus>,
@@ -142,6 +151,26 @@ pub fn assert_wire_is_clean(frames: &[CanFrame], protocol: ProtocolKind) -> Vec<
                         }
                         other => panic!("{other:?}"),
                     }
+                }
+            }
+            ProtocolKind::Cia402 => {
+                // The bridge's frames: NMT, SYNC, SDO requests, RPDO1, its heartbeat;
+                // the drives' (heartbeats, TPDOs, SDO responses, EMCY) are skipped.
+                let base = f.id & !0x7F;
+                let drive_node = matches!(f.id & 0x7F, 1 | 2);
+                match base {
+                    0x700 | 0x180 | 0x280 | 0x580 | 0x080 if drive_node => {}
+                    0x000 => assert!(f.id == 0 && f.len == 2, "{f:?}"),
+                    0x080 => assert!(f.id == 0x080 && f.len == 0, "SYNC {f:?}"),
+                    0x600 => assert!(f.len == 8 && cia402::sdo::decode_request(f).is_ok(), "{f:?}"),
+                    0x700 => assert!(f.id == 0x77F && f.len == 1 && f.data[0] == 5, "{f:?}"),
+                    0x200 => {
+                        let r = cia402::pdo::decode_rpdo1(f).unwrap();
+                        let w = if f.id == 0x201 { 0 } else { 1 };
+                        let scaling = can_bridge::config::default_config().cia402.scaling();
+                        speeds.push((w, scaling.velocity_from_drive(r.target_velocity)));
+                    }
+                    _ => panic!("unexpected frame {f:?}"),
                 }
             }
         }

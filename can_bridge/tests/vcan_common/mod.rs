@@ -263,7 +263,7 @@ pub struct WireSetpoint {
     pub estop: bool,
     /// Generic counter (0 for ODrive).
     pub counter: u8,
-    /// Generic Enable flag (true for ODrive velocity frames).
+    /// Generic Enable flag (true for ODrive velocity frames; CiA 402: enable operation).
     pub enable: bool,
 }
 
@@ -287,6 +287,24 @@ pub fn setpoints(frames: &[(Timestamp, BusEvent)], protocol: ProtocolKind) -> Ve
                         enable: sp.enable,
                     });
                 }
+            }
+            ProtocolKind::Cia402 => {
+                // RPDO1 of the shipped configuration's nodes 1 and 2.
+                let wheel = match f.id {
+                    0x201 => 0,
+                    0x202 => 1,
+                    _ => continue,
+                };
+                let r = can_bridge::protocol::cia402::pdo::decode_rpdo1(f).unwrap_or_else(|e| panic!("{f:?}: {e}"));
+                let scaling = can_bridge::config::default_config().cia402.scaling();
+                out.push(WireSetpoint {
+                    t: *t,
+                    wheel,
+                    vel_radps: scaling.velocity_from_drive(r.target_velocity),
+                    estop: r.controlword == 0x0002,
+                    counter: 0,
+                    enable: r.controlword == 0x000F,
+                });
             }
             ProtocolKind::Odrive => {
                 let (node, cmd) = odrive::split_id(f.id);
