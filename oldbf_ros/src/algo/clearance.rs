@@ -132,12 +132,7 @@ const BATCH: usize = 8;
 
 /// Computes every clearance in one pass over the points; with `fade`, the
 /// side clearances fade by bearing (see the module docs).
-pub fn compute_clearances_faded(
-    points: &[Vec2],
-    robot_radius_m: f64,
-    front: Sector,
-    fade: &SideFade,
-) -> Clearances {
+pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
     let mut c = Clearances::OPEN;
     for p in points {
         let norm2 = p.norm_squared();

@@ -213,11 +213,12 @@ impl Doaa {
         // Steering only changes clearances when the robot moves forward; at a standstill the
         // term would only fight the nominal turn (and chatter where points cross a sector edge).
         let omega = match self.commit {
-            // Committed, and driving (above the both-sides speed, the same hysteresis): never
-            // steer towards the side given up, and while the front is blocked turn at least
-            // `commit_min_turn` of ω_max the committed way, so an obstacle dead ahead
-            // (B_l = B_r) is not driven at until the filter stops. A nominal that (nearly)
-            // only turns in place, safe for a circular robot, passes.
+            // Committed, and driving (above the both-sides speed, the same hysteresis): the
+            // avoidance term keeps its sign, never steering towards the side given up, and
+            // while the front is blocked it turns at least `commit_min_turn` of ω_max the
+            // committed way, so an obstacle dead ahead (B_l = B_r, no term at all) is not
+            // driven at until the filter stops. The nominal adds, as in the paper's law; a
+            // nominal that (nearly) only turns in place, safe for a circular robot, passes.
             Some(dir) if nominal.v_mps > p.doaa.both_sides_min_speed_mps => {
                 let s = dir.sign();
                 let floor = if front_blocked {
@@ -225,8 +226,7 @@ impl Doaa {
                 } else {
                     0.0
                 };
-                let avoid = s * (s * avoid).max(0.0);
-                s * (s * (nominal.omega_radps + avoid)).max(floor)
+                nominal.omega_radps + s * (s * avoid).max(floor)
             }
             _ => nominal.omega_radps + avoid,
         }
@@ -245,7 +245,13 @@ impl Doaa {
 /// the less crowded one; else the right (§4b right of way: two robots
 /// running this law head-on both turn right and pass each other).
 fn commit_side(avoid: f64, c: &Clearances, p: &Params) -> TurnDirection {
-    let pick = |left: bool| if left { TurnDirection::Left } else { TurnDirection::Right };
+    let pick = |left: bool| {
+        if left {
+            TurnDirection::Left
+        } else {
+            TurnDirection::Right
+        }
+    };
     if avoid.abs() > 0.05 * p.doaa.gain_k_radps {
         return pick(avoid > 0.0);
     }

@@ -101,7 +101,10 @@ impl LocalPlanner {
         let half = (side / 2) as i64;
         let c2 = clearance_m * clearance_m;
         for q in points {
-            let (ci, cj) = ((q.x / CELL_M).round() as i64 + half, (q.y / CELL_M).round() as i64 + half);
+            let (ci, cj) = (
+                (q.x / CELL_M).round() as i64 + half,
+                (q.y / CELL_M).round() as i64 + half,
+            );
             if ci < -r_cells || cj < -r_cells || ci >= side as i64 + r_cells || cj >= side as i64 + r_cells {
                 continue;
             }
@@ -255,7 +258,9 @@ mod tests {
         // The end reaches the target: there is room round the wall.
         assert!((w.end - Vec2::new(2.0, 0.0)).norm() < 0.05, "{w:?}");
         // Made to keep to the left, it goes round the far end instead.
-        let w = lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, Some(1.0)).unwrap();
+        let w = lp
+            .plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, Some(1.0))
+            .unwrap();
         assert!(w.point.y > 0.2 && (w.end - Vec2::new(2.0, 0.0)).norm() < 0.05, "{w:?}");
         // Mirror the wall: goes above.
         let pts: Vec<Vec2> = pts.iter().map(|p| Vec2::new(p.x, -p.y)).collect();
@@ -287,11 +292,21 @@ mod tests {
         let mut lp = LocalPlanner::default();
         let pts = wall(0.8, -0.5, 1.5);
         lp.plan(&pts, Vec2::new(2.0, 0.0), 0.4, 0.0, 5.0, 1.2, None);
-        let caps = (lp.blocked.capacity(), lp.dist.capacity(), lp.queue.capacity(), lp.path.capacity());
+        let caps = (
+            lp.blocked.capacity(),
+            lp.dist.capacity(),
+            lp.queue.capacity(),
+            lp.path.capacity(),
+        );
         lp.plan(&pts, Vec2::new(2.0, 0.3), 0.4, 0.0, 5.0, 1.2, None);
         assert_eq!(
             caps,
-            (lp.blocked.capacity(), lp.dist.capacity(), lp.queue.capacity(), lp.path.capacity())
+            (
+                lp.blocked.capacity(),
+                lp.dist.capacity(),
+                lp.queue.capacity(),
+                lp.path.capacity()
+            )
         );
     }
 }

@@ -44,6 +44,8 @@ const PASSIVE_SPEEDS: usize = 10;
 const EVASION_OMEGAS: usize = 9;
 /// Evasion must also gain this much least gap (m) when it cannot gain time.
 const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
+/// The reference point is short of what is ahead when nearer by this (m).
+const GOAL_SHORT_M: f64 = 0.05;
 /// A tracked mover this near (beyond r, m) suspends going round obstacles.
 const MOVER_NEAR_M: f64 = 2.0;
 /// Half-angle of the rear sector a reversing robot must see (rad).
@@ -447,7 +449,11 @@ impl SafetyPipeline {
         let guidance = self.guidance.take();
         let unstuck = if p.unstuck.enabled {
             let near = MOVER_NEAR_M + p.robot_radius_m();
-            let movers_near = self.passive.movers().iter().any(|m| m.position.norm() - m.radius_m < near);
+            let movers_near = self
+                .passive
+                .movers()
+                .iter()
+                .any(|m| m.position.norm() - m.radius_m < near);
             self.unstuck
                 .step(now_s, guidance, nominal_boxed, &self.points.points, movers_near, p)
         } else {
@@ -464,7 +470,15 @@ impl SafetyPipeline {
                 self.doaa.release_commit();
                 (bx.clamp(follow), DoaaState::Follow)
             }
-            None => self.doaa.command(nominal_boxed, &c, &b, p),
+            None => {
+                // Something ahead beyond the reference point does not block the way to it
+                // (a goal in front of a wall): no both-sides turn, no committed swerve.
+                let mut c_doaa = c;
+                if guidance.is_some_and(|g| g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m) {
+                    c_doaa.d_front_m = f64::INFINITY;
+                }
+                self.doaa.command(nominal_boxed, &c_doaa, &b, p)
+            }
         };
         let step = p.doaa.max_omega_change_radps;
         if step > 0.0 {
@@ -592,8 +606,11 @@ impl SafetyPipeline {
         if movers {
             self.passive.select_reach(&self.points_next, &self.params);
         }
+        // Threatened: contact predicted within the collision-cone look-ahead (the evasion
+        // horizon, longer, only ranks the ways out).
+        let trigger = self.params.obstacles.lookahead_s.min(horizon);
         let threatened =
-            |ps: &PassiveSafety, cmd: Twist, p: &Params| movers && ps.evasion_score(cmd, p).time_to_contact_s < horizon;
+            |ps: &PassiveSafety, cmd: Twist, p: &Params| movers && ps.evasion_score(cmd, p).time_to_contact_s < trigger;
         let closing_in = !self.threats.is_empty();
         let stalled = out.infeasible || out.cmd.v_mps.abs() < stall;
         if own.passive && !(closing_in && stalled) && !threatened(&self.passive, out.cmd, &self.params) {

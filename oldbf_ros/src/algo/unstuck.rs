@@ -150,12 +150,16 @@ impl Unstuck {
         // A robot already closer than that to something (noise, a tight spot) may move
         // within the disc it is short by, or its own neighbourhood would be walled in.
         let nearest = points.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min);
-        let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell).min(nearest - cell).max(0.0);
+        let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell)
+            .min(nearest - cell)
+            .max(0.0);
         // Keep to the side chosen first while that side is about as good (ends as near
         // the goal, within SIDE_SLACK_M); else take the best way and its side.
         let goal = g.ahead;
         let reaches = |w: &Waypoint| (w.end - goal).norm() < 2.0 * cell;
-        let free = self.planner.plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, None);
+        let free = self
+            .planner
+            .plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, None);
         let kept = match (self.side, free) {
             (Some(sign), Some(f)) => self
                 .planner
@@ -292,7 +296,11 @@ mod tests {
                 along_m: 0.015 * k as f64,
                 ahead: Vec2::new(3.0, 0.0),
             };
-            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, false, &p).nominal, None);
+            assert_eq!(
+                u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, false, &p)
+                    .nominal,
+                None
+            );
         }
         let mut u = Unstuck::default();
         let g = Guidance {
@@ -301,7 +309,10 @@ mod tests {
             ahead: Vec2::new(3.0, 0.0),
         };
         for k in 0..200 {
-            assert_eq!(u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, false, &p).nominal, None);
+            assert_eq!(
+                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, false, &p).nominal,
+                None
+            );
         }
     }
 }
