@@ -348,6 +348,12 @@ impl SafetyPipeline {
                     let (pl, pr) = fade.penalties(cluster.centroid.x / n, cluster.centroid.y / n);
                     c.d_left_m = c.d_left_m.min(predicted + pl);
                     c.d_right_m = c.d_right_m.min(predicted + pr);
+                    // A mover coming at the robot from ahead blocks the way ahead as a wall
+                    // there would (§4b): the robot commits to a side and swerves early,
+                    // rather than waiting for the mover to be within d_act.
+                    if self.derived.front.contains(cluster.centroid, n) {
+                        c.d_front_m = c.d_front_m.min(predicted);
+                    }
                 }
                 None if cluster.centroid.y >= 0.0 => c.d_left_m = c.d_left_m.min(predicted),
                 None => c.d_right_m = c.d_right_m.min(predicted),
