@@ -50,6 +50,9 @@ pub struct LocalPlanner {
     parent: Vec<u32>,
     queue: VecDeque<u32>,
     path: Vec<u32>,
+    /// Cell offsets of the blocking disc, for the radius in cells it was built for.
+    disc: Vec<(i32, i32)>,
+    disc_for: Option<i64>,
 }
 
 impl LocalPlanner {
@@ -96,32 +99,44 @@ impl LocalPlanner {
         self.parent.clear();
         self.parent.resize(cells, FAR);
         self.queue.clear();
-        // Block every cell within the clearance of a point (a disc of cells).
+        // Block every cell within the clearance of a point: a disc of cell offsets, built
+        // once per clearance, checked exactly against the point's position in its cell.
         let r_cells = (clearance_m / CELL_M).ceil() as i64;
+        if self.disc_for != Some(r_cells) {
+            self.disc.clear();
+            for dj in -r_cells..=r_cells {
+                for di in -r_cells..=r_cells {
+                    if ((di.abs() - 1).max(0).pow(2) + (dj.abs() - 1).max(0).pow(2)) <= r_cells * r_cells {
+                        self.disc.push((di as i32, dj as i32));
+                    }
+                }
+            }
+            self.disc_for = Some(r_cells);
+        }
         let half = (side / 2) as i64;
-        let c2 = clearance_m * clearance_m;
+        let r2 = (clearance_m / CELL_M) * (clearance_m / CELL_M);
+        let n = side as i64;
+        let mut last_cell = None;
         for q in points {
-            let (ci, cj) = (
-                (q.x / CELL_M).round() as i64 + half,
-                (q.y / CELL_M).round() as i64 + half,
-            );
-            if ci < -r_cells || cj < -r_cells || ci >= side as i64 + r_cells || cj >= side as i64 + r_cells {
+            // Cell units, the robot's cell at (half, half).
+            let (fx, fy) = (q.x / CELL_M + half as f64, q.y / CELL_M + half as f64);
+            let (ci, cj) = (fx.round() as i64, fy.round() as i64);
+            if ci < -r_cells || cj < -r_cells || ci >= n + r_cells || cj >= n + r_cells {
                 continue;
             }
-            for dj in -r_cells..=r_cells {
-                let j = cj + dj;
-                if j < 0 || j >= side as i64 {
+            // Neighbouring beams often land in one cell: stamp it once per run.
+            if last_cell == Some((ci, cj)) {
+                continue;
+            }
+            last_cell = Some((ci, cj));
+            for &(di, dj) in &self.disc {
+                let (i, j) = (ci + di as i64, cj + dj as i64);
+                if i < 0 || j < 0 || i >= n || j >= n {
                     continue;
                 }
-                for di in -r_cells..=r_cells {
-                    let i = ci + di;
-                    if i < 0 || i >= side as i64 {
-                        continue;
-                    }
-                    let k = j as usize * side + i as usize;
-                    if !self.blocked[k] && (self.centre_of(k as u32) - q).norm_squared() < c2 {
-                        self.blocked[k] = true;
-                    }
+                let (dx, dy) = (i as f64 - fx, j as f64 - fy);
+                if dx * dx + dy * dy < r2 {
+                    self.blocked[(j * n + i) as usize] = true;
                 }
             }
         }
@@ -308,5 +323,30 @@ mod tests {
                 lp.path.capacity()
             )
         );
+    }
+}
+#[cfg(test)]
+mod timing {
+    use super::*;
+    #[test]
+    #[ignore]
+    fn plan_time() {
+        let mut pts = Vec::new();
+        for k in 0..360 {
+            let a = k as f64 * std::f64::consts::PI / 180.0;
+            let d = 1.0 + 0.5 * (3.0 * a).sin();
+            pts.push(Vec2::new(d * a.cos(), d * a.sin()));
+        }
+        let mut lp = LocalPlanner::default();
+        let t0 = std::time::Instant::now();
+        for _ in 0..100 {
+            lp.plan(&pts, Vec2::new(2.0, 0.0), 0.428, 0.1, 5.0, 1.0, None);
+        }
+        eprintln!("plan: {:.1} us", t0.elapsed().as_secs_f64() * 1e4);
+        let t0 = std::time::Instant::now();
+        for _ in 0..100 {
+            lp.plan(&pts, Vec2::new(2.0, 0.0), 0.428, 0.1, 5.0, 1.0, Some(1.0));
+        }
+        eprintln!("plan with side: {:.1} us", t0.elapsed().as_secs_f64() * 1e4);
     }
 }

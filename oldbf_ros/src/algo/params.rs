@@ -54,7 +54,7 @@ impl Default for ControlParams {
             v_max_mps: 0.22,
             omega_max_radps: 0.3,
             allow_reverse: true,
-            v_reverse_max_mps: 0.05,
+            v_reverse_max_mps: 0.15,
         }
     }
 }
@@ -420,7 +420,7 @@ impl Default for UnstuckParams {
             stall_s: 6.0,
             progress_m: 0.15,
             window_m: 5.0,
-            margin_m: 0.02,
+            margin_m: 0.05,
             ahead_m: 1.5,
         }
     }
@@ -455,9 +455,9 @@ impl Default for PassiveParams {
             enabled: true,
             brake_decel_mps2: 1.0,
             mover_margin_m: 0.05,
-            mover_growth_mps: 0.2,
+            mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,
-            evasion_horizon_s: 2.0,
+            evasion_horizon_s: 4.0,
             evasion_min_gain_s: 0.2,
         }
     }

@@ -36,7 +36,7 @@ const SAMPLE_SPACING_M: f64 = 0.01;
 const MAX_STEP_SAMPLES: usize = 16;
 const MAX_BRAKE_SAMPLES: usize = 48;
 /// Time between samples of an evasion path (s).
-const EVASION_SAMPLE_S: f64 = 0.1;
+const EVASION_SAMPLE_S: f64 = 0.2;
 
 /// A tracked moving obstacle, robot frame, now.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -247,6 +247,10 @@ impl PassiveSafety {
         let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
         let mut contact: Option<f64> = None;
         let mut gap_sum = 0.0;
+        let speed = cmd.v_mps.abs();
+        // No static point can be reached before this: the robot closes on any point no
+        // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
+        let mut static_clear_until = 0.0;
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
             let pose = arc_step(Pose2::default(), cmd, t);
@@ -264,14 +268,18 @@ impl PassiveSafety {
             }
             if k > 0 {
                 gap_sum += gap.min(GAP_CAP_M);
-                if contact.is_none() && cmd.v_mps != 0.0 {
+                if contact.is_none() && speed > 0.0 && t >= static_clear_until {
+                    let mut nearest2 = f64::INFINITY;
                     let static_hit = self.reach.iter().any(|q| {
                         let d = q - pos;
                         let d2 = d.norm_squared();
+                        nearest2 = nearest2.min(d2);
                         d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
                     });
                     if static_hit {
                         contact = Some(t);
+                    } else {
+                        static_clear_until = t + (nearest2.sqrt() - r).max(0.0) / speed;
                     }
                 }
             }

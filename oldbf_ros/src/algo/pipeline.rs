@@ -41,12 +41,12 @@ const TOL_M: f64 = 1e-9;
 /// Linear speeds tried per yaw rate by the passive-safety search (plus 0).
 const PASSIVE_SPEEDS: usize = 10;
 /// Yaw rates tried by evasion.
-const EVASION_OMEGAS: usize = 9;
+const EVASION_OMEGAS: usize = 5;
 /// Evasion must also gain this much least gap (m) when it cannot gain time.
 const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
 /// The reference point is short of what is ahead when nearer by this (m).
 const GOAL_SHORT_M: f64 = 0.05;
-/// A tracked mover this near (beyond r, m) suspends going round obstacles.
+/// A mover on a collision course this near (beyond r, m) suspends going round obstacles.
 const MOVER_NEAR_M: f64 = 2.0;
 /// Half-angle of the rear sector a reversing robot must see (rad).
 const REAR_HALF_ANGLE_RAD: f64 = std::f64::consts::FRAC_PI_4;
@@ -461,7 +461,7 @@ impl SafetyPipeline {
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m < near);
             self.unstuck
-                .step(now_s, guidance, nominal_boxed, &self.points.points, movers_near, p)
+                .step(now_s, guidance, nominal_boxed, &self.points.points, pose, movers_near, p)
         } else {
             UnstuckDecision {
                 nominal: None,
@@ -681,7 +681,7 @@ impl SafetyPipeline {
             let current = self.passive.evasion_score(chosen.cmd, p);
             let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
             let (mut best, mut best_score) = (chosen, current);
-            let speeds = [bx.v_lo, 0.5 * bx.v_lo, 0.25 * bx.v_hi, 0.5 * bx.v_hi, bx.v_hi];
+            let speeds = [bx.v_lo, 0.5 * bx.v_hi, bx.v_hi];
             for k in 0..EVASION_OMEGAS {
                 let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
                 for v in speeds.into_iter().chain(std::iter::once(0.0)) {

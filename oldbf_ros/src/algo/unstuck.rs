@@ -33,7 +33,7 @@
 //!
 //! Everything still goes through the DTCBF and the passive checks.
 
-use super::geometry::{Twist, Vec2};
+use super::geometry::{Pose2, Twist, Vec2};
 use super::local_plan::{LocalPlanner, Waypoint};
 use super::params::Params;
 
@@ -41,6 +41,10 @@ use super::params::Params;
 const WAYPOINT_REACH_M: f64 = 1.0;
 /// The side kept may end this much farther from the goal than the best way (m).
 const SIDE_SLACK_M: f64 = 0.3;
+/// A plan is followed this long before planning again (s)…
+const REPLAN_S: f64 = 0.5;
+/// …unless its waypoint is nearer than this (m).
+const WAYPOINT_REACHED_M: f64 = 0.15;
 
 /// Where the nominal command is heading: the governed reference point and
 /// how far along its path it is.
@@ -82,6 +86,8 @@ pub struct Unstuck {
     following_from_m: Option<f64>,
     /// The side of the robot-to-reference line the way round keeps to.
     side: Option<f64>,
+    /// The last plan's waypoint (tracking frame, m) and when it was made (s).
+    cached: Option<(Vec2, f64)>,
     planner: LocalPlanner,
 }
 
@@ -91,6 +97,7 @@ impl Unstuck {
         self.last_gain_s = None;
         self.following_from_m = None;
         self.side = None;
+        self.cached = None;
     }
 
     /// Whether the robot is following a way round an obstacle.
@@ -109,6 +116,7 @@ impl Unstuck {
         guidance: Option<Guidance>,
         nominal: Twist,
         points: &[Vec2],
+        ego: Pose2,
         movers_near: bool,
         p: &Params,
     ) -> UnstuckDecision {
@@ -133,6 +141,7 @@ impl Unstuck {
         if arrived || movers_near {
             self.following_from_m = None;
             self.side = None;
+            self.cached = None;
             return UnstuckDecision::NONE;
         }
         if self.following_from_m.is_none() {
@@ -145,6 +154,25 @@ impl Unstuck {
             self.side = None;
         }
         let from = self.following_from_m.unwrap_or(progress);
+        if progress >= from + u.progress_m {
+            // Progress again: the tracking law takes over.
+            self.side = None;
+            self.following_from_m = None;
+            self.cached = None;
+            self.best_progress_m = Some(progress);
+            self.last_gain_s = Some(now_s);
+            return UnstuckDecision::NONE;
+        }
+        // The last plan's waypoint still ahead and recent: no need to plan again.
+        if let Some((world, planned_s)) = self.cached {
+            let point = ego.inverse_transform_point(world);
+            if now_s - planned_s < REPLAN_S && now_s >= planned_s && point.norm() > WAYPOINT_REACHED_M {
+                return UnstuckDecision {
+                    nominal: Some(self.towards(point, p)),
+                    waypoint: Some(point),
+                };
+            }
+        }
         let cell = super::local_plan::CELL_M;
         let clearance = p.robot_radius_m() + p.barrier.d_safe_m + u.margin_m;
         // A robot already closer than that to something (noise, a tight spot) may move
@@ -175,26 +203,17 @@ impl Unstuck {
             }
             free
         });
-        if progress >= from + u.progress_m {
-            // Progress again: the tracking law takes over.
-            self.side = None;
-            self.following_from_m = None;
-            self.best_progress_m = Some(progress);
-            self.last_gain_s = Some(now_s);
-            return UnstuckDecision::NONE;
-        }
         let w_max = p.control.omega_max_radps;
         // Somewhere to go: a way that leaves the disc the robot is short by.
         let (nominal, waypoint) = match way {
             Some(w) if w.point.norm() > 0.5 * cell && (w.end.norm() > own_m + cell || reaches(&w)) => {
-                let b = w.point.y.atan2(w.point.x);
-                let v = p.control.v_nom_mps * b.cos().max(0.0).powi(2);
-                let omega = (p.tracking.k_bearing_per_s.max(1.0) * b).clamp(-w_max, w_max);
-                (Twist::new(v, omega), Some(w.point))
+                self.cached = Some((ego.transform_point(w.point), now_s));
+                (self.towards(w.point, p), Some(w.point))
             }
             // Nowhere to go from here: turn in place (the paper's ω_0 case), towards
             // the reference's side.
             _ => {
+                self.cached = None;
                 let side = if g.target.y >= 0.0 { 1.0 } else { -1.0 };
                 (Twist::new(0.0, side * p.doaa.omega_0_radps.min(w_max)), None)
             }
@@ -208,6 +227,16 @@ impl Unstuck {
             nominal: Some(nominal),
             waypoint,
         }
+    }
+
+    /// The nominal towards `point` (robot frame): turn towards it, and drive
+    /// at up to the nominal speed, the less the more it must turn.
+    fn towards(&self, point: Vec2, p: &Params) -> Twist {
+        let w_max = p.control.omega_max_radps;
+        let b = point.y.atan2(point.x);
+        let v = p.control.v_nom_mps * b.cos().max(0.0).powi(2);
+        let omega = (p.tracking.k_bearing_per_s.max(1.0) * b).clamp(-w_max, w_max);
+        Twist::new(v, omega)
     }
 }
 
@@ -238,10 +267,10 @@ mod tests {
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
-            let d = u.step(k as f64 * 0.1, Some(g), nominal, &pts, false, &p);
+            let d = u.step(k as f64 * 0.1, Some(g), nominal, &pts, Pose2::default(), false, &p);
             assert_eq!(d.nominal, None, "no stall before 6 s");
         }
-        let d = u.step(6.0, Some(g), nominal, &pts, false, &p);
+        let d = u.step(6.0, Some(g), nominal, &pts, Pose2::default(), false, &p);
         assert!(u.following());
         // The wall ends 0.6 m to the right: the way round is to the right.
         let w = d.waypoint.unwrap();
@@ -253,7 +282,7 @@ mod tests {
             along_m: 3.4,
             ahead: Vec2::new(2.4, -1.2),
         };
-        let d = u.step(8.0, Some(g2), nominal, &[], false, &p);
+        let d = u.step(8.0, Some(g2), nominal, &[], Pose2::default(), false, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -273,14 +302,14 @@ mod tests {
                 Vec2::new(0.3 * a.cos(), 0.3 * a.sin())
             })
             .collect();
-        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
-        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
+        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
+        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
         assert_eq!(d.nominal, Some(Twist::new(0.0, p.doaa.omega_0_radps)));
-        let d = u.step(7.1, None, Twist::new(0.15, 0.0), &ring, false, &p);
+        let d = u.step(7.1, None, Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
         // A mover near: no going round.
-        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, false, &p);
-        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, true, &p);
+        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
+        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), true, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -297,7 +326,7 @@ mod tests {
                 ahead: Vec2::new(3.0, 0.0),
             };
             assert_eq!(
-                u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, false, &p)
+                u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, Pose2::default(), false, &p)
                     .nominal,
                 None
             );
@@ -310,7 +339,7 @@ mod tests {
         };
         for k in 0..200 {
             assert_eq!(
-                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, false, &p).nominal,
+                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, Pose2::default(), false, &p).nominal,
                 None
             );
         }
