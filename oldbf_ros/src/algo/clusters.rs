@@ -62,6 +62,12 @@ impl Clusters {
         self.clusters.is_empty()
     }
 
+    /// Marks cluster `k` as no measurement of anything (its point count set to
+    /// 0, so the tracker never takes it as a candidate); its points stay.
+    pub fn exclude(&mut self, k: usize) {
+        self.clusters[k].len = 0;
+    }
+
     /// Rebuilds the clusters of `points` (robot frame, beam order) whose beam
     /// indices are `beam_index`, out of a scan of `beams` beams;
     /// `full_circle` tells whether beam `beams − 1` neighbours beam 0.

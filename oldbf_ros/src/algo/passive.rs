@@ -30,6 +30,9 @@ use super::geometry::{Pose2, Twist, Vec2};
 use super::params::Params;
 use super::unicycle::arc_step;
 
+/// Where something may be unseen (held or unknown beams), the body keeps this
+/// much more room while moving towards it (m): it may have come closer since.
+pub const UNSEEN_MARGIN_M: f64 = 0.1;
 /// Path sample spacing (m).
 const SAMPLE_SPACING_M: f64 = 0.01;
 /// Most samples per phase (step, braking).
@@ -106,6 +109,9 @@ impl EvasionScore {
 #[derive(Debug, Clone, Default)]
 pub struct PassiveSafety {
     movers: Vec<Mover>,
+    /// Where unknown beams may hide something (robot frame, m): driven into
+    /// like static points, never counted in h.
+    phantoms: Vec<Vec2>,
     path: Vec<Sample>,
     reach: Vec<Vec2>,
 }
@@ -114,6 +120,7 @@ impl PassiveSafety {
     pub fn with_capacity(max_movers: usize, points: usize) -> Self {
         Self {
             movers: Vec::with_capacity(max_movers),
+            phantoms: Vec::with_capacity(points),
             path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
             reach: Vec::with_capacity(points),
         }
@@ -127,6 +134,12 @@ impl PassiveSafety {
 
     pub fn movers(&self) -> &[Mover] {
         &self.movers
+    }
+
+    /// This step's phantoms (replaced): points unknown beams may hide.
+    pub fn set_phantoms(&mut self, phantoms: &[Vec2]) {
+        self.phantoms.clear();
+        self.phantoms.extend_from_slice(phantoms);
     }
 
     /// Samples `cmd` applied for one control step, then braking to rest.
@@ -185,8 +198,12 @@ impl PassiveSafety {
         let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
         let reach2 = reach * reach;
         let r2 = r * r;
+        let ru = r + UNSEEN_MARGIN_M;
+        let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
         for s in &self.path {
-            for q in points {
+            let seen = points.iter().map(|q| (q, r2, reach2));
+            let unseen = self.phantoms.iter().map(|q| (q, ru2, reach_u2));
+            for (q, r2, reach2) in seen.chain(unseen) {
                 if q.norm_squared() > reach2 {
                     continue;
                 }
@@ -234,7 +251,8 @@ impl PassiveSafety {
         let reach = p.robot_radius_m() + vmax * p.passive.evasion_horizon_s + 0.05;
         let reach2 = reach * reach;
         self.reach.clear();
-        self.reach.extend(all.iter().filter(|q| q.norm_squared() <= reach2));
+        self.reach
+            .extend(all.iter().chain(&self.phantoms).filter(|q| q.norm_squared() <= reach2));
     }
 
     /// Predicted time to first contact with `cmd` held for the evasion

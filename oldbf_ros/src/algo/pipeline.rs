@@ -32,7 +32,7 @@ use super::obstacle_tracker::ObstacleTracker;
 use super::params::{Params, RangeSemantics};
 use super::passive::{ClosingContact, EvasionScore, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
-use super::scan::{check_scan, fill_points, LaserMount, LaserScan, ScanPoints};
+use super::scan::{check_scan, fill_points, BeamStatus, LaserMount, LaserScan, ScanPoints};
 use super::unicycle::arc_step;
 use super::unstuck::{Guidance, Unstuck, UnstuckDecision};
 
@@ -297,6 +297,20 @@ impl SafetyPipeline {
         if !self.params.obstacles.enabled {
             return;
         }
+        // Held points are where something was, not measurements: a cluster of mostly
+        // held points does not update a track, so a mover that steps inside range_min
+        // coasts on its velocity instead of seeming to stop where it was last seen.
+        let n_points = self.points.points.len();
+        for k in 0..self.clusters.len() {
+            let cluster = self.clusters.as_slice()[k];
+            let held = cluster
+                .indices(n_points)
+                .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
+                .count();
+            if 2 * held >= cluster.len && held > 0 {
+                self.clusters.exclude(k);
+            }
+        }
         let p = &self.params;
         let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
         let pts = &self.points.points;
@@ -445,6 +459,7 @@ impl SafetyPipeline {
         let span = (scan.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.predict_obstacles(&mut c, v_now, scan.stamp_s, pose, full_circle);
+        self.passive.set_phantoms(&self.points.phantoms);
         self.last_clearances = c;
         let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
         self.last_box = bx;
@@ -460,8 +475,15 @@ impl SafetyPipeline {
                 .movers()
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m < near);
-            self.unstuck
-                .step(now_s, guidance, nominal_boxed, &self.points.points, pose, movers_near, p)
+            self.unstuck.step(
+                now_s,
+                guidance,
+                nominal_boxed,
+                &self.points.points,
+                pose,
+                movers_near,
+                p,
+            )
         } else {
             UnstuckDecision {
                 nominal: None,

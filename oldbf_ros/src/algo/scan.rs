@@ -166,6 +166,14 @@ pub struct ScanPoints {
     /// Beams of the rear sector a reversing robot must see, and unknown ones there.
     pub rear_beams: usize,
     pub unknown_rear: usize,
+    /// Where something may be that no beam shows now (robot frame, m): every
+    /// held point (a mover last seen there may have come closer), and
+    /// range_min along every beam of a run of at least [`MIN_UNKNOWN_RUN`]
+    /// unknown beams with nothing held. The robot may not drive towards them
+    /// (the passive-safety check and evasion keep an extra margin from them,
+    /// §5b); the run points are not obstacles for h (an isolated dropout must
+    /// not throw the robot into escape).
+    pub phantoms: Vec<Vec2>,
     /// Beam directions of the last scan geometry seen.
     directions: BeamDirections,
 }
@@ -233,6 +241,7 @@ impl ScanPoints {
             front_beams: 0,
             rear_beams: 0,
             unknown_rear: 0,
+            phantoms: Vec::with_capacity(beams),
             directions: BeamDirections {
                 geometry: None,
                 dirs: Vec::with_capacity(beams),
@@ -252,6 +261,7 @@ impl ScanPoints {
         self.front_beams = 0;
         self.rear_beams = 0;
         self.unknown_rear = 0;
+        self.phantoms.clear();
     }
 
     /// Makes room for `beams` beams (no-op once the buffers are that large).
@@ -259,6 +269,7 @@ impl ScanPoints {
         self.points.reserve(beams);
         self.beam_index.reserve(beams);
         self.status.reserve(beams);
+        self.phantoms.reserve(beams);
     }
 
     /// Beams with a valid reading (the points less the −inf and held ones).
@@ -464,6 +475,8 @@ pub fn fill_points(
                     Some(q) => {
                         out.held += 1;
                         out.points.push(q);
+                        // Where it was: it may have come closer since.
+                        out.phantoms.push(q);
                         BeamStatus::Held
                     }
                     None => BeamStatus::Unknown,
@@ -475,7 +488,28 @@ pub fn fill_points(
         }
         out.status.push(status);
     }
+    // Runs of unknown beams with nothing held: something may be right there.
+    let mut run_start = None;
+    for i in 0..=out.status.len() {
+        let unknown = out.status.get(i) == Some(&BeamStatus::Unknown);
+        match (unknown, run_start) {
+            (true, None) => run_start = Some(i),
+            (false, Some(start)) => {
+                if i - start >= MIN_UNKNOWN_RUN {
+                    out.phantoms
+                        .extend(dirs[start..i].iter().map(|d| origin + d * rmin as f64));
+                }
+                run_start = None;
+            }
+            _ => {}
+        }
+    }
 }
+
+/// Unknown beams in a row, with nothing held, that may hide something; fewer
+/// are taken for dropouts (at 1 % dropouts, three in a row happen once in a
+/// million beams).
+pub const MIN_UNKNOWN_RUN: usize = 3;
 
 #[cfg(test)]
 mod tests {

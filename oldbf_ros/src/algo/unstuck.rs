@@ -326,8 +326,16 @@ mod tests {
                 ahead: Vec2::new(3.0, 0.0),
             };
             assert_eq!(
-                u.step(k as f64 * 0.1, Some(g), Twist::new(0.15, 0.0), &pts, Pose2::default(), false, &p)
-                    .nominal,
+                u.step(
+                    k as f64 * 0.1,
+                    Some(g),
+                    Twist::new(0.15, 0.0),
+                    &pts,
+                    Pose2::default(),
+                    false,
+                    &p
+                )
+                .nominal,
                 None
             );
         }
@@ -339,7 +347,8 @@ mod tests {
         };
         for k in 0..200 {
             assert_eq!(
-                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, Pose2::default(), false, &p).nominal,
+                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, Pose2::default(), false, &p)
+                    .nominal,
                 None
             );
         }

@@ -22,14 +22,19 @@ use crate::algo::geometry::{Pose2, Twist, Vec2};
 pub const CLOSING_SPEED_MPS: f64 = 0.02;
 
 /// One contact, at its onset.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Contact {
     /// Simulated time (s).
     pub t_s: f64,
     /// Robot position (m, world).
+    #[serde(serialize_with = "xy")]
     pub position: Vec2,
     /// Robot speed towards the touched point (m/s; negative: moving away).
     pub closing_speed_mps: f64,
+}
+
+fn xy<S: serde::Serializer>(p: &Vec2, s: S) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&[p.x, p.y], s)
 }
 
 impl Contact {

@@ -116,6 +116,9 @@ pub struct RobotSummary {
     /// or moving away: the obstacle came to it).
     pub closing_contacts: usize,
     pub passive_contacts: usize,
+    /// Every contact at its onset: time (s), robot position (m) and speed
+    /// towards the touched point (m/s).
+    pub contacts: Vec<Contact>,
     /// Least distance between the robot's body and any obstacle over the run (m; < 0 = penetration).
     pub min_clearance_m: f64,
     /// Steps where the logged DTCBF condition was false for the sent command.
@@ -614,6 +617,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     collisions: sim.collisions,
                     closing_contacts: sim.contacts.iter().filter(|c| c.closing()).count(),
                     passive_contacts: sim.contacts.iter().filter(|c| !c.closing()).count(),
+                    contacts: sim.contacts.clone(),
                     min_clearance_m: sim.min_clearance_m,
                     cbf_violations: a.cbf_violations,
                     true_cbf_violations: a.true_violations,
