@@ -502,7 +502,8 @@ impl SafetyPipeline {
                 // Something ahead beyond the reference point does not block the way to it
                 // (a goal in front of a wall): no both-sides turn, no committed swerve.
                 let mut c_doaa = c;
-                if guidance.is_some_and(|g| g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m) {
+                let short = |g: &Guidance| g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m;
+                if p.unstuck.enabled && guidance.as_ref().is_some_and(short) {
                     c_doaa.d_front_m = f64::INFINITY;
                 }
                 self.doaa.command(nominal_boxed, &c_doaa, &b, p)
