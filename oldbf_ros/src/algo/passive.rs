@@ -432,15 +432,19 @@ mod tests {
         let stay = ps.evasion_score(Twist::ZERO, &p);
         let back = ps.evasion_score(Twist::new(-0.05, 0.0), &p);
         let ahead = ps.evasion_score(Twist::new(0.22, 0.0), &p);
-        // Stay: contact when 1 − 0.3 t = 0.178 + 0.2 + 0.05 + 0.2 t → t = 1.144 s (sampled up).
-        assert!((stay.time_to_contact_s - 1.2).abs() < 1e-9, "{stay:?}");
+        // Margin 0.05 m, growth 0.1 m/s, samples 0.2 s apart. Stay: contact when
+        // 1 − 0.3 t = 0.178 + 0.2 + 0.05 + 0.1 t → t = 1.43 s (sampled up to 1.6); backing off
+        // at 0.05: 1 − 0.25 t = 0.428 + 0.1 t → 1.63 s (1.8); ahead at 0.22: 0.92 s (1.0).
+        assert!((stay.time_to_contact_s - 1.6).abs() < 1e-9, "{stay:?}");
+        assert!((back.time_to_contact_s - 1.8).abs() < 1e-9, "{back:?}");
+        assert!((ahead.time_to_contact_s - 1.0).abs() < 1e-9, "{ahead:?}");
         assert!(back.beats(&stay, 0.1, 0.0), "{back:?} {stay:?}");
         assert!(stay.beats(&ahead, 0.1, 0.0), "{stay:?} {ahead:?}");
         // No mover: every command scores the horizon, and none beats another.
         ps.set_movers(std::iter::empty());
         let a = ps.evasion_score(Twist::ZERO, &p);
         let b = ps.evasion_score(Twist::new(0.2, 0.1), &p);
-        assert_eq!(a.time_to_contact_s, 2.0);
+        assert_eq!(a.time_to_contact_s, 4.0);
         assert!(!a.beats(&b, 0.2, 0.02) && !b.beats(&a, 0.2, 0.02));
     }
 }

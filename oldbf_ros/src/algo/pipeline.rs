@@ -44,7 +44,7 @@ const PASSIVE_SPEEDS: usize = 10;
 const EVASION_OMEGAS: usize = 5;
 /// Evasion must also gain this much least gap (m) when it cannot gain time.
 const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
-/// The reference point is short of what is ahead when nearer by this (m).
+/// The goal is short of what is ahead when nearer by this (m).
 const GOAL_SHORT_M: f64 = 0.05;
 /// A mover on a collision course this near (beyond r, m) suspends going round obstacles.
 const MOVER_NEAR_M: f64 = 2.0;
@@ -499,10 +499,10 @@ impl SafetyPipeline {
                 (bx.clamp(follow), DoaaState::Follow)
             }
             None => {
-                // Something ahead beyond the reference point does not block the way to it
-                // (a goal in front of a wall): no both-sides turn, no committed swerve.
+                // Something ahead beyond the goal does not block the way to it (a goal in
+                // front of a wall): no both-sides turn, no committed swerve.
                 let mut c_doaa = c;
-                let short = |g: &Guidance| g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m;
+                let short = |g: &Guidance| g.at_end && g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m;
                 if p.unstuck.enabled && guidance.as_ref().is_some_and(short) {
                     c_doaa.d_front_m = f64::INFINITY;
                 }

@@ -58,6 +58,8 @@ pub struct Guidance {
     /// end at most), robot frame (m): where the way round heads. The governed
     /// reference itself often waits inside or against the obstacle.
     pub ahead: Vec2,
+    /// The reference has run to its end: `target` is the goal.
+    pub at_end: bool,
 }
 
 /// What the unstuck logic decided this step.
@@ -264,6 +266,7 @@ mod tests {
             target: Vec2::new(1.5, 0.0),
             along_m: 3.0,
             ahead: Vec2::new(3.0, 0.0),
+            at_end: false,
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
@@ -281,6 +284,7 @@ mod tests {
             target: Vec2::new(1.2, -1.2),
             along_m: 3.4,
             ahead: Vec2::new(2.4, -1.2),
+            at_end: false,
         };
         let d = u.step(8.0, Some(g2), nominal, &[], Pose2::default(), false, &p);
         assert_eq!((d.nominal, u.following()), (None, false));
@@ -294,6 +298,7 @@ mod tests {
             target: Vec2::new(1.5, 0.3),
             along_m: 3.0,
             ahead: Vec2::new(3.0, 0.3),
+            at_end: false,
         };
         // Points all round at 0.3 m: nowhere to go.
         let ring: Vec<Vec2> = (0..72)
@@ -324,6 +329,7 @@ mod tests {
                 target: Vec2::new(1.5, 0.0),
                 along_m: 0.015 * k as f64,
                 ahead: Vec2::new(3.0, 0.0),
+                at_end: false,
             };
             assert_eq!(
                 u.step(
@@ -344,6 +350,7 @@ mod tests {
             target: Vec2::new(1.5, 0.0),
             along_m: 3.0,
             ahead: Vec2::new(3.0, 0.0),
+            at_end: false,
         };
         for k in 0..200 {
             assert_eq!(

@@ -436,6 +436,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                         target: pose.inverse_transform_point(ref_pose.position()),
                         along_m: a.progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
                         ahead: pose.inverse_transform_point(ahead),
+                        at_end: a.progress.finished(reference),
                     }));
                     a.progress.advance(dt, rate);
                     (track(pose, ref_pose, ref_twist, &params.tracking), ref_pose.position())
