@@ -52,7 +52,7 @@ fn sim_out_writes_csv_and_plots() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let csv = std::fs::read_to_string(dir.join("steps.csv")).unwrap();
     assert!(csv.starts_with("t_s,x_m,y_m,"));
-    assert_eq!(csv.lines().count(), 601, "600 steps of 0.1 s plus the header");
+    assert_eq!(csv.lines().count(), 801, "800 steps of 0.1 s plus the header");
     for f in ["trajectory", "barriers", "velocities"] {
         for ext in ["png", "svg"] {
             let p = dir.join(format!("{f}.{ext}"));
