@@ -229,7 +229,9 @@ proptest! {
         let b = SafetyPipeline::new(Params::default()).step(&scan_of(&reversed, last, -inc), 5.0, Twist::new(v_nom, w_nom), v_nom);
         let close = |x: f64, y: f64| (x == y) || (x - y).abs() <= 1e-5 * (1.0 + x.abs().max(y.abs()));
         prop_assert!(close(a.h_m, b.h_m) && close(a.d_left_m, b.d_left_m) && close(a.d_right_m, b.d_right_m), "{a:?}\n{b:?}");
-        prop_assert!(close(a.b_left, b.b_left) && close(a.b_right, b.b_right), "{a:?}\n{b:?}");
+        // B is compared through 1/B: near d_safe, B = Γ²/(Γ² − Δd^σ) magnifies the 1e-8 m by
+        // which the two beam-direction tables place a point into 1e-3 differences of B.
+        prop_assert!(close(1.0 / a.b_left, 1.0 / b.b_left) && close(1.0 / a.b_right, 1.0 / b.b_right), "{a:?}\n{b:?}");
         prop_assert!(close(a.cmd.v_mps, b.cmd.v_mps) && close(a.cmd.omega_radps, b.cmd.omega_radps), "{a:?}\n{b:?}");
         prop_assert_eq!(a.state, b.state);
         prop_assert_eq!(a.valid_beams, b.valid_beams);

@@ -92,10 +92,19 @@ fn violations_and_collisions_fail_the_gates_unless_allowed() {
         "1000000",
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
-    // Two hours at seed 1 include contacts (3 when measured): with violations
-    // allowed, the collision gate alone fails the run, and allowing exactly
-    // that many passes it.
-    let hours_with_contacts = ["--sim-hours", "2", "--seed", "1", "--max-cbf-violations", "100000000"];
+    // An hour of the `mixed` template at seed 1 includes contacts (11, all passive,
+    // when measured): with violations allowed, the collision gate alone fails the
+    // run, and allowing exactly that many passes it.
+    let hours_with_contacts = [
+        "--sim-hours",
+        "1",
+        "--seed",
+        "1",
+        "--template",
+        "config/batch/mixed.yaml",
+        "--max-cbf-violations",
+        "100000000",
+    ];
     let out = soak(&hours_with_contacts);
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{text}");

@@ -86,6 +86,13 @@ pub struct SoakReport {
     pub non_finite_commands: usize,
     pub collisions: usize,
     pub worlds_with_collision: usize,
+    /// Of the collisions, contacts the robot drove into (its speed towards
+    /// the touched point above 0.02 m/s at the onset; every one fails the
+    /// soak) and the others (at rest, turning or moving away).
+    pub closing_contacts: usize,
+    pub passive_contacts: usize,
+    /// Steps driven while an unknown beam hiding something near was taken as free.
+    pub driven_blind_steps: usize,
     /// Steps where the logged DTCBF condition failed for the sent command.
     pub cbf_violations: usize,
     /// Steps where it failed on the exact geometry.
@@ -141,6 +148,9 @@ struct WorldFigures {
     steps: usize,
     non_finite_commands: usize,
     collisions: usize,
+    closing_contacts: usize,
+    passive_contacts: usize,
+    driven_blind_steps: usize,
     cbf_violations: usize,
     true_cbf_violations: usize,
     min_clearance_m: f64,
@@ -160,6 +170,9 @@ impl WorldFigures {
                 .filter(|row| !(row.v_cmd_mps.is_finite() && row.omega_cmd_radps.is_finite()))
                 .count(),
             collisions: s.collisions,
+            closing_contacts: s.closing_contacts,
+            passive_contacts: s.passive_contacts,
+            driven_blind_steps: s.driven_blind_steps,
             cbf_violations: s.cbf_violations,
             true_cbf_violations: s.true_cbf_violations,
             min_clearance_m: s.min_clearance_m,
@@ -213,6 +226,9 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
         non_finite_commands: 0,
         collisions: 0,
         worlds_with_collision: 0,
+        closing_contacts: 0,
+        passive_contacts: 0,
+        driven_blind_steps: 0,
         cbf_violations: 0,
         true_cbf_violations: 0,
         worlds_with_violation: 0,
@@ -255,6 +271,9 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
                     r.non_finite_commands += f.non_finite_commands;
                     r.collisions += f.collisions;
                     r.worlds_with_collision += usize::from(f.collisions > 0);
+                    r.closing_contacts += f.closing_contacts;
+                    r.passive_contacts += f.passive_contacts;
+                    r.driven_blind_steps += f.driven_blind_steps;
                     r.cbf_violations += f.cbf_violations;
                     r.true_cbf_violations += f.true_cbf_violations;
                     r.worlds_with_violation += usize::from(f.cbf_violations + f.true_cbf_violations > 0);
@@ -300,6 +319,12 @@ fn gates(r: &SoakReport, o: &SoakOptions) -> Vec<String> {
     }
     if r.collisions > o.max_collisions {
         f.push(format!("{} collision(s), allowed {}", r.collisions, o.max_collisions));
+    }
+    if r.closing_contacts > 0 {
+        f.push(format!(
+            "{} closing contact(s): the robot drove into something (never allowed)",
+            r.closing_contacts
+        ));
     }
     if r.cbf_violations > o.max_cbf_violations {
         f.push(format!(
@@ -358,8 +383,16 @@ pub fn text(r: &SoakReport) -> String {
         s.push_str(&format!("    world {} panicked: {}\n", p.world, p.message));
     }
     s.push_str(&format!(
-        "  collisions {} (worlds {}) | CBF violations {} (logged), {} (exact geometry), worlds {} | min clearance {:.3} m\n",
-        r.collisions, r.worlds_with_collision, r.cbf_violations, r.true_cbf_violations, r.worlds_with_violation, r.min_clearance_m
+        "  collisions {} (worlds {}; closing {}, passive {}) | CBF violations {} (logged), {} (exact geometry), worlds {} | min clearance {:.3} m | driven blind {} steps\n",
+        r.collisions,
+        r.worlds_with_collision,
+        r.closing_contacts,
+        r.passive_contacts,
+        r.cbf_violations,
+        r.true_cbf_violations,
+        r.worlds_with_violation,
+        r.min_clearance_m,
+        r.driven_blind_steps
     ));
     s.push_str(&format!(
         "  goal reached in {}/{} worlds\n",
@@ -420,6 +453,9 @@ mod tests {
             non_finite_commands: 0,
             collisions: 2,
             worlds_with_collision: 2,
+            closing_contacts: 0,
+            passive_contacts: 2,
+            driven_blind_steps: 0,
             cbf_violations: 10,
             true_cbf_violations: 10,
             worlds_with_violation: 1,
@@ -451,6 +487,7 @@ mod tests {
         );
         trip(|r| r.non_finite_commands = 1, "non-finite");
         trip(|r| r.collisions = 3, "collision");
+        trip(|r| r.closing_contacts = 1, "closing contact");
         trip(|r| r.cbf_violations = 11, "logged CBF");
         trip(|r| r.true_cbf_violations = 11, "exact-geometry CBF");
         trip(|r| r.rss_growth_kib = 4097, "resident memory grew");
