@@ -37,6 +37,7 @@ use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
 use crate::algo::scan::{LaserScan, ScanRejection};
 use crate::algo::tracking::{track, TrackingError};
+use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -478,12 +479,16 @@ impl NodeCore {
         if use_reference {
             let odom = self.fresh_odom(now_s);
             let params = self.pipeline.params().tracking.clone();
+            let ahead_m = self.pipeline.params().unstuck.ahead_m;
             let (reference, progress) = self.reference.as_mut().expect("checked above");
             return match odom {
                 Some(o) => {
                     let e = TrackingError::between(o.pose, reference.pose_at(progress.t_s)).distance_m();
                     let rate = ReferenceProgress::rate(e, params.capture_radius_m);
                     let (ref_pose, ref_twist) = progress.reference(reference, rate);
+                    // Where the reference heads, for the unstuck logic (§4b).
+                    let guidance = Guidance::of_reference(reference, progress, o.pose, ahead_m);
+                    self.pipeline.set_guidance(Some(guidance));
                     progress.advance(dt_s, rate);
                     (track(o.pose, ref_pose, ref_twist, &params), NominalUsed::Reference)
                 }

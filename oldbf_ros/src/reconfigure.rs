@@ -53,6 +53,57 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
         "laser.scan_timeout_s",
         "a scan older than this is stale: the robot stops (s)",
     ),
+    (
+        "laser.unknown_hold_s",
+        "an unknown beam (NaN, below range_min) keeps its last valid reading this long (s)",
+    ),
+    (
+        "laser.blind_fraction",
+        "the sensor is blind when more than this fraction of the front reads unknown…",
+    ),
+    ("laser.blind_timeout_s", "…for longer than this: stop, sensor_blind (s)"),
+    (
+        "laser.zero_is_no_return",
+        "the driver writes 0.0 for no return: 0.0 is free (else unknown)",
+    ),
+    (
+        "control.allow_reverse",
+        "may back up (only ever on scans that see the rear)",
+    ),
+    ("control.v_reverse_max_mps", "largest reverse speed (m/s)"),
+    (
+        "passive.enabled",
+        "passive motion safety: brake to rest without a closing contact; evasion",
+    ),
+    (
+        "passive.brake_decel_mps2",
+        "deceleration the robot can always achieve braking to rest (m/s²)",
+    ),
+    (
+        "passive.mover_margin_m",
+        "a mover's predicted disc is inflated by this at once (m)…",
+    ),
+    (
+        "passive.mover_growth_mps",
+        "…and grows by this per second of prediction (m/s)",
+    ),
+    (
+        "passive.evasion_horizon_s",
+        "evasion ranks commands by predicted time to contact over this (s)",
+    ),
+    ("doaa.commit_turns", "pass an obstacle ahead on one side, chosen once"),
+    (
+        "doaa.max_omega_change_radps",
+        "largest change of the DOAA's yaw rate per step (rad/s); 0 = none",
+    ),
+    (
+        "unstuck.enabled",
+        "go round an obstacle when progress towards the reference stalls",
+    ),
+    (
+        "unstuck.stall_s",
+        "progress stalled for this long starts going round (s)",
+    ),
     ("obstacles.enabled", "track moving obstacles and use their motion"),
     (
         "obstacles.lookahead_s",

@@ -6,8 +6,8 @@
 //! front half). d_min is over every valid point (the full scan), because the
 //! safe set S = { d_min ≥ d_safe } must hold all around the robot.
 //!
-//! Departure (ALGORITHM.md §4b, smooth steering): with `barrier.side_fade_deg`
-//! > 0 the sides have no hard edges. A point counts for a side with its
+//! Departure (ALGORITHM.md §4b, smooth steering): with a positive
+//! `barrier.side_fade_deg` the sides have no hard edges. A point counts for a side with its
 //! clearance raised by a penalty that grows linearly from 0 to the activation
 //! band's width as its bearing goes from the side's own half into the other
 //! half by the fade angle, and likewise as it nears the hemisphere's rear

@@ -188,9 +188,7 @@ impl PassiveSafety {
     /// static points (robot frame, m); the movers are this step's.
     pub fn closing_contact(&mut self, cmd: Twist, points: &[Vec2], p: &Params) -> Option<ClosingContact> {
         self.braking_path(cmd, p);
-        let Some(last) = self.path.last() else {
-            return None;
-        };
+        let last = self.path.last()?;
         let r = p.robot_radius_m();
         let threshold = 0.5 * p.passive.closing_speed_mps;
         // Only points the body can reach on this path matter: within r of a path

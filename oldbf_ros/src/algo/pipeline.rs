@@ -34,7 +34,7 @@ use super::passive::{ClosingContact, EvasionScore, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{check_scan, fill_points, BeamStatus, LaserMount, LaserScan, ScanPoints};
 use super::unicycle::arc_step;
-use super::unstuck::{Guidance, Unstuck, UnstuckDecision};
+use super::unstuck::{Guidance, Situation, Unstuck, UnstuckDecision};
 
 /// Numerical tolerance on the DTCBF condition (m), as in the filter.
 const TOL_M: f64 = 1e-9;
@@ -470,20 +470,17 @@ impl SafetyPipeline {
         let guidance = self.guidance.take();
         let unstuck = if p.unstuck.enabled {
             let near = MOVER_NEAR_M + p.robot_radius_m();
-            let movers_near = self
-                .passive
-                .movers()
-                .iter()
-                .any(|m| m.position.norm() - m.radius_m < near);
-            self.unstuck.step(
+            // Only a mover on a collision course counts: a static object's track may look
+            // like a slow mover now and then while the robot goes round it.
+            let movers_near = self.threats.iter().any(|t| t.position.norm() - t.radius_m < near);
+            let now = Situation {
                 now_s,
-                guidance,
-                nominal_boxed,
-                &self.points.points,
-                pose,
+                nominal: nominal_boxed,
+                points: &self.points.points,
+                ego: pose,
                 movers_near,
-                p,
-            )
+            };
+            self.unstuck.step(guidance, &now, p)
         } else {
             UnstuckDecision {
                 nominal: None,

@@ -36,6 +36,7 @@
 use super::geometry::{Pose2, Twist, Vec2};
 use super::local_plan::{LocalPlanner, Waypoint};
 use super::params::Params;
+use super::reference::{ReferenceProgress, ReferenceTrajectory};
 
 /// The waypoint is the farthest visible path cell within this (m).
 const WAYPOINT_REACH_M: f64 = 1.0;
@@ -60,6 +61,44 @@ pub struct Guidance {
     pub ahead: Vec2,
     /// The reference has run to its end: `target` is the goal.
     pub at_end: bool,
+}
+
+impl Guidance {
+    /// The guidance of a governed reference: its point now (`progress`), the
+    /// point `ahead_m` further along, seen from the robot at `robot` (same
+    /// frame as the reference, e.g. odometry).
+    pub fn of_reference(
+        reference: &ReferenceTrajectory,
+        progress: &ReferenceProgress,
+        robot: Pose2,
+        ahead_m: f64,
+    ) -> Guidance {
+        let speed = reference.v_mps.abs().max(1e-9);
+        let ahead = reference.pose_at(progress.t_s + ahead_m / speed).position();
+        Guidance {
+            target: robot.inverse_transform_point(reference.pose_at(progress.t_s).position()),
+            along_m: progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
+            ahead: robot.inverse_transform_point(ahead),
+            at_end: progress.finished(reference),
+        }
+    }
+}
+
+/// What the robot sees at one step.
+#[derive(Debug, Clone, Copy)]
+pub struct Situation<'a> {
+    /// Time of the step (s).
+    pub now_s: f64,
+    /// The nominal command.
+    pub nominal: Twist,
+    /// The scan's points (robot frame, m).
+    pub points: &'a [Vec2],
+    /// The robot's pose in the tracking frame.
+    pub ego: Pose2,
+    /// A mover on a collision course is near: a robot held up by people waits
+    /// for them to pass (DOAA and evasion deal with movers); it does not go
+    /// round them.
+    pub movers_near: bool,
 }
 
 /// What the unstuck logic decided this step.
@@ -107,21 +146,16 @@ impl Unstuck {
         self.following_from_m.is_some()
     }
 
-    /// One step at `now_s` (s): `guidance` (None: nothing to make progress
-    /// towards, nothing to do), the nominal command, the points (robot
-    /// frame, m), and whether a tracked mover is near: a robot held up by
-    /// people waits for them to pass (DOAA and evasion deal with movers), it
-    /// does not go round them.
-    pub fn step(
-        &mut self,
-        now_s: f64,
-        guidance: Option<Guidance>,
-        nominal: Twist,
-        points: &[Vec2],
-        ego: Pose2,
-        movers_near: bool,
-        p: &Params,
-    ) -> UnstuckDecision {
+    /// One step: `guidance` (None: nothing to make progress towards, nothing
+    /// to do) and what the robot sees now.
+    pub fn step(&mut self, guidance: Option<Guidance>, now: &Situation<'_>, p: &Params) -> UnstuckDecision {
+        let Situation {
+            now_s,
+            nominal,
+            points,
+            ego,
+            movers_near,
+        } = *now;
         let Some(g) = guidance.filter(|g| g.target.x.is_finite() && g.target.y.is_finite() && g.along_m.is_finite())
         else {
             self.reset();
@@ -270,10 +304,30 @@ mod tests {
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
-            let d = u.step(k as f64 * 0.1, Some(g), nominal, &pts, Pose2::default(), false, &p);
+            let d = u.step(
+                Some(g),
+                &Situation {
+                    now_s: k as f64 * 0.1,
+                    nominal,
+                    points: &pts,
+                    ego: Pose2::default(),
+                    movers_near: false,
+                },
+                &p,
+            );
             assert_eq!(d.nominal, None, "no stall before 6 s");
         }
-        let d = u.step(6.0, Some(g), nominal, &pts, Pose2::default(), false, &p);
+        let d = u.step(
+            Some(g),
+            &Situation {
+                now_s: 6.0,
+                nominal,
+                points: &pts,
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
         assert!(u.following());
         // The wall ends 0.6 m to the right: the way round is to the right.
         let w = d.waypoint.unwrap();
@@ -286,7 +340,17 @@ mod tests {
             ahead: Vec2::new(2.4, -1.2),
             at_end: false,
         };
-        let d = u.step(8.0, Some(g2), nominal, &[], Pose2::default(), false, &p);
+        let d = u.step(
+            Some(g2),
+            &Situation {
+                now_s: 8.0,
+                nominal,
+                points: &[],
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -307,14 +371,64 @@ mod tests {
                 Vec2::new(0.3 * a.cos(), 0.3 * a.sin())
             })
             .collect();
-        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
-        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
+        u.step(
+            Some(g),
+            &Situation {
+                now_s: 0.0,
+                nominal: Twist::new(0.15, 0.0),
+                points: &ring,
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
+        let d = u.step(
+            Some(g),
+            &Situation {
+                now_s: 7.0,
+                nominal: Twist::new(0.15, 0.0),
+                points: &ring,
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
         assert_eq!(d.nominal, Some(Twist::new(0.0, p.doaa.omega_0_radps)));
-        let d = u.step(7.1, None, Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
+        let d = u.step(
+            None,
+            &Situation {
+                now_s: 7.1,
+                nominal: Twist::new(0.15, 0.0),
+                points: &ring,
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
         assert_eq!((d.nominal, u.following()), (None, false));
         // A mover near: no going round.
-        u.step(0.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), false, &p);
-        let d = u.step(7.0, Some(g), Twist::new(0.15, 0.0), &ring, Pose2::default(), true, &p);
+        u.step(
+            Some(g),
+            &Situation {
+                now_s: 0.0,
+                nominal: Twist::new(0.15, 0.0),
+                points: &ring,
+                ego: Pose2::default(),
+                movers_near: false,
+            },
+            &p,
+        );
+        let d = u.step(
+            Some(g),
+            &Situation {
+                now_s: 7.0,
+                nominal: Twist::new(0.15, 0.0),
+                points: &ring,
+                ego: Pose2::default(),
+                movers_near: true,
+            },
+            &p,
+        );
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -333,12 +447,14 @@ mod tests {
             };
             assert_eq!(
                 u.step(
-                    k as f64 * 0.1,
                     Some(g),
-                    Twist::new(0.15, 0.0),
-                    &pts,
-                    Pose2::default(),
-                    false,
+                    &Situation {
+                        now_s: k as f64 * 0.1,
+                        nominal: Twist::new(0.15, 0.0),
+                        points: &pts,
+                        ego: Pose2::default(),
+                        movers_near: false
+                    },
                     &p
                 )
                 .nominal,
@@ -354,8 +470,18 @@ mod tests {
         };
         for k in 0..200 {
             assert_eq!(
-                u.step(k as f64 * 0.1, Some(g), Twist::ZERO, &pts, Pose2::default(), false, &p)
-                    .nominal,
+                u.step(
+                    Some(g),
+                    &Situation {
+                        now_s: k as f64 * 0.1,
+                        nominal: Twist::ZERO,
+                        points: &pts,
+                        ego: Pose2::default(),
+                        movers_near: false
+                    },
+                    &p
+                )
+                .nominal,
                 None
             );
         }

@@ -105,6 +105,15 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
             kv("scan_fault", tick.scan_fault.map(|f| f.code()).unwrap_or_default()),
             kv("nominal_source", tick.nominal_used),
             kv("valid_beams", rec.valid_beams),
+            kv("unknown_beams", rec.unknown_beams),
+            kv("held_beams", rec.held_beams),
+            kv("unknown_front_fraction", format!("{:.2}", rec.unknown_front_fraction)),
+            kv(
+                "sensor_blind",
+                rec.stop_cause == Some(crate::algo::StopCause::SensorBlind),
+            ),
+            kv("braking_held", rec.braking_held),
+            kv("infeasible", rec.infeasibility.map(|i| i.code()).unwrap_or_default()),
         ],
     };
     let mut array = DiagnosticArray {

@@ -58,12 +58,19 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
         filter_enabled: tick.filter_enabled,
         filter_active: r.filter_changed,
         condition_held: r.condition_held,
+        braking_held: r.braking_held,
+        infeasible: r.infeasibility.map(|i| i.code().to_string()).unwrap_or_default(),
         e_stop: tick.e_stop,
         stop_reason: stop_reason(tick),
         nominal: twist_to_msg(r.nominal),
         cmd: twist_to_msg(tick.cmd),
         beams: r.beams as u32,
         valid_beams: r.valid_beams as u32,
+        unknown_beams: r.unknown_beams as u32,
+        held_beams: r.held_beams as u32,
+        unknown_front: r.unknown_front_fraction,
+        moving_obstacles: r.tracked_obstacles as u32,
+        threats: r.threats as u32,
         ..Default::default()
     };
     m.header.frame_id = frame.into();

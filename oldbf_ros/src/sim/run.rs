@@ -430,14 +430,12 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     a.tracked_steps += 1;
                     let rate = ReferenceProgress::rate(e, params.tracking.capture_radius_m);
                     let (ref_pose, ref_twist) = a.progress.reference(reference, rate);
-                    let ahead_s = params.unstuck.ahead_m / reference.v_mps.abs().max(1e-9);
-                    let ahead = reference.pose_at(a.progress.t_s + ahead_s).position();
-                    a.pipeline.set_guidance(Some(Guidance {
-                        target: pose.inverse_transform_point(ref_pose.position()),
-                        along_m: a.progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
-                        ahead: pose.inverse_transform_point(ahead),
-                        at_end: a.progress.finished(reference),
-                    }));
+                    a.pipeline.set_guidance(Some(Guidance::of_reference(
+                        reference,
+                        &a.progress,
+                        pose,
+                        params.unstuck.ahead_m,
+                    )));
                     a.progress.advance(dt, rate);
                     (track(pose, ref_pose, ref_twist, &params.tracking), ref_pose.position())
                 }
