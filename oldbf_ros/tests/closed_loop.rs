@@ -91,6 +91,8 @@ fn the_dtcbf_filter_alone_keeps_the_robot_off_the_crate() {
     // No steering at all (k = 0, front sector too narrow for the both-sides turn): the robot
     // drives straight at the crate on the line, and only the DTCBF check stands between them.
     let mut s = scenario("paper_line");
+    // Nothing else may steer either: no committed turn, no going round, no evasion.
+    s.params = s.params.clone().paper_method();
     s.params.doaa.gain_k_radps = 0.0;
     s.params.barrier.front_fov_deg = 1e-3;
     s.spec.duration_s = 60.0;
