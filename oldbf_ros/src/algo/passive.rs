@@ -28,7 +28,6 @@
 
 use super::geometry::{Pose2, Twist, Vec2};
 use super::params::Params;
-use super::unicycle::arc_step;
 
 /// Where something may be unseen (held or unknown beams), the body keeps this
 /// much more room while moving towards it (m): it may have come closer since.
@@ -40,6 +39,65 @@ const MAX_STEP_SAMPLES: usize = 16;
 const MAX_BRAKE_SAMPLES: usize = 48;
 /// Time between samples of an evasion path (s).
 const EVASION_SAMPLE_S: f64 = 0.2;
+
+/// A unicycle on a constant (v, ω) from the origin, walked in equal time
+/// steps: each step is the exact arc (its chord along the mid-step heading),
+/// with one sine and cosine for the whole walk instead of one per sample.
+#[derive(Debug, Clone, Copy)]
+struct ArcWalk {
+    pos: Vec2,
+    /// Unit heading.
+    heading: Vec2,
+    /// Rotation by ω·step, and by half of it (cos, sin).
+    turn: (f64, f64),
+    half: (f64, f64),
+    /// Chord of one step (m, signed with v).
+    chord: f64,
+}
+
+/// `v` rotated by (cos, sin).
+#[inline]
+fn rotate(v: Vec2, (c, s): (f64, f64)) -> Vec2 {
+    Vec2::new(c * v.x - s * v.y, s * v.x + c * v.y)
+}
+
+impl ArcWalk {
+    fn new(cmd: Twist, step_s: f64) -> Self {
+        let dth = cmd.omega_radps * step_s;
+        let half = 0.5 * dth;
+        let sinc = if half.abs() < 1e-6 {
+            1.0 - half * half / 6.0
+        } else {
+            half.sin() / half
+        };
+        Self {
+            pos: Vec2::zeros(),
+            heading: Vec2::new(1.0, 0.0),
+            turn: (dth.cos(), dth.sin()),
+            half: (half.cos(), half.sin()),
+            chord: cmd.v_mps * step_s * sinc,
+        }
+    }
+
+    fn step(&mut self) {
+        self.pos += rotate(self.heading, self.half) * self.chord;
+        self.heading = rotate(self.heading, self.turn);
+    }
+}
+
+/// (cos, sin) of a small angle (rad) by their series; exact to 1e-12 below 0.05 rad.
+#[inline]
+fn small_turn(a: f64) -> (f64, f64) {
+    if a.abs() < 0.05 {
+        let a2 = a * a;
+        (
+            1.0 - a2 / 2.0 + a2 * a2 / 24.0 - a2 * a2 * a2 / 720.0,
+            a * (1.0 - a2 / 6.0 + a2 * a2 / 120.0),
+        )
+    } else {
+        (a.cos(), a.sin())
+    }
+}
 
 /// A tracked moving obstacle, robot frame, now.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,6 +170,12 @@ pub struct PassiveSafety {
     /// Where unknown beams may hide something (robot frame, m): driven into
     /// like static points, never counted in h.
     phantoms: Vec<Vec2>,
+    /// The static points and phantoms any braking path of the box can reach
+    /// this step ([`Self::prepare`]).
+    near_seen: Vec<Vec2>,
+    near_unseen: Vec<Vec2>,
+    /// The points one path can reach and their squared contact radii (m, m²).
+    scratch: Vec<(Vec2, f64)>,
     path: Vec<Sample>,
     reach: Vec<Vec2>,
 }
@@ -121,6 +185,9 @@ impl PassiveSafety {
         Self {
             movers: Vec::with_capacity(max_movers),
             phantoms: Vec::with_capacity(points),
+            near_seen: Vec::with_capacity(points),
+            near_unseen: Vec::with_capacity(points),
+            scratch: Vec::with_capacity(points),
             path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
             reach: Vec::with_capacity(points),
         }
@@ -152,41 +219,64 @@ impl PassiveSafety {
         let dt = p.control.dt_s();
         let decel = p.passive.brake_decel_mps2;
         let speed = v.abs();
-        let heading_at = |theta: f64| Vec2::new(theta.cos(), theta.sin()) * v;
         let n1 = ((speed * dt / SAMPLE_SPACING_M).ceil() as usize).clamp(1, MAX_STEP_SAMPLES);
+        let mut walk = ArcWalk::new(cmd, dt / n1 as f64);
         for k in 1..=n1 {
-            let t = dt * k as f64 / n1 as f64;
-            let pose = arc_step(Pose2::default(), cmd, t);
+            walk.step();
             self.path.push(Sample {
-                t_s: t,
-                pos: pose.position(),
-                vel: heading_at(pose.theta),
+                t_s: dt * k as f64 / n1 as f64,
+                pos: walk.pos,
+                vel: walk.heading * v,
             });
         }
         // Braking: speed falls linearly to 0 over speed/decel, on the same curvature.
-        let start = arc_step(Pose2::default(), cmd, dt);
         let curvature = cmd.omega_radps / v;
         let t_brake = speed / decel;
         let s_brake = 0.5 * speed * t_brake;
         let n2 = ((s_brake / SAMPLE_SPACING_M).ceil() as usize).clamp(1, MAX_BRAKE_SAMPLES);
+        let (mut pos, mut heading) = (walk.pos, walk.heading);
+        let mut s_prev = 0.0;
         for k in 1..=n2 {
             let tau = t_brake * k as f64 / n2 as f64;
             let s = speed * tau - 0.5 * decel * tau * tau; // distance so far (m)
-            let signed = s * v.signum();
-            let pose = arc_step(start, Twist::new(signed, signed * curvature), 1.0);
+                                                           // The arc of this sample's distance: chord along the mid heading.
+            let ds = (s - s_prev) * v.signum();
+            let dth = ds * curvature;
+            let (c, sn) = small_turn(0.5 * dth);
+            let chord = if dth.abs() < 1e-9 { ds } else { ds * sn / (0.5 * dth) };
+            pos += rotate(heading, (c, sn)) * chord;
+            heading = rotate(heading, small_turn(dth));
+            s_prev = s;
             let speed_now = (speed - decel * tau).max(0.0);
             self.path.push(Sample {
                 t_s: dt + tau,
-                pos: pose.position(),
-                vel: Vec2::new(pose.theta.cos(), pose.theta.sin()) * (speed_now * v.signum()),
+                pos,
+                vel: heading * (speed_now * v.signum()),
             });
         }
     }
 
+    /// Keeps the static points (robot frame, m) and this step's phantoms that
+    /// a braking path of any command of the parameters' box can come near:
+    /// [`Self::closing_contact`] then looks at those only. Call once per step,
+    /// after [`Self::set_phantoms`].
+    pub fn prepare(&mut self, points: &[Vec2], p: &Params) {
+        let speed = p.control.v_max_mps.max(p.control.v_reverse_max_mps);
+        let travel = speed * (p.control.dt_s() + speed / p.passive.brake_decel_mps2);
+        let reach = p.robot_radius_m() + UNSEEN_MARGIN_M + travel + 2.0 * SAMPLE_SPACING_M;
+        let reach2 = reach * reach;
+        self.near_seen.clear();
+        self.near_seen
+            .extend(points.iter().filter(|q| q.norm_squared() <= reach2));
+        self.near_unseen.clear();
+        self.near_unseen
+            .extend(self.phantoms.iter().filter(|q| q.norm_squared() <= reach2));
+    }
+
     /// The first closing contact `cmd` would make (one step, then braking to
-    /// rest), or `None`: the command is passively safe. `points` are the
-    /// static points (robot frame, m); the movers are this step's.
-    pub fn closing_contact(&mut self, cmd: Twist, points: &[Vec2], p: &Params) -> Option<ClosingContact> {
+    /// rest), or `None`: the command is passively safe. Static points are
+    /// those of the last [`Self::prepare`]; the movers are this step's.
+    pub fn closing_contact(&mut self, cmd: Twist, p: &Params) -> Option<ClosingContact> {
         self.braking_path(cmd, p);
         let last = self.path.last()?;
         let r = p.robot_radius_m();
@@ -198,13 +288,21 @@ impl PassiveSafety {
         let r2 = r * r;
         let ru = r + UNSEEN_MARGIN_M;
         let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
+        // The points this path can reach, with the contact radius of each, once.
+        self.scratch.clear();
+        let seen = self
+            .near_seen
+            .iter()
+            .filter(|q| q.norm_squared() <= reach2)
+            .map(|q| (*q, r2));
+        let unseen = self
+            .near_unseen
+            .iter()
+            .filter(|q| q.norm_squared() <= reach_u2)
+            .map(|q| (*q, ru2));
+        self.scratch.extend(seen.chain(unseen));
         for s in &self.path {
-            let seen = points.iter().map(|q| (q, r2, reach2));
-            let unseen = self.phantoms.iter().map(|q| (q, ru2, reach_u2));
-            for (q, r2, reach2) in seen.chain(unseen) {
-                if q.norm_squared() > reach2 {
-                    continue;
-                }
+            for &(q, r2) in &self.scratch {
                 let d = q - s.pos;
                 let d2 = d.norm_squared();
                 if d2 < r2 {
@@ -267,11 +365,14 @@ impl PassiveSafety {
         // No static point can be reached before this: the robot closes on any point no
         // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
         let mut static_clear_until = 0.0;
+        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
-            let pose = arc_step(Pose2::default(), cmd, t);
-            let pos = pose.position();
-            let vel = Vec2::new(pose.theta.cos(), pose.theta.sin()) * cmd.v_mps;
+            if k > 0 {
+                walk.step();
+            }
+            let pos = walk.pos;
+            let vel = walk.heading * cmd.v_mps;
             let mut gap = f64::INFINITY;
             for m in &self.movers {
                 let c = m.position + m.velocity * t;
@@ -320,6 +421,35 @@ mod tests {
         Params::default()
     }
 
+    /// `cmd`'s first closing contact with the static `points` and `ps`'s movers.
+    fn contact(ps: &mut PassiveSafety, cmd: Twist, points: &[Vec2], p: &Params) -> Option<ClosingContact> {
+        ps.prepare(points, p);
+        ps.closing_contact(cmd, p)
+    }
+
+    #[test]
+    fn arc_walks_match_the_closed_form_arc() {
+        use crate::algo::unicycle::arc_step;
+        for cmd in [
+            Twist::new(0.2, 0.3),
+            Twist::new(-0.15, -0.3),
+            Twist::new(0.22, 0.0),
+            Twist::new(0.1, 2.0),
+        ] {
+            let mut w = ArcWalk::new(cmd, 0.1);
+            for k in 1..=40 {
+                w.step();
+                let pose = arc_step(Pose2::default(), cmd, 0.1 * k as f64);
+                assert!((w.pos - pose.position()).norm() < 1e-9, "{cmd:?} step {k}");
+                assert!((w.heading - Vec2::new(pose.theta.cos(), pose.theta.sin())).norm() < 1e-9);
+            }
+        }
+        for a in [0.0, 1e-3, 0.049, -0.03, 0.2] {
+            let (c, s) = small_turn(a);
+            assert!((c - a.cos()).abs() < 1e-12 && (s - a.sin()).abs() < 1e-12, "{a}");
+        }
+    }
+
     #[test]
     fn braking_distance_decides_against_a_static_point_ahead() {
         // v = 0.2: 2 cm in the step, then 0.2²/2 = 2 cm braking: the centre stops 4 cm on.
@@ -327,8 +457,8 @@ mod tests {
         let p = params();
         let mut ps = PassiveSafety::default();
         let cmd = Twist::new(0.2, 0.0);
-        assert_eq!(ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.045, 0.0)], &p), None);
-        let c = ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &p).unwrap();
+        assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.045, 0.0)], &p), None);
+        let c = contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &p).unwrap();
         assert!(!c.mover && c.t_s > 0.1 && c.t_s < 0.3, "{c:?}");
         // Reached during braking, after 1.5 cm of it (v² = 0.04 − 2·0.015: 0.1 m/s), seen at
         // the first sample past it, up to a centimetre on (0.2 − √… ≥ 0.05 m/s).
@@ -336,12 +466,9 @@ mod tests {
         // Stronger brakes: stops after 2 cm + 1 cm and does not reach it.
         let mut strong = params();
         strong.passive.brake_decel_mps2 = 2.0;
-        assert_eq!(ps.closing_contact(cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &strong), None);
+        assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &strong), None);
         // Standing still and turning in place are always passively safe.
-        assert_eq!(
-            ps.closing_contact(Twist::new(0.0, 0.3), &[Vec2::new(0.1, 0.0)], &p),
-            None
-        );
+        assert_eq!(contact(&mut ps, Twist::new(0.0, 0.3), &[Vec2::new(0.1, 0.0)], &p), None);
     }
 
     #[test]
@@ -350,16 +477,14 @@ mod tests {
         let mut ps = PassiveSafety::default();
         // A point behind, already inside r: forward motion moves away from it.
         assert_eq!(
-            ps.closing_contact(Twist::new(0.2, 0.0), &[Vec2::new(-0.15, 0.0)], &p),
+            contact(&mut ps, Twist::new(0.2, 0.0), &[Vec2::new(-0.15, 0.0)], &p),
             None
         );
         // Backing up into it is closing.
-        assert!(ps
-            .closing_contact(Twist::new(-0.05, 0.0), &[Vec2::new(-0.15, 0.0)], &p)
-            .is_some());
+        assert!(contact(&mut ps, Twist::new(-0.05, 0.0), &[Vec2::new(-0.15, 0.0)], &p).is_some());
         // Sliding past, barely approaching (tangential) is not.
         assert_eq!(
-            ps.closing_contact(Twist::new(0.2, 0.0), &[Vec2::new(0.0, 0.17)], &p),
+            contact(&mut ps, Twist::new(0.2, 0.0), &[Vec2::new(0.0, 0.17)], &p),
             None
         );
     }
@@ -375,19 +500,19 @@ mod tests {
             velocity: Vec2::new(0.0, -1.0),
             radius_m: 0.2,
         }));
-        let c = ps.closing_contact(Twist::new(0.22, 0.0), &[], &p).unwrap();
+        let c = contact(&mut ps, Twist::new(0.22, 0.0), &[], &p).unwrap();
         assert!(c.mover, "{c:?}");
         // Standing still is passively safe even though it will be hit.
-        assert_eq!(ps.closing_contact(Twist::ZERO, &[], &p), None);
+        assert_eq!(contact(&mut ps, Twist::ZERO, &[], &p), None);
         // Backing away from it (velocity away from its centre) is not closing either.
-        assert_eq!(ps.closing_contact(Twist::new(-0.05, 0.0), &[], &p), None);
+        assert_eq!(contact(&mut ps, Twist::new(-0.05, 0.0), &[], &p), None);
         // The same mover walking away is no obstacle.
         ps.set_movers(std::iter::once(Mover {
             position: Vec2::new(0.45, 0.5),
             velocity: Vec2::new(0.0, 1.0),
             radius_m: 0.2,
         }));
-        assert_eq!(ps.closing_contact(Twist::new(0.22, 0.0), &[], &p), None);
+        assert_eq!(contact(&mut ps, Twist::new(0.22, 0.0), &[], &p), None);
     }
 
     #[test]
@@ -403,16 +528,16 @@ mod tests {
         }));
         p.passive.mover_margin_m = 0.0;
         p.passive.mover_growth_mps = 0.0;
-        assert_eq!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p), None);
+        assert_eq!(contact(&mut ps, Twist::new(0.2, 0.0), &[], &p), None);
         p.passive.mover_margin_m = 0.025;
-        assert_eq!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p), None);
+        assert_eq!(contact(&mut ps, Twist::new(0.2, 0.0), &[], &p), None);
         p.passive.mover_margin_m = 0.06;
-        let c = ps.closing_contact(Twist::new(0.2, 0.0), &[], &p).unwrap();
+        let c = contact(&mut ps, Twist::new(0.2, 0.0), &[], &p).unwrap();
         assert!(c.mover && (c.closing_speed_mps - 0.2).abs() < 1e-9, "{c:?}");
         // Growth alone does it too: 3 cm by t ≈ 0.14 s needs 0.2 m/s of growth.
         p.passive.mover_margin_m = 0.0;
         p.passive.mover_growth_mps = 0.25;
-        assert!(ps.closing_contact(Twist::new(0.2, 0.0), &[], &p).is_some());
+        assert!(contact(&mut ps, Twist::new(0.2, 0.0), &[], &p).is_some());
     }
 
     #[test]

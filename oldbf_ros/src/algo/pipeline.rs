@@ -396,7 +396,7 @@ impl SafetyPipeline {
     /// The first closing contact `cmd` would make braking to rest from the
     /// last step's points and movers (§5b); `None`: passively safe.
     pub fn braking_check(&mut self, cmd: Twist) -> Option<ClosingContact> {
-        self.passive.closing_contact(cmd, &self.points_next, &self.params)
+        self.passive.closing_contact(cmd, &self.params)
     }
 
     /// As `step`, with the robot's odometry pose when there is one (tracks
@@ -460,6 +460,7 @@ impl SafetyPipeline {
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.predict_obstacles(&mut c, v_now, scan.stamp_s, pose, full_circle);
         self.passive.set_phantoms(&self.points.phantoms);
+        self.passive.prepare(&self.points_next, &self.params);
         self.last_clearances = c;
         let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
         self.last_box = bx;
@@ -602,7 +603,7 @@ impl SafetyPipeline {
         let h_next = self.filter.h_next(&self.points_next, cmd, p);
         // The logged condition, the one the record and the tests judge.
         let condition = !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M;
-        let passive = self.passive.closing_contact(cmd, &self.points_next, p).is_none();
+        let passive = self.passive.closing_contact(cmd, p).is_none();
         Candidate {
             cmd,
             h_next_m: h_next,
