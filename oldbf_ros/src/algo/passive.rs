@@ -26,7 +26,7 @@
 //! points are taken at the filter's r; the DTCBF already keeps d_safe from
 //! them, so for static worlds this check only bites inside the unsafe set.
 
-use super::geometry::{Pose2, Twist, Vec2};
+use super::geometry::{Twist, Vec2};
 use super::params::Params;
 
 /// Where something may be unseen (held or unknown beams), the body keeps this
@@ -178,6 +178,50 @@ pub struct PassiveSafety {
     scratch: Vec<(Vec2, f64)>,
     path: Vec<Sample>,
     reach: Vec<Vec2>,
+    /// The last few answers of [`Self::closing_contact`] and
+    /// [`Self::evasion_score`] this step: the search and the step record ask
+    /// about the same commands more than once. Cleared whenever an input changes.
+    contact_memo: Memo<Option<ClosingContact>>,
+    evasion_memo: Memo<EvasionScore>,
+}
+
+/// Answers for a few commands, the oldest replaced first.
+#[derive(Debug, Clone, Copy)]
+struct Memo<T: Copy> {
+    entries: [Option<(Twist, T)>; MEMO_SIZE],
+    next: usize,
+}
+
+/// Commands remembered per question.
+const MEMO_SIZE: usize = 4;
+
+impl<T: Copy> Default for Memo<T> {
+    fn default() -> Self {
+        Self {
+            entries: [None; MEMO_SIZE],
+            next: 0,
+        }
+    }
+}
+
+impl<T: Copy> Memo<T> {
+    fn clear(&mut self) {
+        self.entries = [None; MEMO_SIZE];
+    }
+
+    /// The answer for `cmd`, bit for bit the same command.
+    fn get(&self, cmd: Twist) -> Option<T> {
+        let same = |c: &Twist| {
+            c.v_mps.to_bits() == cmd.v_mps.to_bits() && c.omega_radps.to_bits() == cmd.omega_radps.to_bits()
+        };
+        self.entries.iter().flatten().find(|(c, _)| same(c)).map(|(_, t)| *t)
+    }
+
+    fn put(&mut self, cmd: Twist, answer: T) -> T {
+        self.entries[self.next] = Some((cmd, answer));
+        self.next = (self.next + 1) % MEMO_SIZE;
+        answer
+    }
 }
 
 impl PassiveSafety {
@@ -190,6 +234,8 @@ impl PassiveSafety {
             scratch: Vec::with_capacity(points),
             path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
             reach: Vec::with_capacity(points),
+            contact_memo: Memo::default(),
+            evasion_memo: Memo::default(),
         }
     }
 
@@ -197,6 +243,12 @@ impl PassiveSafety {
     pub fn set_movers(&mut self, movers: impl Iterator<Item = Mover>) {
         self.movers.clear();
         self.movers.extend(movers);
+        self.forget_answers();
+    }
+
+    fn forget_answers(&mut self) {
+        self.contact_memo.clear();
+        self.evasion_memo.clear();
     }
 
     pub fn movers(&self) -> &[Mover] {
@@ -207,6 +259,7 @@ impl PassiveSafety {
     pub fn set_phantoms(&mut self, phantoms: &[Vec2]) {
         self.phantoms.clear();
         self.phantoms.extend_from_slice(phantoms);
+        self.forget_answers();
     }
 
     /// Samples `cmd` applied for one control step, then braking to rest.
@@ -271,12 +324,21 @@ impl PassiveSafety {
         self.near_unseen.clear();
         self.near_unseen
             .extend(self.phantoms.iter().filter(|q| q.norm_squared() <= reach2));
+        self.forget_answers();
     }
 
     /// The first closing contact `cmd` would make (one step, then braking to
     /// rest), or `None`: the command is passively safe. Static points are
     /// those of the last [`Self::prepare`]; the movers are this step's.
     pub fn closing_contact(&mut self, cmd: Twist, p: &Params) -> Option<ClosingContact> {
+        if let Some(answer) = self.contact_memo.get(cmd) {
+            return answer;
+        }
+        let answer = self.first_closing_contact(cmd, p);
+        self.contact_memo.put(cmd, answer)
+    }
+
+    fn first_closing_contact(&mut self, cmd: Twist, p: &Params) -> Option<ClosingContact> {
         self.braking_path(cmd, p);
         let last = self.path.last()?;
         let r = p.robot_radius_m();
@@ -349,12 +411,21 @@ impl PassiveSafety {
         self.reach.clear();
         self.reach
             .extend(all.iter().chain(&self.phantoms).filter(|q| q.norm_squared() <= reach2));
+        self.evasion_memo.clear();
     }
 
     /// Predicted time to first contact with `cmd` held for the evasion
     /// horizon: any contact with a mover's grown disc, or a closing contact
     /// with a static point selected by [`Self::select_reach`].
-    pub fn evasion_score(&self, cmd: Twist, p: &Params) -> EvasionScore {
+    pub fn evasion_score(&mut self, cmd: Twist, p: &Params) -> EvasionScore {
+        if let Some(score) = self.evasion_memo.get(cmd) {
+            return score;
+        }
+        let score = self.score_evasion(cmd, p);
+        self.evasion_memo.put(cmd, score)
+    }
+
+    fn score_evasion(&self, cmd: Twist, p: &Params) -> EvasionScore {
         let r = p.robot_radius_m();
         let horizon = p.passive.evasion_horizon_s;
         let threshold = 0.5 * p.passive.closing_speed_mps;
@@ -429,6 +500,7 @@ mod tests {
 
     #[test]
     fn arc_walks_match_the_closed_form_arc() {
+        use crate::algo::geometry::Pose2;
         use crate::algo::unicycle::arc_step;
         for cmd in [
             Twist::new(0.2, 0.3),

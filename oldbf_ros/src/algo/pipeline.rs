@@ -77,6 +77,29 @@ impl Derived {
     }
 }
 
+/// One command of the passive-safety search, weighed as far as needed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Lazy {
+    cmd: Twist,
+    /// Distance from the DOAA command (m²).
+    cost: f64,
+    h_next_m: f64,
+    condition: bool,
+    /// The braking check, once done.
+    passive: Option<bool>,
+}
+
+impl Lazy {
+    fn weighed(&self) -> Candidate {
+        Candidate {
+            cmd: self.cmd,
+            h_next_m: self.h_next_m,
+            condition: self.condition,
+            passive: self.passive.unwrap_or(false),
+        }
+    }
+}
+
 /// One command the passive-safety search weighed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Candidate {
@@ -104,7 +127,9 @@ pub struct SafetyPipeline {
     guidance: Option<Guidance>,
     filter: DtcbfFilter,
     passive: PassiveSafety,
-    candidates: Vec<Candidate>,
+    candidates: Vec<Lazy>,
+    /// Candidate indices with their sort key.
+    order: Vec<(u32, f64)>,
     last_cmd: Twist,
     last_clearances: Clearances,
     last_box: InputBox,
@@ -148,6 +173,7 @@ impl SafetyPipeline {
             filter: DtcbfFilter::with_capacity(cap),
             passive: PassiveSafety::with_capacity(max_tracks, cap),
             candidates: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
+            order: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
             last_cmd: Twist::ZERO,
             last_clearances: Clearances::OPEN,
             last_box,
@@ -599,17 +625,111 @@ impl SafetyPipeline {
 
     /// Weighs `cmd`: its predicted h(k+1) and both checks.
     fn weigh(&mut self, cmd: Twist, h: f64) -> Candidate {
-        let p = &self.params;
-        let h_next = self.filter.h_next(&self.points_next, cmd, p);
-        // The logged condition, the one the record and the tests judge.
-        let condition = !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M;
-        let passive = self.passive.closing_contact(cmd, p).is_none();
+        let (h_next_m, condition) = self.condition(cmd, h);
+        let passive = self.passive.closing_contact(cmd, &self.params).is_none();
         Candidate {
             cmd,
-            h_next_m: h_next,
+            h_next_m,
             condition,
             passive,
         }
+    }
+
+    /// `cmd`'s predicted h(k+1) (m) and whether it meets the logged one-step
+    /// condition, the one the record and the tests judge.
+    fn condition(&self, cmd: Twist, h: f64) -> (f64, bool) {
+        let p = &self.params;
+        let h_next = self.filter.h_next(&self.points_next, cmd, p);
+        (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
+    }
+
+    /// The command closest to the DOAA's `desired` that meets both checks,
+    /// over the DTCBF's ω grid and a grid of speeds; else the passively safe
+    /// one keeping h(k+1) highest (ties: the closest); else `own` if it is
+    /// passively safe, else a turn in place. Candidates are weighed in the
+    /// order they could win, each check only when it can still decide, which
+    /// picks what weighing all of them would.
+    fn closest_admissible(&mut self, out: &DtcbfOutcome, desired: Twist, bx: &InputBox, own: Candidate) -> Candidate {
+        let h = out.h_m;
+        let w = self.params.dtcbf.omega_weight_m2_per_rad2;
+        let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
+        self.candidates.clear();
+        let n = self.params.dtcbf.omega_candidates;
+        let omegas = [out.cmd.omega_radps, desired.omega_radps]
+            .into_iter()
+            .chain((0..n).map(|k| grid(-bx.omega_max, bx.omega_max, k, n)));
+        for omega in omegas {
+            let omega = omega.clamp(-bx.omega_max, bx.omega_max);
+            for j in 0..=PASSIVE_SPEEDS + 1 {
+                let v = if j == 0 {
+                    0.0
+                } else {
+                    grid(bx.v_lo, bx.v_hi, j - 1, PASSIVE_SPEEDS + 1)
+                };
+                let cmd = Twist::new(v, omega);
+                self.candidates.push(Lazy {
+                    cmd,
+                    cost: cost(cmd),
+                    h_next_m: f64::NAN,
+                    condition: false,
+                    passive: None,
+                });
+            }
+        }
+        // Closest first; among equals the first generated (as `min_by` would).
+        let by_cost = |a: &(u32, f64), b: &(u32, f64)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
+        self.order.clear();
+        self.order
+            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.cost)));
+        self.order.sort_unstable_by(by_cost);
+        for k in 0..self.order.len() {
+            let i = self.order[k].0 as usize;
+            let (h_next_m, condition) = self.condition(self.candidates[i].cmd, h);
+            let c = &mut self.candidates[i];
+            (c.h_next_m, c.condition) = (h_next_m, condition);
+            if condition && self.passive_of(i) {
+                return self.candidates[i].weighed();
+            }
+        }
+        if own.passive {
+            // The DTCBF's own fallback (least bad, or a turn in place) drives into nothing.
+            return own;
+        }
+        // Highest h(k+1), then closest; among equals the last generated (as `max_by` would).
+        self.order.clear();
+        self.order
+            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.h_next_m)));
+        let candidates = &self.candidates;
+        self.order.sort_unstable_by(|a, b| {
+            let (ca, cb) = (&candidates[a.0 as usize], &candidates[b.0 as usize]);
+            cb.h_next_m
+                .total_cmp(&ca.h_next_m)
+                .then(ca.cost.total_cmp(&cb.cost))
+                .then(b.0.cmp(&a.0))
+        });
+        for k in 0..self.order.len() {
+            let i = self.order[k].0 as usize;
+            if self.passive_of(i) {
+                return self.candidates[i].weighed();
+            }
+        }
+        Candidate {
+            cmd: Twist::new(0.0, out.cmd.omega_radps),
+            ..own
+        }
+    }
+
+    /// Candidate `i`'s braking check, done once.
+    fn passive_of(&mut self, i: usize) -> bool {
+        if let Some(passive) = self.candidates[i].passive {
+            return passive;
+        }
+        let passive = self
+            .passive
+            .closing_contact(self.candidates[i].cmd, &self.params)
+            .is_none();
+        self.candidates[i].passive = Some(passive);
+        passive
     }
 
     /// Passive motion safety and evasion (§5b) on the DTCBF's outcome `out`
@@ -636,58 +756,17 @@ impl SafetyPipeline {
         // Threatened: contact predicted within the collision-cone look-ahead (the evasion
         // horizon, longer, only ranks the ways out).
         let trigger = self.params.obstacles.lookahead_s.min(horizon);
-        let threatened =
-            |ps: &PassiveSafety, cmd: Twist, p: &Params| movers && ps.evasion_score(cmd, p).time_to_contact_s < trigger;
+        let threatened = |ps: &mut PassiveSafety, cmd: Twist, p: &Params| {
+            movers && ps.evasion_score(cmd, p).time_to_contact_s < trigger
+        };
         let closing_in = !self.threats.is_empty();
         let stalled = out.infeasible || out.cmd.v_mps.abs() < stall;
-        if own.passive && !(closing_in && stalled) && !threatened(&self.passive, out.cmd, &self.params) {
+        if own.passive && !(closing_in && stalled) && !threatened(&mut self.passive, out.cmd, &self.params) {
             return (out, false, false);
         }
         let mut chosen = own;
         if !own.passive || out.infeasible {
-            // The closest command to the DOAA's that meets both checks, over the DTCBF's
-            // ω grid and a grid of speeds; else the passively safe one keeping h(k+1) highest.
-            self.candidates.clear();
-            let n = self.params.dtcbf.omega_candidates;
-            let omegas = [out.cmd.omega_radps, desired.omega_radps]
-                .into_iter()
-                .chain((0..n).map(|k| grid(-bx.omega_max, bx.omega_max, k, n)));
-            for omega in omegas {
-                let omega = omega.clamp(-bx.omega_max, bx.omega_max);
-                for j in 0..=PASSIVE_SPEEDS + 1 {
-                    let v = if j == 0 {
-                        0.0
-                    } else {
-                        grid(bx.v_lo, bx.v_hi, j - 1, PASSIVE_SPEEDS + 1)
-                    };
-                    let c = self.weigh(Twist::new(v, omega), h);
-                    self.candidates.push(c);
-                }
-            }
-            let w = self.params.dtcbf.omega_weight_m2_per_rad2;
-            let cost = |c: &Candidate| {
-                (c.cmd.v_mps - desired.v_mps).powi(2) + w * (c.cmd.omega_radps - desired.omega_radps).powi(2)
-            };
-            let both = self
-                .candidates
-                .iter()
-                .filter(|c| c.condition && c.passive)
-                .min_by(|a, b| cost(a).total_cmp(&cost(b)));
-            let least_bad = || {
-                self.candidates
-                    .iter()
-                    .filter(|c| c.passive)
-                    .max_by(|a, b| a.h_next_m.total_cmp(&b.h_next_m).then(cost(b).total_cmp(&cost(a))))
-            };
-            chosen = match (both, own.passive) {
-                (Some(c), _) => *c,
-                // The DTCBF's own fallback (least bad, or a turn in place) drives into nothing.
-                (None, true) => own,
-                (None, false) => least_bad().copied().unwrap_or(Candidate {
-                    cmd: Twist::new(0.0, out.cmd.omega_radps),
-                    ..own
-                }),
-            };
+            chosen = self.closest_admissible(&out, desired, bx, own);
         }
         // Evasion: a mover's predicted disc reaches the robot within the horizon, or a
         // mover closes on a robot that cannot go forward. Among the commands as
@@ -695,7 +774,7 @@ impl SafetyPipeline {
         // none within the horizon, the closest to the DOAA command.
         let mut evading = false;
         let chosen_stalled = out.infeasible || chosen.cmd.v_mps.abs() < stall;
-        if movers && ((closing_in && chosen_stalled) || threatened(&self.passive, chosen.cmd, &self.params)) {
+        if movers && ((closing_in && chosen_stalled) || threatened(&mut self.passive, chosen.cmd, &self.params)) {
             let p = &self.params;
             let w = p.dtcbf.omega_weight_m2_per_rad2;
             let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
@@ -706,10 +785,22 @@ impl SafetyPipeline {
             for k in 0..EVASION_OMEGAS {
                 let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
                 for v in speeds.into_iter().chain(std::iter::once(0.0)) {
-                    let c = self.weigh(Twist::new(v, omega), h);
-                    if !c.passive || (tier_both && !c.condition) {
+                    // The cheap condition first: a command it rules out needs no braking check.
+                    let cmd = Twist::new(v, omega);
+                    let (h_next_m, condition) = self.condition(cmd, h);
+                    if tier_both && !condition {
                         continue;
                     }
+                    let passive = self.passive.closing_contact(cmd, &self.params).is_none();
+                    if !passive {
+                        continue;
+                    }
+                    let c = Candidate {
+                        cmd,
+                        h_next_m,
+                        condition,
+                        passive,
+                    };
                     let score = self.passive.evasion_score(c.cmd, &self.params);
                     let ahead = if score.time_to_contact_s >= horizon && best_score.time_to_contact_s >= horizon {
                         cost(c.cmd) < cost(best.cmd)
