@@ -134,34 +134,42 @@ const BATCH: usize = 8;
 /// side clearances fade by bearing (see the module docs).
 pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
     let mut c = Clearances::OPEN;
-    for p in points {
-        let norm2 = p.norm_squared();
-        let norm = norm2.sqrt();
-        let clearance = norm - robot_radius_m;
-        if clearance < c.d_min_m {
-            c.d_min_m = clearance;
-            c.closest = Some(p.clone_owned());
+    // Roots and reciprocals a batch at a time, as in `compute_clearances`.
+    for chunk in points.chunks(BATCH) {
+        let mut norm2 = [0.0; BATCH];
+        for (n2, p) in norm2.iter_mut().zip(chunk) {
+            *n2 = p.norm_squared();
         }
-        if front.contains(*p, norm) && clearance < c.d_front_m {
-            c.d_front_m = clearance;
-        }
-        if norm == 0.0 {
-            continue;
-        }
-        let inv = 1.0 / norm;
-        let (pl, pr) = fade.penalties(p.x * inv, p.y * inv);
-        if pl.is_finite() {
-            c.crowding_left += if p.y > 0.0 { inv } else { 0.0 };
-            if clearance + pl < c.d_left_m {
-                c.d_left_m = clearance + pl;
-                c.closest_left = Some(*p);
+        let norms = norm2.map(f64::sqrt);
+        let reciprocals = norms.map(|n| 1.0 / n);
+        for (k, p) in chunk.iter().enumerate() {
+            let norm = norms[k];
+            let clearance = norm - robot_radius_m;
+            if clearance < c.d_min_m {
+                c.d_min_m = clearance;
+                c.closest = Some(*p);
             }
-        }
-        if pr.is_finite() {
-            c.crowding_right += if p.y < 0.0 { inv } else { 0.0 };
-            if clearance + pr < c.d_right_m {
-                c.d_right_m = clearance + pr;
-                c.closest_right = Some(*p);
+            if front.contains(*p, norm) && clearance < c.d_front_m {
+                c.d_front_m = clearance;
+            }
+            if norm == 0.0 {
+                continue;
+            }
+            let inv = reciprocals[k];
+            let (pl, pr) = fade.penalties(p.x * inv, p.y * inv);
+            if pl.is_finite() {
+                c.crowding_left += if p.y > 0.0 { inv } else { 0.0 };
+                if clearance + pl < c.d_left_m {
+                    c.d_left_m = clearance + pl;
+                    c.closest_left = Some(*p);
+                }
+            }
+            if pr.is_finite() {
+                c.crowding_right += if p.y < 0.0 { inv } else { 0.0 };
+                if clearance + pr < c.d_right_m {
+                    c.d_right_m = clearance + pr;
+                    c.closest_right = Some(*p);
+                }
             }
         }
     }

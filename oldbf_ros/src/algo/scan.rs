@@ -446,21 +446,34 @@ pub fn fill_points(
         .min(std::f64::consts::PI)
         .cos();
     let (zero_free, hold_s) = (params.zero_is_no_return, params.unknown_hold_s);
+    // Counters in locals and the buffers borrowed apart: the loop then keeps them in
+    // registers instead of storing through `out` at every beam.
+    let ScanPoints {
+        points,
+        beam_index,
+        status,
+        phantoms,
+        ..
+    } = out;
+    let (mut front_beams, mut rear_beams, mut unknown, mut unknown_front, mut unknown_rear) = (0, 0, 0, 0, 0);
+    let (mut held, mut too_close) = (0, 0);
     for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
         let in_front = dir.x >= cos_front;
         let in_rear = dir.x <= -cos_rear;
-        out.front_beams += in_front as usize;
-        out.rear_beams += in_rear as usize;
-        let status = match classify_range(p, rmin, rmax, zero_free) {
+        front_beams += in_front as usize;
+        rear_beams += in_rear as usize;
+        let beam_status = match classify_range(p, rmin, rmax, zero_free) {
             RangeKind::Valid => {
                 memory.remember(i, p);
-                out.points.push(origin + dir * p as f64);
+                points.push(origin + dir * p as f64);
+                beam_index.push(i as u32);
                 BeamStatus::Valid
             }
             RangeKind::TooClose => {
                 memory.remember(i, rmin);
-                out.too_close += 1;
-                out.points.push(origin + dir * rmin as f64);
+                too_close += 1;
+                points.push(origin + dir * rmin as f64);
+                beam_index.push(i as u32);
                 BeamStatus::TooClose
             }
             RangeKind::Free => {
@@ -468,26 +481,27 @@ pub fn fill_points(
                 BeamStatus::Free
             }
             RangeKind::Unknown => {
-                out.unknown += 1;
-                out.unknown_front += in_front as usize;
-                out.unknown_rear += in_rear as usize;
+                unknown += 1;
+                unknown_front += in_front as usize;
+                unknown_rear += in_rear as usize;
                 match memory.held_point(i, hold_s, |r| origin + dir * r as f64) {
                     Some(q) => {
-                        out.held += 1;
-                        out.points.push(q);
+                        held += 1;
+                        points.push(q);
+                        beam_index.push(i as u32);
                         // Where it was: it may have come closer since.
-                        out.phantoms.push(q);
+                        phantoms.push(q);
                         BeamStatus::Held
                     }
                     None => BeamStatus::Unknown,
                 }
             }
         };
-        if matches!(status, BeamStatus::Valid | BeamStatus::TooClose | BeamStatus::Held) {
-            out.beam_index.push(i as u32);
-        }
-        out.status.push(status);
+        status.push(beam_status);
     }
+    (out.front_beams, out.rear_beams, out.unknown) = (front_beams, rear_beams, unknown);
+    (out.unknown_front, out.unknown_rear) = (unknown_front, unknown_rear);
+    (out.held, out.too_close) = (held, too_close);
     // Runs of unknown beams with nothing held: something may be right there.
     let mut run_start = None;
     for i in 0..=out.status.len() {
