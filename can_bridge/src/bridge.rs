@@ -38,7 +38,7 @@
 //!   commanded motion only. Every setpoint is finite and within limits.
 
 use crate::bus::{BusError, BusEvent, CanBus, CanErrorFrame, ErrorSeverity};
-use crate::config::{BridgeConfig, RangeError};
+use crate::config::{BridgeConfig, ParamError, Validate};
 use crate::diagnostics::{BridgeEvent, BridgeState, BridgeStatus, Counters, DriveLinkStatus, StopReason, TimedEvent};
 use crate::kinematics::{DiffDrive, MotorSpeeds, Twist, Wheel, WheelSpeeds};
 use crate::limits::{clamp_twist, saturate_wheels, RampLimiter};
@@ -62,7 +62,7 @@ pub const WARNING_REPORT_INTERVAL: Duration = Duration::from_secs(1);
 #[derive(Debug, thiserror::Error)]
 pub enum BridgeError {
     #[error("invalid configuration: {}", .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("; "))]
-    Config(Vec<RangeError>),
+    Config(Vec<ParamError>),
     #[error("cannot set the CAN receive filters: {0}")]
     Bus(#[from] BusError),
 }

@@ -4,8 +4,8 @@
 
 use anyhow::{bail, Context, Result};
 use can_bridge::bridge::Bridge;
-use can_bridge::config::{default_config, load_config_file, BridgeConfig};
-use can_bridge::script::{parse_action, parse_script, Action, ScriptStep};
+use can_bridge::config::{default_config, load_config_file, BridgeConfig, ConfigError, Validate};
+use can_bridge::script::{parse_action, parse_script, Action, ScriptError, ScriptStep};
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::time::{Clock, MonotonicClock, Timestamp};
 use can_bridge::ProtocolKind;
@@ -76,9 +76,9 @@ fn emit(kind: &str, mut v: Value) {
     let _ = writeln!(out, "{}", Value::Object(obj));
 }
 
-fn load(args: &Args) -> Result<BridgeConfig, String> {
+fn load(args: &Args) -> Result<BridgeConfig, ConfigError> {
     let mut cfg = match &args.config {
-        Some(p) => load_config_file(p).map_err(|e| e.to_string())?,
+        Some(p) => load_config_file(p)?,
         None => default_config(),
     };
     if let Some(i) = &args.interface {
@@ -87,12 +87,8 @@ fn load(args: &Args) -> Result<BridgeConfig, String> {
     if let Some(p) = args.protocol {
         cfg.protocol = p;
     }
-    cfg.validate().map_err(|es| {
-        es.iter()
-            .map(|e| format!("command line: {e}"))
-            .collect::<Vec<_>>()
-            .join("\n")
-    })?;
+    // The overrides are checked like the file; errors name the command line.
+    cfg.validate().map_err(|es| ConfigError::invalid("command line", es))?;
     Ok(cfg)
 }
 
@@ -148,7 +144,7 @@ fn run(args: Args) -> Result<i32> {
     log::info!("bridge on {interface}, protocol {}", protocol.name());
 
     // stdin reader: stamps each line with its arrival time.
-    let (tx, rx) = mpsc::channel::<Option<(Timestamp, Result<Action, String>)>>();
+    let (tx, rx) = mpsc::channel::<Option<(Timestamp, Result<Action, ScriptError>)>>();
     if script.is_none() {
         std::thread::spawn(move || {
             for line in std::io::stdin().lock().lines() {
@@ -222,7 +218,7 @@ fn run(args: Args) -> Result<i32> {
             match rx.try_recv() {
                 Ok(Some((t, Ok(a)))) => apply(&mut bridge, a, t, &mut quit),
                 Ok(Some((t, Err(e)))) => {
-                    emit("input_error", json!({"t_s": rel(t), "error": e}));
+                    emit("input_error", json!({"t_s": rel(t), "error": e.to_string()}));
                 }
                 Ok(None) => {
                     if args.duration_s.is_none() {
