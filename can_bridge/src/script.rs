@@ -192,7 +192,10 @@ mod tests {
         let e = parse_script("0 estop\nx 0.1 0.1\n").unwrap_err();
         assert_eq!(e.line, 2);
         assert_eq!(e.to_string(), "line 2: time `x` is not a number");
-        assert_eq!(parse_script("-1 estop").unwrap_err().error, ScriptError::NegativeTime(-1.0));
+        assert_eq!(
+            parse_script("-1 estop").unwrap_err().error,
+            ScriptError::NegativeTime(-1.0)
+        );
         assert_eq!(
             parse_script("0 0.1 0.1 every 0 until 1").unwrap_err().error,
             ScriptError::BadRepeat

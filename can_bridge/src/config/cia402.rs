@@ -177,7 +177,9 @@ pub(super) fn check_cia402(cfg: &BridgeConfig, c: &mut Checker) {
         Interval::open_closed(0.0, 10.0).unit("s"),
     );
     c.rule(
-        p.sdo_timeout_s.is_nan() || cfg.timing.startup_timeout_s.is_nan() || p.sdo_timeout_s < cfg.timing.startup_timeout_s,
+        p.sdo_timeout_s.is_nan()
+            || cfg.timing.startup_timeout_s.is_nan()
+            || p.sdo_timeout_s < cfg.timing.startup_timeout_s,
         "cia402.sdo_timeout_s",
         p.sdo_timeout_s,
         "shorter than timing.startup_timeout_s",

@@ -164,8 +164,7 @@ fn cia402_cross_key_rules() {
         "SYNC: unused"
     );
     // 7 rad/s × 1000 (gear) × 9549.3 units per rad/s at 0.001 rpm = 6.7e7: fits; at 1e-5 rpm it does not.
-    let t =
-        with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
+    let t = with("kinematics.gear_ratio", "1000").replace("velocity_resolution: 1.0", "velocity_resolution: 0.00001");
     let e = load_config_str(&cia(t.clone()), "f.yaml").unwrap_err();
     assert_eq!(e.keys(), ["limits.max_wheel_speed_radps"], "{e}");
     assert!(

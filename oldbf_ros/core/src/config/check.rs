@@ -117,9 +117,15 @@ mod tests {
         assert!(c.at_most("v", 0.22, 0.22, "at most v_max"));
         assert!(c.at_most("v", f64::NAN, 0.22, "at most v_max"));
         assert!(!c.at_most("v", 0.3, 0.22, "at most v_max"));
-        assert!(!c.at_most("v", 0.1, f64::NAN, "at most v_max"), "a NaN limit admits nothing");
+        assert!(
+            !c.at_most("v", 0.1, f64::NAN, "at most v_max"),
+            "a NaN limit admits nothing"
+        );
         assert_eq!(c.errors().len(), 2);
-        assert_eq!(c.errors()[0].to_string(), "key `v` = 0.3 is out of range; allowed: at most v_max");
+        assert_eq!(
+            c.errors()[0].to_string(),
+            "key `v` = 0.3 is out of range; allowed: at most v_max"
+        );
     }
 
     #[test]

@@ -131,7 +131,10 @@ mod tests {
     #[test]
     fn parse_names_the_key_unless_it_is_the_document() {
         let e = ConfigError::at("f.yaml", "timing.tx_rate_hz", "invalid type: string \"fast\"");
-        assert_eq!(e.to_string(), "f.yaml: key `timing.tx_rate_hz`: invalid type: string \"fast\"");
+        assert_eq!(
+            e.to_string(),
+            "f.yaml: key `timing.tx_rate_hz`: invalid type: string \"fast\""
+        );
         assert_eq!(e.keys(), ["timing.tx_rate_hz"]);
         let e = ConfigError::at("f.yaml", ".", "missing field `timing`");
         assert_eq!(e.to_string(), "f.yaml: missing field `timing`");

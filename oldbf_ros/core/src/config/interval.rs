@@ -154,6 +154,9 @@ mod tests {
     #[test]
     fn const_constructible() {
         const R: Interval = Interval::open_closed(0.0, 60.0).unit("s");
-        assert_eq!((R.lo, R.hi, R.lo_open, R.hi_open, R.unit), (0.0, 60.0, true, false, "s"));
+        assert_eq!(
+            (R.lo, R.hi, R.lo_open, R.hi_open, R.unit),
+            (0.0, 60.0, true, false, "s")
+        );
     }
 }

@@ -113,7 +113,11 @@ mod tests {
             e.to_string(),
             "key `kinematics.left_direction` = 0 is out of range; allowed: -1 or 1"
         );
-        let e = ParamError::new("dtcbf.omega_candidates", 20, Allowed::rule_in("odd", Interval::closed(3.0, 201.0)));
+        let e = ParamError::new(
+            "dtcbf.omega_candidates",
+            20,
+            Allowed::rule_in("odd", Interval::closed(3.0, 201.0)),
+        );
         assert_eq!(
             e.to_string(),
             "key `dtcbf.omega_candidates` = 20 is out of range; allowed: odd, in [3, 201]"

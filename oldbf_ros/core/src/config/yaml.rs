@@ -105,7 +105,11 @@ mod tests {
 
     impl Validate for Doc {
         fn check(&self, c: &mut Checker) {
-            c.range("timing.rate_hz", self.timing.rate_hz, Interval::open_closed(0.0, 1000.0).unit("Hz"));
+            c.range(
+                "timing.rate_hz",
+                self.timing.rate_hz,
+                Interval::open_closed(0.0, 1000.0).unit("Hz"),
+            );
             for (i, id) in self.ids.iter().enumerate() {
                 c.range(&format!("ids[{i}]"), *id, Interval::closed(1.0, 127.0));
             }
@@ -127,7 +131,13 @@ mod tests {
     #[test]
     fn a_good_file_loads() {
         let d: Doc = load_str(GOOD, "f.yaml").unwrap();
-        assert_eq!(d.timing, Inner { rate_hz: 50.0, on: true });
+        assert_eq!(
+            d.timing,
+            Inner {
+                rate_hz: 50.0,
+                on: true
+            }
+        );
         assert_eq!(d.ids, [1, 2]);
     }
 
@@ -142,7 +152,10 @@ mod tests {
     fn shape_errors_name_the_dotted_key() {
         let e = load_str::<Doc>(&GOOD.replace("50", "fast"), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["timing.rate_hz"]);
-        assert!(e.to_string().starts_with("f.yaml: key `timing.rate_hz`: invalid type"), "{e}");
+        assert!(
+            e.to_string().starts_with("f.yaml: key `timing.rate_hz`: invalid type"),
+            "{e}"
+        );
         let e = load_str::<Doc>(&GOOD.replace("on: true", "on: true, of: 1"), "f.yaml").unwrap_err();
         assert_eq!(e.keys(), ["timing.of"]);
         assert!(e.to_string().contains("unknown field `of`"), "{e}");
@@ -159,8 +172,14 @@ mod tests {
         assert_eq!(e.keys(), ["timing.rate_hz", "ids[0]", "ids[1]"]);
         let lines: Vec<String> = e.to_string().lines().map(String::from).collect();
         assert_eq!(lines.len(), 3);
-        assert_eq!(lines[0], "f.yaml: key `timing.rate_hz` = 0 is out of range; allowed: (0, 1000] Hz");
-        assert_eq!(lines[2], "f.yaml: key `ids[1]` = 128 is out of range; allowed: [1, 127]");
+        assert_eq!(
+            lines[0],
+            "f.yaml: key `timing.rate_hz` = 0 is out of range; allowed: (0, 1000] Hz"
+        );
+        assert_eq!(
+            lines[2],
+            "f.yaml: key `ids[1]` = 128 is out of range; allowed: [1, 127]"
+        );
     }
 
     #[test]
@@ -168,7 +187,10 @@ mod tests {
         let v = parse_yaml(&GOOD.replace("50", "0"), "s.yaml").unwrap();
         let e = load_value::<Doc>(v, "s.yaml", "oldbf").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.timing.rate_hz"]);
-        assert!(e.to_string().starts_with("s.yaml: key `oldbf.timing.rate_hz` = 0"), "{e}");
+        assert!(
+            e.to_string().starts_with("s.yaml: key `oldbf.timing.rate_hz` = 0"),
+            "{e}"
+        );
         let v = parse_yaml(&GOOD.replace("on: true", "onn: true"), "s.yaml").unwrap();
         let e = load_value::<Doc>(v, "s.yaml", "oldbf").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.timing.onn"]);
