@@ -3,7 +3,7 @@
 //! `can_bridge::Bridge`, like the ROS node will be.
 
 use anyhow::{bail, Context, Result};
-use can_bridge::bridge::Bridge;
+use can_bridge::bridge::{Bridge, ShutdownProgress, Spin};
 use can_bridge::config::{default_config, load_config_file, BridgeConfig, ConfigError, Validate};
 use can_bridge::script::{parse_action, parse_script, Action, ScriptError, ScriptStep};
 use can_bridge::socketcan_bus::SocketCanBus;
@@ -245,7 +245,9 @@ fn run(args: Args) -> Result<i32> {
         if status_period.is_some() {
             max_wait = max_wait.min(next_status - now);
         }
-        bridge.spin_once(&clock, max_wait);
+        if let Spin::BackOff(d) = bridge.spin_once(&clock, max_wait) {
+            std::thread::sleep(d);
+        }
         emit_events(&mut bridge, start);
         if let Some(p) = status_period {
             let now = clock.now();
@@ -259,7 +261,7 @@ fn run(args: Args) -> Result<i32> {
     }
 
     let now = clock.now();
-    let failed = bridge.shutdown(now);
+    let failed = shut_down(&mut bridge, &clock);
     emit_events(&mut bridge, start);
     let mut fin = status_json(&bridge, now, start);
     fin["shutdown_frames_failed"] = json!(failed);
@@ -268,6 +270,16 @@ fn run(args: Args) -> Result<i32> {
         bail!("{failed} shutdown frame(s) could not be sent");
     }
     Ok(0)
+}
+
+/// Zero, then disable, waiting between retries; how many frames failed.
+fn shut_down(bridge: &mut Bridge<SocketCanBus>, clock: &MonotonicClock) -> usize {
+    loop {
+        match bridge.shutdown(clock.now()) {
+            ShutdownProgress::Done { failed } => return failed,
+            ShutdownProgress::Pending { retry_at } => std::thread::sleep(retry_at - clock.now()),
+        }
+    }
 }
 
 /// Prints the bridge's events, times relative to the CLI's start.
