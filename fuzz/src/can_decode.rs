@@ -14,7 +14,8 @@
 use crate::input::f64_of;
 use arbitrary::{Result, Unstructured};
 use can_bridge::bus::{BusEvent, CanErrorFrame, CanFrame, SendError};
-use can_bridge::config::default_config;
+use can_bridge::bridge::ShutdownProgress;
+use can_bridge::config::{default_config, Validate};
 use can_bridge::diagnostics::StopReason;
 use can_bridge::fake_bus::FakeBus;
 use can_bridge::protocol::cia402::{nmt, pdo, sdo, state_machine::cw};
@@ -334,7 +335,8 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
         }
     }
     bus.set_send_error(None);
-    bridge.shutdown(now);
+    // A working bus: every shutdown frame goes out at once.
+    assert_eq!(bridge.shutdown(now), ShutdownProgress::Done { failed: 0 });
     for f in bus.take_sent() {
         let v = sent_speed(&f, &cfg);
         assert!(
