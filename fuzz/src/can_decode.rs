@@ -13,8 +13,8 @@
 
 use crate::input::f64_of;
 use arbitrary::{Result, Unstructured};
-use can_bridge::bus::{BusEvent, CanErrorFrame, CanFrame, SendError};
 use can_bridge::bridge::ShutdownProgress;
+use can_bridge::bus::{BusEvent, CanErrorFrame, CanFrame, SendError};
 use can_bridge::config::{default_config, Validate};
 use can_bridge::diagnostics::StopReason;
 use can_bridge::fake_bus::FakeBus;
