@@ -7,7 +7,7 @@
 //!   blocked tx). The drive is ready once every drive reports running,
 //!   without error, in a status received *after* the start-up was sent
 //!   (an older one may describe the drive before a reset).
-//! * A drive error latches a fault until [`DriveSupervisor::reset`]. At a
+//! * A drive error latches a fault until an explicit reset. At a
 //!   start-up the error may be cleared instead: always after boot or a
 //!   reset; after a communication loss only when every error says just that
 //!   the drive's own command watchdog expired (the loss's consequence).

@@ -2,7 +2,7 @@
 //! latch, the command and its freshness, and the state they add up to.
 //!
 //! Rules:
-//! * The e-stop is latched until [`StopReasons::reset`]; it drops the command.
+//! * The e-stop is latched until a reset; latching it drops the command.
 //! * A command older than `cmd_timeout` is `CommandTimeout`; a rejected one
 //!   (NaN/inf) is `InvalidCommand` until the next valid command.
 //! * Motion resumes only with a command received *after* the last instant
