@@ -18,13 +18,13 @@ pub const EFF_MAX_ID: u32 = 0x1FFF_FFFF;
 pub mod err {
     /// TX timeout (by netdevice driver).
     pub const TX_TIMEOUT: u32 = 0x001;
-    /// Lost arbitration (data[0] = bit position).
+    /// Lost arbitration (`data[0]` = bit position).
     pub const LOSTARB: u32 = 0x002;
-    /// Controller problems (data[1] = [`CRTL_*`](self) bits).
+    /// Controller problems (`data[1]` = `CRTL_*` bits).
     pub const CRTL: u32 = 0x004;
-    /// Protocol violations (data[2], data[3]).
+    /// Protocol violations (`data[2]`, `data[3]`).
     pub const PROT: u32 = 0x008;
-    /// Transceiver status (data[4]).
+    /// Transceiver status (`data[4]`).
     pub const TRX: u32 = 0x010;
     /// No acknowledge on transmission: nobody else is on the bus.
     pub const ACK: u32 = 0x020;
@@ -34,24 +34,24 @@ pub mod err {
     pub const BUSERROR: u32 = 0x080;
     /// Controller restarted (after bus-off).
     pub const RESTARTED: u32 = 0x100;
-    /// TX/RX error counters in data[6]/data[7].
+    /// TX/RX error counters in `data[6]`/`data[7]`.
     pub const CNT: u32 = 0x200;
     /// Every class: what the bridge subscribes to with its error filter.
     pub const MASK_ALL: u32 = 0x1FFF_FFFF;
 
-    /// data[1] of a CRTL error: RX buffer overflow.
+    /// `data[1]` of a CRTL error: RX buffer overflow.
     pub const CRTL_RX_OVERFLOW: u8 = 0x01;
-    /// data[1]: TX buffer overflow.
+    /// `data[1]`: TX buffer overflow.
     pub const CRTL_TX_OVERFLOW: u8 = 0x02;
-    /// data[1]: reached the RX warning level.
+    /// `data[1]`: reached the RX warning level.
     pub const CRTL_RX_WARNING: u8 = 0x04;
-    /// data[1]: reached the TX warning level.
+    /// `data[1]`: reached the TX warning level.
     pub const CRTL_TX_WARNING: u8 = 0x08;
-    /// data[1]: reached error passive status on RX.
+    /// `data[1]`: reached error passive status on RX.
     pub const CRTL_RX_PASSIVE: u8 = 0x10;
-    /// data[1]: reached error passive status on TX.
+    /// `data[1]`: reached error passive status on TX.
     pub const CRTL_TX_PASSIVE: u8 = 0x20;
-    /// data[1]: recovered to error active state.
+    /// `data[1]`: recovered to error active state.
     pub const CRTL_ACTIVE: u8 = 0x40;
 }
 

@@ -5,16 +5,28 @@
 //! odometry from wheel feedback.
 //!
 //! The core is pure: no socketcan import outside `socketcan_bus.rs`, and
-//! time is an argument. Adapters (the `can_bridge_cli` binary here, the ROS
-//! node later) own a [`bridge::Bridge`], feed it commands and call
-//! [`bridge::Bridge::spin_once`] in a loop.
+//! time is an argument; nothing in the bridge sleeps. Adapters (the
+//! `can_bridge_cli` binary, the ROS node) own a [`bridge::Bridge`], feed it
+//! commands and call [`bridge::Bridge::spin_once`] in a loop, waiting where
+//! it says ([`bridge::Spin`], [`bridge::ShutdownProgress`]).
+//!
+//! Features: `socketcan` (the kernel adapter), `cli` (what only the
+//! binaries need: clap, env_logger, ctrlc, anyhow, serde_json), `ros` (the
+//! ROS node); `socketcan` and `cli` are on by default. A library user takes
+//! `default-features = false, features = ["socketcan"]`.
 //!
 //! One concept per file:
 //! [`kinematics`], [`limits`], [`protocol`] (trait, [`protocol::generic`],
-//! [`protocol::odrive`]), [`bus`] (frames, the [`bus::CanBus`] trait),
-//! [`fake_bus`], `socketcan_bus` (feature `socketcan`), [`tx_queue`],
-//! [`bridge`], [`odometry`], [`config`], [`diagnostics`], [`virtual_drive`],
-//! [`script`] (the CLI's command scripts), [`time`].
+//! [`protocol::odrive`], [`protocol::cia402`]), [`bus`] (frames, the
+//! [`bus::CanBus`] trait), [`fake_bus`], `socketcan_bus` (feature
+//! `socketcan`), [`tx_queue`], [`bridge`] (and its parts:
+//! [`bridge::stop_reasons`], [`bridge::drive_supervision`],
+//! [`bridge::bus_health`], [`bridge::shutdown`], [`bridge::events`]),
+//! [`odometry`], [`config`] (checked with the shared [`oldbf::config`]),
+//! [`diagnostics`], [`virtual_drive`], [`script`] (the CLI's command
+//! scripts), [`time`].
+
+#![forbid(unsafe_code)]
 
 pub mod bridge;
 pub mod bus;

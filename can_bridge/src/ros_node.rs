@@ -22,12 +22,14 @@
 //! Odometry and diagnostics are scheduled on the monotonic clock, so a
 //! wall-clock step back does not silence them.
 
-use crate::bridge::Bridge;
-use crate::config::{default_config, load_config_str, BridgeConfig};
+use crate::bridge::{Bridge, BridgeError, ShutdownProgress, Spin};
+use crate::bus::BusError;
+use crate::config::{default_config, BridgeConfig};
 use crate::diagnostics::{BridgeState, BridgeStatus};
 use crate::kinematics::Twist;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
+use oldbf::config::{load_value, merge, Checker, ConfigError, Interval, Validate};
 use oldbf_ros::ros::convert::{quaternion_from_yaw, time_from_s};
 use oldbf_ros::ros::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use oldbf_ros::ros::msg::{
@@ -64,31 +66,67 @@ impl Default for NodeSettings {
     }
 }
 
+impl Validate for NodeSettings {
+    fn check(&self, c: &mut Checker) {
+        c.range(
+            "odom_rate_hz",
+            self.odom_rate_hz,
+            Interval::open_closed(0.0, 1000.0).unit("Hz"),
+        );
+    }
+}
+
 /// The bridge and node configuration from the private namespace `ns`
-/// (null when nothing is set), merged over the built-in defaults.
-pub fn config_from_params(ns: Value, source: &str) -> Result<(BridgeConfig, NodeSettings), String> {
+/// (null when nothing is set), merged over the built-in defaults; errors
+/// name `source` and the key as in the file (`node.odom_rate_hz`).
+pub fn config_from_params(ns: Value, source: &str) -> Result<(BridgeConfig, NodeSettings), ConfigError> {
     let mut ns = match ns {
         Value::Null => Value::Mapping(Default::default()),
         v @ Value::Mapping(_) => v,
-        other => return Err(format!("{source}: expected a mapping of parameters, got {other:?}")),
+        other => {
+            let message = format!("expected a mapping of parameters, got {other:?}");
+            return Err(ConfigError::at(source, "", message));
+        }
     };
     let node_over = ns.as_mapping_mut().and_then(|m| m.remove("node"));
-    let mut node = serde_yaml::to_value(NodeSettings::default()).map_err(|e| e.to_string())?;
+    let mut node =
+        serde_yaml::to_value(NodeSettings::default()).map_err(|e| ConfigError::at(source, "node", e.to_string()))?;
     if let Some(over) = &node_over {
-        oldbf_ros::config::merge(&mut node, over);
+        merge(&mut node, over);
     }
-    let settings: NodeSettings = oldbf_ros::config::from_value(node, source, "node.").map_err(|e| e.to_string())?;
-    if !(settings.odom_rate_hz.is_finite() && settings.odom_rate_hz > 0.0 && settings.odom_rate_hz <= 1000.0) {
-        return Err(format!(
-            "{source}: key `node.odom_rate_hz` = {} is out of range; allowed: (0, 1000] Hz",
-            settings.odom_rate_hz
-        ));
-    }
-    let mut bridge = serde_yaml::to_value(default_config()).map_err(|e| e.to_string())?;
-    oldbf_ros::config::merge(&mut bridge, &ns);
-    let text = serde_yaml::to_string(&bridge).map_err(|e| e.to_string())?;
-    let cfg = load_config_str(&text, source).map_err(|e| e.to_string())?;
+    let settings: NodeSettings = load_value(node, source, "node")?;
+    let mut bridge = serde_yaml::to_value(default_config()).map_err(|e| ConfigError::at(source, "", e.to_string()))?;
+    merge(&mut bridge, &ns);
+    let cfg: BridgeConfig = load_value(bridge, source, "")?;
     Ok((cfg, settings))
+}
+
+/// Why the node could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// The CAN interface could not be opened.
+    #[error("opening CAN interface {interface}: {source}")]
+    Open {
+        /// The interface.
+        interface: String,
+        /// Why not.
+        source: BusError,
+    },
+    /// The bridge refused its configuration or the bus its filters.
+    #[error("starting the bridge: {0}")]
+    Bridge(#[from] BridgeError),
+    /// A topic or service could not be set up.
+    #[error("{what}: {source}")]
+    Ros {
+        /// `subscribing to cmd_vel`, `advertising odom`…
+        what: &'static str,
+        /// rosrust's error.
+        source: rosrust::error::Error,
+    },
+}
+
+fn ros_err(what: &'static str) -> impl FnOnce(rosrust::error::Error) -> NodeError {
+    move |source| NodeError::Ros { what, source }
 }
 
 enum Input {
@@ -165,16 +203,20 @@ pub fn run() -> i32 {
         return 0;
     }
     let source = format!("ROS parameters of {}", rosrust::name());
-    let loaded = oldbf_ros::ros::params::private_namespace().and_then(|ns| config_from_params(ns, &source));
-    let (cfg, settings) = match loaded {
+    let invalid = |e: &dyn std::fmt::Display| {
+        log::error!("{e}");
+        log::error!("{}: invalid parameters, exiting", rosrust::name());
+        std::thread::sleep(Duration::from_millis(200)); // let rosout carry the message
+        rosrust::shutdown();
+        2
+    };
+    let ns = match oldbf_ros::ros::params::private_namespace() {
+        Ok(ns) => ns,
+        Err(e) => return invalid(&e),
+    };
+    let (cfg, settings) = match config_from_params(ns, &source) {
         Ok(c) => c,
-        Err(e) => {
-            log::error!("{e}");
-            log::error!("{}: invalid parameters, exiting", rosrust::name());
-            std::thread::sleep(Duration::from_millis(200));
-            rosrust::shutdown();
-            return 2;
-        }
+        Err(e) => return invalid(&e),
     };
     match run_connected(cfg, settings, &stop) {
         Ok(true) => 0,
@@ -189,11 +231,14 @@ pub fn run() -> i32 {
 }
 
 /// Ok(true): stopped by a signal; Ok(false): the master restarted.
-fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::StopFlag) -> Result<bool, String> {
+fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::StopFlag) -> Result<bool, NodeError> {
     let interface = cfg.interface.clone();
-    let bus = SocketCanBus::open(&interface).map_err(|e| format!("opening CAN interface {interface}: {e}"))?;
+    let bus = SocketCanBus::open(&interface).map_err(|source| NodeError::Open {
+        interface: interface.clone(),
+        source,
+    })?;
     let clock = MonotonicClock::new();
-    let mut bridge = Bridge::new(cfg, bus, clock.now()).map_err(|e| format!("starting the bridge: {e}"))?;
+    let mut bridge = Bridge::new(cfg, bus, clock.now())?;
 
     let (tx, rx) = mpsc::channel::<Input>();
     let t = tx.clone();
@@ -203,12 +248,12 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
             angular_radps: m.angular.z,
         }));
     })
-    .map_err(|e| format!("subscribing to cmd_vel: {e}"))?;
+    .map_err(ros_err("subscribing to cmd_vel"))?;
     let t = tx.clone();
     let _estop_sub = rosrust::subscribe("e_stop", 10, move |m: std_msgs::Bool| {
         let _ = t.send(Input::EStop(m.data));
     })
-    .map_err(|e| format!("subscribing to e_stop: {e}"))?;
+    .map_err(ros_err("subscribing to e_stop"))?;
     let t = tx.clone();
     let _reset_srv = rosrust::service::<std_srvs::Trigger, _>("~reset", move |_| {
         let (reply_tx, reply_rx) = mpsc::channel();
@@ -218,11 +263,11 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
             .unwrap_or((false, "the bridge did not answer".into()));
         Ok(std_srvs::TriggerRes { success, message })
     })
-    .map_err(|e| format!("advertising ~reset: {e}"))?;
-    let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(|e| format!("advertising odom: {e}"))?;
-    let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(|e| format!("advertising /tf: {e}"))?;
-    let diag_pub = rosrust::publish::<DiagnosticArray>("/diagnostics", 10)
-        .map_err(|e| format!("advertising /diagnostics: {e}"))?;
+    .map_err(ros_err("advertising ~reset"))?;
+    let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(ros_err("advertising odom"))?;
+    let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(ros_err("advertising /tf"))?;
+    let diag_pub =
+        rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(ros_err("advertising /diagnostics"))?;
 
     let node = rosrust::name();
     log::info!(
@@ -266,7 +311,9 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
                 }
             }
         }
-        bridge.spin_once(&clock, Duration::from_millis(5));
+        if let Spin::BackOff(d) = bridge.spin_once(&clock, Duration::from_millis(5)) {
+            std::thread::sleep(d);
+        }
         for ev in bridge.drain_events() {
             log::info!("{}", serde_json::to_string(&ev).unwrap_or_default());
         }
@@ -308,8 +355,17 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
             ));
         }
     }
-    let sent = bridge.shutdown(clock.now());
-    log::info!("{node}: shut down: zero setpoint and drive disable sent ({sent} frames)");
+    let failed = loop {
+        match bridge.shutdown(clock.now()) {
+            ShutdownProgress::Done { failed } => break failed,
+            ShutdownProgress::Pending { retry_at } => std::thread::sleep(retry_at - clock.now()),
+        }
+    };
+    if failed == 0 {
+        log::info!("{node}: shut down: zero setpoint and drive disable sent");
+    } else {
+        log::error!("{node}: shut down: {failed} frame(s) of zero setpoint and drive disable could not be sent");
+    }
     rosrust::shutdown();
     Ok(watch.health() != MasterHealth::Restarted)
 }
@@ -329,16 +385,22 @@ mod tests {
         let (cfg, _) = config_from_params(Value::Null, "P").unwrap();
         assert_eq!(cfg, default_config());
         let bad: Value = serde_yaml::from_str("limits: {v_max_mps: -1.0}").unwrap();
-        assert!(config_from_params(bad, "P").unwrap_err().contains("limits.v_max_mps"));
+        assert_eq!(config_from_params(bad, "P").unwrap_err().keys(), ["limits.v_max_mps"]);
         let unknown: Value = serde_yaml::from_str("timing: {tx_rate: 5}").unwrap();
-        assert!(config_from_params(unknown, "P").unwrap_err().contains("timing.tx_rate"));
+        assert_eq!(config_from_params(unknown, "P").unwrap_err().keys(), ["timing.tx_rate"]);
         let node: Value = serde_yaml::from_str("node: {odom_rate_hz: 0}").unwrap();
-        assert!(config_from_params(node, "P").unwrap_err().contains("node.odom_rate_hz"));
+        assert_eq!(
+            config_from_params(node, "P").unwrap_err().to_string(),
+            "P: key `node.odom_rate_hz` = 0 is out of range; allowed: (0, 1000] Hz"
+        );
         let node_unknown: Value = serde_yaml::from_str("node: {publish_tf_typo: true}").unwrap();
         let e = config_from_params(node_unknown, "P").unwrap_err();
-        assert!(e.contains("P") && e.contains("publish_tf_typo"), "{e}");
+        assert_eq!(e.keys(), ["node.publish_tf_typo"], "{e}");
+        assert!(e.to_string().starts_with("P: "), "{e}");
         let node_type: Value = serde_yaml::from_str("node: {publish_tf: [1]}").unwrap();
         let e = config_from_params(node_type, "P").unwrap_err();
-        assert!(e.contains("node.publish_tf"), "{e}");
+        assert_eq!(e.keys(), ["node.publish_tf"], "{e}");
+        let e = config_from_params(Value::from(3), "P").unwrap_err();
+        assert!(e.to_string().starts_with("P: expected a mapping"), "{e}");
     }
 }

@@ -37,21 +37,56 @@ pub struct ScriptStep {
     pub action: Action,
 }
 
-fn num(s: &str, what: &str) -> Result<f64, String> {
-    s.parse::<f64>().map_err(|_| format!("{what} `{s}` is not a number"))
+/// A line that is not a command.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScriptError {
+    /// A field that should be a number.
+    #[error("{what} `{text}` is not a number")]
+    NotANumber {
+        /// `v`, `omega`, `time`, `period` or `end time`.
+        what: &'static str,
+        /// What was given.
+        text: String,
+    },
+    /// No command has these words.
+    #[error("cannot parse `{0}`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit")]
+    Unknown(String),
+    /// A step before the start.
+    #[error("time {0} must be a non-negative number")]
+    NegativeTime(f64),
+    /// `every` with a period that is not positive or an end that is not finite.
+    #[error("`every` needs a positive period and a finite end")]
+    BadRepeat,
+    /// `every` that would expand to more than [`MAX_EXPANDED_STEPS`].
+    #[error("`every` expands to more than {MAX_EXPANDED_STEPS} steps")]
+    TooManySteps,
 }
 
-fn parse_words(words: &[&str]) -> Result<Action, String> {
+/// A script error and the line (from 1) it is on.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("line {line}: {error}")]
+pub struct ScriptLineError {
+    /// Line number, from 1.
+    pub line: usize,
+    /// What is wrong with it.
+    pub error: ScriptError,
+}
+
+fn num(s: &str, what: &'static str) -> Result<f64, ScriptError> {
+    s.parse::<f64>().map_err(|_| ScriptError::NotANumber {
+        what,
+        text: s.to_string(),
+    })
+}
+
+fn parse_words(words: &[&str]) -> Result<Action, ScriptError> {
     match words {
         ["estop"] => Ok(Action::Estop),
         ["reset"] => Ok(Action::Reset),
         ["status"] => Ok(Action::Status),
         ["quit"] | ["exit"] => Ok(Action::Quit),
         ["twist", v, w] | [v, w] => Ok(Action::Twist(Twist::new(num(v, "v")?, num(w, "omega")?))),
-        _ => Err(format!(
-            "cannot parse `{}`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit",
-            words.join(" ")
-        )),
+        _ => Err(ScriptError::Unknown(words.join(" "))),
     }
 }
 
@@ -61,7 +96,7 @@ fn content(line: &str) -> Vec<&str> {
 }
 
 /// One interactive line; `Ok(None)` for blank lines and comments.
-pub fn parse_action(line: &str) -> Result<Option<Action>, String> {
+pub fn parse_action(line: &str) -> Result<Option<Action>, ScriptError> {
     let words = content(line);
     if words.is_empty() {
         return Ok(None);
@@ -70,41 +105,46 @@ pub fn parse_action(line: &str) -> Result<Option<Action>, String> {
 }
 
 /// A whole script, `every` lines expanded, sorted by time (stable for equal times).
-pub fn parse_script(text: &str) -> Result<Vec<ScriptStep>, String> {
+pub fn parse_script(text: &str) -> Result<Vec<ScriptStep>, ScriptLineError> {
     let mut steps = Vec::new();
     for (i, line) in text.lines().enumerate() {
-        let err = |m: String| format!("line {}: {m}", i + 1);
-        let words = content(line);
-        let Some((t, rest)) = words.split_first() else {
-            continue;
-        };
-        let at = num(t, "time").map_err(err)?;
-        if !(at.is_finite() && at >= 0.0) {
-            return Err(err(format!("time {at} must be a non-negative number")));
-        }
-        if let [v, w, "every", dt, "until", end] = rest {
-            let action = parse_words(&[v, w]).map_err(err)?;
-            let (dt, end) = (num(dt, "period").map_err(err)?, num(end, "end time").map_err(err)?);
-            if !(dt.is_finite() && dt > 0.0 && end.is_finite()) {
-                return Err(err("`every` needs a positive period and a finite end".into()));
-            }
-            let n = ((end - at) / dt).ceil().max(0.0);
-            if n > MAX_EXPANDED_STEPS as f64 {
-                return Err(err(format!("`every` expands to more than {MAX_EXPANDED_STEPS} steps")));
-            }
-            for k in 0..n as usize {
-                let t_k = at + k as f64 * dt;
-                if t_k < end {
-                    steps.push(ScriptStep { at_s: t_k, action });
-                }
-            }
-        } else {
-            let action = parse_words(rest).map_err(err)?;
-            steps.push(ScriptStep { at_s: at, action });
-        }
+        parse_line(line, &mut steps).map_err(|error| ScriptLineError { line: i + 1, error })?;
     }
     steps.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     Ok(steps)
+}
+
+/// One script line's steps, appended to `steps`.
+fn parse_line(line: &str, steps: &mut Vec<ScriptStep>) -> Result<(), ScriptError> {
+    let words = content(line);
+    let Some((t, rest)) = words.split_first() else {
+        return Ok(());
+    };
+    let at = num(t, "time")?;
+    if !(at.is_finite() && at >= 0.0) {
+        return Err(ScriptError::NegativeTime(at));
+    }
+    if let [v, w, "every", dt, "until", end] = rest {
+        let action = parse_words(&[v, w])?;
+        let (dt, end) = (num(dt, "period")?, num(end, "end time")?);
+        if !(dt.is_finite() && dt > 0.0 && end.is_finite()) {
+            return Err(ScriptError::BadRepeat);
+        }
+        let n = ((end - at) / dt).ceil().max(0.0);
+        if n > MAX_EXPANDED_STEPS as f64 {
+            return Err(ScriptError::TooManySteps);
+        }
+        for k in 0..n as usize {
+            let t_k = at + k as f64 * dt;
+            if t_k < end {
+                steps.push(ScriptStep { at_s: t_k, action });
+            }
+        }
+    } else {
+        let action = parse_words(rest)?;
+        steps.push(ScriptStep { at_s: at, action });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -128,8 +168,14 @@ mod tests {
             Some(Action::Twist(t)) => assert!(t.linear_mps.is_nan() && t.angular_radps.is_infinite()),
             a => panic!("{a:?}"),
         }
-        assert!(parse_action("go fast").is_err());
-        assert!(parse_action("0.2").is_err());
+        assert_eq!(
+            parse_action("go fast"),
+            Err(ScriptError::NotANumber {
+                what: "v",
+                text: "go".into()
+            })
+        );
+        assert_eq!(parse_action("0.2"), Err(ScriptError::Unknown("0.2".into())));
     }
 
     #[test]
@@ -144,9 +190,26 @@ mod tests {
     #[test]
     fn script_errors_name_the_line() {
         let e = parse_script("0 estop\nx 0.1 0.1\n").unwrap_err();
-        assert!(e.starts_with("line 2:"), "{e}");
-        assert!(parse_script("-1 estop").is_err());
-        assert!(parse_script("0 0.1 0.1 every 0 until 1").is_err());
-        assert!(parse_script("0 0.1 0.1 every 1e-9 until 1e9").is_err());
+        assert_eq!(e.line, 2);
+        assert_eq!(e.to_string(), "line 2: time `x` is not a number");
+        assert_eq!(
+            parse_script("-1 estop").unwrap_err().error,
+            ScriptError::NegativeTime(-1.0)
+        );
+        assert_eq!(
+            parse_script("0 0.1 0.1 every 0 until 1").unwrap_err().error,
+            ScriptError::BadRepeat
+        );
+        assert_eq!(
+            parse_script("\n0 0.1 0.1 every 1e-9 until 1e9").unwrap_err(),
+            ScriptLineError {
+                line: 2,
+                error: ScriptError::TooManySteps
+            }
+        );
+        assert_eq!(
+            parse_script("0 fly").unwrap_err().to_string(),
+            "line 1: cannot parse `fly`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit"
+        );
     }
 }

@@ -5,6 +5,7 @@
 //! microseconds with a [`ManualClock`], and the real loop uses
 //! [`MonotonicClock`] (never wall-clock time, which can jump).
 
+use oldbf::config::Interval;
 use std::cell::Cell;
 use std::ops::{Add, Sub};
 use std::time::{Duration, Instant};
@@ -137,31 +138,53 @@ pub fn saturating_duration(s: f64) -> Duration {
     Duration::from_secs_f64(s.clamp(0.0, 1e9))
 }
 
-/// Parses a command-line duration (s): a finite number in [0, [`MAX_CLI_SECONDS`]].
-pub fn parse_cli_seconds(text: &str) -> Result<f64, String> {
-    let s: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{text}` is not a number of seconds"))?;
-    if s.is_finite() && (0.0..=MAX_CLI_SECONDS).contains(&s) {
+/// The range of a command-line duration.
+pub const CLI_SECONDS: Interval = Interval::closed(0.0, MAX_CLI_SECONDS).unit("s");
+/// The range of a non-zero command-line rate (0 means off).
+pub const CLI_RATE_HZ: Interval = Interval::closed(1e-3, 1e4).unit("Hz");
+
+/// A command-line duration or rate that cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CliValueError {
+    /// Not a number at all.
+    #[error("`{text}` is not a {what}")]
+    NotANumber {
+        /// What was given.
+        text: String,
+        /// `number of seconds` or `rate in Hz`.
+        what: &'static str,
+    },
+    /// A duration outside [`CLI_SECONDS`].
+    #[error("{0} s is out of range; allowed: {CLI_SECONDS}")]
+    Seconds(f64),
+    /// A rate outside [`CLI_RATE_HZ`] and not 0.
+    #[error("{0} Hz is out of range; allowed: 0 (off) or {CLI_RATE_HZ}")]
+    Rate(f64),
+}
+
+/// Parses a command-line duration (s): a finite number in [`CLI_SECONDS`].
+pub fn parse_cli_seconds(text: &str) -> Result<f64, CliValueError> {
+    let s: f64 = text.trim().parse().map_err(|_| CliValueError::NotANumber {
+        text: text.to_string(),
+        what: "number of seconds",
+    })?;
+    if CLI_SECONDS.contains(s) {
         Ok(s)
     } else {
-        Err(format!("{s} s is out of range; allowed: [0, {MAX_CLI_SECONDS}] s"))
+        Err(CliValueError::Seconds(s))
     }
 }
 
-/// Parses a command-line rate (Hz): 0 (off) or a finite number in [0.001, 10000].
-pub fn parse_cli_rate_hz(text: &str) -> Result<f64, String> {
-    let hz: f64 = text
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{text}` is not a rate in Hz"))?;
-    if hz == 0.0 || (hz.is_finite() && (1e-3..=1e4).contains(&hz)) {
+/// Parses a command-line rate (Hz): 0 (off) or a finite number in [`CLI_RATE_HZ`].
+pub fn parse_cli_rate_hz(text: &str) -> Result<f64, CliValueError> {
+    let hz: f64 = text.trim().parse().map_err(|_| CliValueError::NotANumber {
+        text: text.to_string(),
+        what: "rate in Hz",
+    })?;
+    if hz == 0.0 || CLI_RATE_HZ.contains(hz) {
         Ok(hz)
     } else {
-        Err(format!(
-            "{hz} Hz is out of range; allowed: 0 (off) or [0.001, 10000] Hz"
-        ))
+        Err(CliValueError::Rate(hz))
     }
 }
 
@@ -184,6 +207,18 @@ mod tests {
         assert_eq!(super::saturating_duration(-3.0), Duration::ZERO);
         assert_eq!(super::saturating_duration(1e300), Duration::from_secs(1_000_000_000));
         assert_eq!(super::saturating_duration(0.25), Duration::from_millis(250));
+        assert_eq!(
+            super::parse_cli_seconds("-1").unwrap_err().to_string(),
+            "-1 s is out of range; allowed: [0, 1000000] s"
+        );
+        assert_eq!(
+            super::parse_cli_rate_hz("1e9").unwrap_err().to_string(),
+            "1000000000 Hz is out of range; allowed: 0 (off) or [0.001, 10000] Hz"
+        );
+        assert_eq!(
+            super::parse_cli_seconds("abc").unwrap_err().to_string(),
+            "`abc` is not a number of seconds"
+        );
     }
     use super::*;
 

@@ -13,8 +13,9 @@
 
 use crate::input::f64_of;
 use arbitrary::{Result, Unstructured};
+use can_bridge::bridge::ShutdownProgress;
 use can_bridge::bus::{BusEvent, CanErrorFrame, CanFrame, SendError};
-use can_bridge::config::default_config;
+use can_bridge::config::{default_config, Validate};
 use can_bridge::diagnostics::StopReason;
 use can_bridge::fake_bus::FakeBus;
 use can_bridge::protocol::cia402::{nmt, pdo, sdo, state_machine::cw};
@@ -334,7 +335,13 @@ fn drive_bridge(u: &mut Unstructured<'_>, kind: ProtocolKind) -> Result<()> {
         }
     }
     bus.set_send_error(None);
-    bridge.shutdown(now);
+    // The shutdown as the binaries drive it: again at each retry time (sends
+    // scripted to fail may still be queued; each frame is tried at most 3 times).
+    let mut t = now;
+    while let ShutdownProgress::Pending { retry_at } = bridge.shutdown(t) {
+        assert!(retry_at > t, "a retry time in the future");
+        t = retry_at;
+    }
     for f in bus.take_sent() {
         let v = sent_speed(&f, &cfg);
         assert!(

@@ -10,6 +10,7 @@
 //! the box; the bridge starts on a fake bus).
 
 use crate::scan_pipeline::check_command;
+use can_bridge::config::Validate;
 use can_bridge::fake_bus::FakeBus;
 use oldbf_ros::algo::dtcbf::InputBox;
 use oldbf_ros::algo::{LaserScan, Params, SafetyPipeline, Twist};

@@ -3,9 +3,9 @@
 //! `can_bridge::Bridge`, like the ROS node will be.
 
 use anyhow::{bail, Context, Result};
-use can_bridge::bridge::Bridge;
-use can_bridge::config::{default_config, load_config_file, BridgeConfig};
-use can_bridge::script::{parse_action, parse_script, Action, ScriptStep};
+use can_bridge::bridge::{Bridge, ShutdownProgress, Spin};
+use can_bridge::config::{default_config, load_config_file, BridgeConfig, ConfigError, Validate};
+use can_bridge::script::{parse_action, parse_script, Action, ScriptError, ScriptStep};
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::time::{Clock, MonotonicClock, Timestamp};
 use can_bridge::ProtocolKind;
@@ -76,9 +76,9 @@ fn emit(kind: &str, mut v: Value) {
     let _ = writeln!(out, "{}", Value::Object(obj));
 }
 
-fn load(args: &Args) -> Result<BridgeConfig, String> {
+fn load(args: &Args) -> Result<BridgeConfig, ConfigError> {
     let mut cfg = match &args.config {
-        Some(p) => load_config_file(p).map_err(|e| e.to_string())?,
+        Some(p) => load_config_file(p)?,
         None => default_config(),
     };
     if let Some(i) = &args.interface {
@@ -87,12 +87,8 @@ fn load(args: &Args) -> Result<BridgeConfig, String> {
     if let Some(p) = args.protocol {
         cfg.protocol = p;
     }
-    cfg.validate().map_err(|es| {
-        es.iter()
-            .map(|e| format!("command line: {e}"))
-            .collect::<Vec<_>>()
-            .join("\n")
-    })?;
+    // The overrides are checked like the file; errors name the command line.
+    cfg.validate().map_err(|es| ConfigError::invalid("command line", es))?;
     Ok(cfg)
 }
 
@@ -148,7 +144,7 @@ fn run(args: Args) -> Result<i32> {
     log::info!("bridge on {interface}, protocol {}", protocol.name());
 
     // stdin reader: stamps each line with its arrival time.
-    let (tx, rx) = mpsc::channel::<Option<(Timestamp, Result<Action, String>)>>();
+    let (tx, rx) = mpsc::channel::<Option<(Timestamp, Result<Action, ScriptError>)>>();
     if script.is_none() {
         std::thread::spawn(move || {
             for line in std::io::stdin().lock().lines() {
@@ -222,7 +218,7 @@ fn run(args: Args) -> Result<i32> {
             match rx.try_recv() {
                 Ok(Some((t, Ok(a)))) => apply(&mut bridge, a, t, &mut quit),
                 Ok(Some((t, Err(e)))) => {
-                    emit("input_error", json!({"t_s": rel(t), "error": e}));
+                    emit("input_error", json!({"t_s": rel(t), "error": e.to_string()}));
                 }
                 Ok(None) => {
                     if args.duration_s.is_none() {
@@ -249,7 +245,9 @@ fn run(args: Args) -> Result<i32> {
         if status_period.is_some() {
             max_wait = max_wait.min(next_status - now);
         }
-        bridge.spin_once(&clock, max_wait);
+        if let Spin::BackOff(d) = bridge.spin_once(&clock, max_wait) {
+            std::thread::sleep(d);
+        }
         emit_events(&mut bridge, start);
         if let Some(p) = status_period {
             let now = clock.now();
@@ -263,7 +261,7 @@ fn run(args: Args) -> Result<i32> {
     }
 
     let now = clock.now();
-    let failed = bridge.shutdown(now);
+    let failed = shut_down(&mut bridge, &clock);
     emit_events(&mut bridge, start);
     let mut fin = status_json(&bridge, now, start);
     fin["shutdown_frames_failed"] = json!(failed);
@@ -272,6 +270,16 @@ fn run(args: Args) -> Result<i32> {
         bail!("{failed} shutdown frame(s) could not be sent");
     }
     Ok(0)
+}
+
+/// Zero, then disable, waiting between retries; how many frames failed.
+fn shut_down(bridge: &mut Bridge<SocketCanBus>, clock: &MonotonicClock) -> usize {
+    loop {
+        match bridge.shutdown(clock.now()) {
+            ShutdownProgress::Done { failed } => return failed,
+            ShutdownProgress::Pending { retry_at } => std::thread::sleep(retry_at - clock.now()),
+        }
+    }
 }
 
 /// Prints the bridge's events, times relative to the CLI's start.

@@ -1,7 +1,7 @@
 //! `virtual_drive`: a simulated two-axis motor drive on a CAN interface.
 
 use anyhow::{Context, Result};
-use can_bridge::config::load_config_file;
+use can_bridge::config::{load_config_file, ConfigError, Validate};
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::time::{Clock, MonotonicClock};
 use can_bridge::virtual_drive::{run_virtual_drive, FaultSpec, VirtualDrive, VirtualDriveConfig};
@@ -166,8 +166,9 @@ fn run(args: Args) -> Result<i32> {
     if let Some(n) = args.right_node {
         cfg.right_node_id = n;
     }
-    if let Err(e) = cfg.validate() {
-        eprintln!("virtual_drive: {e}");
+    if let Err(errors) = cfg.validate() {
+        // Keys are the flags' names: `heartbeat_rate_hz` is --heartbeat-rate-hz.
+        eprintln!("{}", ConfigError::invalid("virtual_drive", errors));
         return Ok(2);
     }
 

@@ -39,14 +39,19 @@ impl ProtocolKind {
     }
 }
 
+/// A protocol name that is none of ours.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown protocol `{0}`; allowed: generic, odrive, cia402")]
+pub struct UnknownProtocol(pub String);
+
 impl std::str::FromStr for ProtocolKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownProtocol;
+    fn from_str(s: &str) -> Result<Self, UnknownProtocol> {
         match s {
             "generic" => Ok(ProtocolKind::Generic),
             "odrive" => Ok(ProtocolKind::Odrive),
             "cia402" => Ok(ProtocolKind::Cia402),
-            _ => Err(format!("unknown protocol `{s}`; allowed: generic, odrive, cia402")),
+            _ => Err(UnknownProtocol(s.to_string())),
         }
     }
 }

@@ -11,7 +11,7 @@
 
 #![allow(dead_code)]
 
-use can_bridge::bridge::Bridge;
+use can_bridge::bridge::{Bridge, Spin};
 use can_bridge::config::{default_config, BridgeConfig};
 use can_bridge::diagnostics::BridgeState;
 use can_bridge::protocol::generic::{self, GenericIds};
@@ -197,6 +197,13 @@ pub fn bridge(c: BridgeConfig, clock: &MonotonicClock) -> Bridge<SocketCanBus> {
     Bridge::new(c, bus, clock.now()).expect("bridge")
 }
 
+/// One loop step as the binaries take it: spin, back off if the bus failed at once.
+pub fn spin(b: &mut Bridge<SocketCanBus>, clock: &MonotonicClock) {
+    if let Spin::BackOff(d) = b.spin_once(clock, Duration::from_millis(2)) {
+        std::thread::sleep(d);
+    }
+}
+
 /// Spins the bridge for `s` seconds, calling `each` every iteration.
 pub fn run_for<F: FnMut(&mut Bridge<SocketCanBus>, Timestamp)>(
     b: &mut Bridge<SocketCanBus>,
@@ -206,7 +213,7 @@ pub fn run_for<F: FnMut(&mut Bridge<SocketCanBus>, Timestamp)>(
 ) {
     let end = clock.now() + Duration::from_secs_f64(s);
     while clock.now() < end {
-        b.spin_once(clock, Duration::from_millis(2));
+        spin(b, clock);
         each(b, clock.now());
     }
 }
@@ -234,7 +241,7 @@ pub fn wait_until<P: FnMut(&Bridge<SocketCanBus>) -> bool>(
 ) -> Option<Timestamp> {
     let end = clock.now() + Duration::from_secs_f64(timeout_s);
     while clock.now() < end {
-        b.spin_once(clock, Duration::from_millis(2));
+        spin(b, clock);
         if pred(b) {
             return Some(clock.now());
         }

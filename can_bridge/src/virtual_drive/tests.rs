@@ -1,5 +1,6 @@
 use super::*;
 use crate::protocol::generic::Setpoint;
+use oldbf::config::Validate;
 
 const IDS: GenericIds = GenericIds { base_id: 0x100 };
 
@@ -75,6 +76,19 @@ fn fault_specs_parse() {
     ] {
         assert!(bad.parse::<FaultSpec>().is_err(), "{bad}");
     }
+    let e = "silence@x".parse::<FaultSpec>().unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "fault `silence@x`: start `x` is not a non-negative number"
+    );
+    let e = "axis_error@1:1:up".parse::<FaultSpec>().unwrap_err();
+    assert_eq!(e.problem, FaultProblem::Wheel("up".into()));
+    let e = "meltdown@1".parse::<FaultSpec>().unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("fault `meltdown@1`: unknown kind `meltdown`; allowed: "),
+        "{e}"
+    );
 }
 
 #[test]
@@ -321,24 +335,60 @@ fn injected_faults_and_clearing() {
 
 #[test]
 fn config_validation_names_the_option() {
+    let keys = |c: &VirtualDriveConfig| -> Vec<String> {
+        c.validate()
+            .err()
+            .unwrap_or_default()
+            .into_iter()
+            .map(|e| e.key)
+            .collect()
+    };
     let mut c = VirtualDriveConfig::default();
-    assert!(c.validate().is_ok());
+    assert_eq!(c.validate(), Ok(()));
     c.heartbeat_rate_hz = 0.0;
-    assert!(c.validate().unwrap_err().contains("heartbeat rate"));
+    let e = c.validate().unwrap_err();
+    assert_eq!(
+        e[0].to_string(),
+        "key `heartbeat_rate_hz` = 0 is out of range; allowed: [0.01, 10000] Hz"
+    );
     let c = VirtualDriveConfig {
         left_node_id: 2,
         right_node_id: 2,
         ..Default::default()
     };
-    assert!(c.validate().is_err());
+    assert_eq!(keys(&c), ["right_node_id"]);
+    let c = VirtualDriveConfig {
+        protocol: ProtocolKind::Cia402,
+        left_node_id: 0,
+        right_node_id: 1,
+        ..Default::default()
+    };
+    assert_eq!(keys(&c), ["left_node_id"], "CANopen ids start at 1");
+    let c = VirtualDriveConfig {
+        right_node_id: 64,
+        ..Default::default()
+    };
+    assert_eq!(keys(&c), ["right_node_id"], "ODrive ids end at 63");
     // Values a std Duration cannot hold are rejected, not a panic later.
-    for (watchdog_s, rate_hz) in [(1e300, 10.0), (0.5, 1e-300), (f64::NAN, 10.0), (0.5, f64::INFINITY)] {
+    for (watchdog_s, rate_hz, key) in [
+        (1e300, 10.0, "watchdog_s"),
+        (0.5, 1e-300, "heartbeat_rate_hz"),
+        (f64::NAN, 10.0, "watchdog_s"),
+        (0.5, f64::INFINITY, "heartbeat_rate_hz"),
+    ] {
         let c = VirtualDriveConfig {
             watchdog_s,
             heartbeat_rate_hz: rate_hz,
             ..Default::default()
         };
-        let e = c.validate().unwrap_err();
-        assert!(e.contains("out of range"), "{e}");
+        assert_eq!(keys(&c), [key], "{watchdog_s} {rate_hz}");
+    }
+    for (tau, speed) in [(-0.1, 1.0), (f64::NAN, 1.0), (0.0, 0.0), (0.0, f64::INFINITY)] {
+        let c = VirtualDriveConfig {
+            time_constant_s: tau,
+            max_speed_radps: speed,
+            ..Default::default()
+        };
+        assert_eq!(c.validate().unwrap_err().len(), 1, "{tau} {speed}");
     }
 }

@@ -27,252 +27,36 @@
 //!   (SDO requests unanswered) and `reboot` (boot-up, dictionary defaults).
 //!
 //! The type is pure (time is an argument); [`run_virtual_drive`] runs it on a bus.
+//!
+//! One concept per file: the drive and its axis model here, what it
+//! simulates in `settings.rs`, injected faults in `faults.rs`, each
+//! protocol's drive side in `generic_drive.rs`, `odrive_drive.rs` and
+//! [`cia402`], and the thread loop in `runner.rs`.
 
-use crate::bus::{BusEvent, CanBus, CanFrame, RxFilter, SendError};
-use crate::kinematics::Wheel;
 pub mod cia402;
+mod faults;
+mod generic_drive;
+mod odrive_drive;
+mod runner;
+mod settings;
 
-use crate::protocol::cia402::units::{Scaling, VelocityUnit};
+pub use faults::{FaultKind, FaultProblem, FaultSpec, FaultSpecError};
+pub use runner::run_virtual_drive;
+pub use settings::VirtualDriveConfig;
+
+use crate::bus::{CanFrame, RxFilter};
+use crate::kinematics::Wheel;
 use crate::protocol::generic::{self, GenericIds};
-use crate::protocol::odrive::{self, Command};
+use crate::protocol::odrive;
 use crate::protocol::ProtocolKind;
-use crate::time::{Clock, Timestamp};
+use crate::time::Timestamp;
 use serde::Serialize;
 use std::collections::VecDeque;
 use std::f64::consts::TAU;
-use std::str::FromStr;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
 use std::time::Duration;
 
 /// Integration step of the axis model.
 const PHYSICS_STEP: Duration = Duration::from_millis(1);
-
-/// How the simulated drive behaves.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VirtualDriveConfig {
-    pub protocol: ProtocolKind,
-    /// Generic: base id.
-    pub generic_base_id: u32,
-    /// ODrive: node ids.
-    pub left_node_id: u32,
-    pub right_node_id: u32,
-    /// First-order lag time constant τ (s); 0 = follows instantly (within the accel limit).
-    pub time_constant_s: f64,
-    /// The drive's own motor speed limit (rad/s).
-    pub max_speed_radps: f64,
-    /// The drive's own motor acceleration limit (rad/s²).
-    pub max_accel_radps2: f64,
-    /// No valid setpoint for this long while running → idle with a watchdog error (s).
-    pub watchdog_s: f64,
-    /// Heartbeat / status rate (Hz).
-    pub heartbeat_rate_hz: f64,
-    /// Encoder feedback rate (Hz).
-    pub feedback_rate_hz: f64,
-    /// Scheduled faults (times from the drive's start).
-    pub faults: Vec<FaultSpec>,
-    /// CiA 402: the units of the drive's velocity and position objects.
-    pub cia402_scaling: Scaling,
-    /// CiA 402: the bridge's node id (whose heartbeat 0x1016:01 may watch).
-    pub cia402_bridge_node_id: u8,
-}
-
-impl Default for VirtualDriveConfig {
-    fn default() -> Self {
-        Self {
-            protocol: ProtocolKind::Generic,
-            generic_base_id: generic::DEFAULT_BASE_ID,
-            left_node_id: 0,
-            right_node_id: 1,
-            time_constant_s: 0.05,
-            max_speed_radps: 1000.0,
-            max_accel_radps2: 10_000.0,
-            watchdog_s: 0.5,
-            heartbeat_rate_hz: 10.0,
-            feedback_rate_hz: 100.0,
-            faults: Vec::new(),
-            cia402_scaling: Scaling::new(VelocityUnit::Rpm, 1.0, 4096),
-            cia402_bridge_node_id: 127,
-        }
-    }
-}
-
-impl VirtualDriveConfig {
-    /// Checks rates and limits; the message names the option.
-    pub fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} = {v} must be a positive number"))
-            }
-        };
-        pos("max speed", self.max_speed_radps)?;
-        pos("max accel", self.max_accel_radps2)?;
-        // Bounded as well as positive: a period of 1 / 1e-300 s or a watchdog of
-        // 1e300 s cannot be a std Duration.
-        let within = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
-            if (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(format!("{name} = {v} is out of range; allowed: [{lo}, {hi}] {unit}"))
-            }
-        };
-        within("watchdog", self.watchdog_s, 1e-3, 3600.0, "s")?;
-        within("heartbeat rate", self.heartbeat_rate_hz, 0.01, 10000.0, "Hz")?;
-        within("feedback rate", self.feedback_rate_hz, 0.01, 10000.0, "Hz")?;
-        if !(self.time_constant_s.is_finite() && self.time_constant_s >= 0.0) {
-            return Err(format!("time constant = {} must be ≥ 0", self.time_constant_s));
-        }
-        if self.generic_base_id > generic::MAX_BASE_ID {
-            return Err(format!("generic base id 0x{:X} > 0x7ED", self.generic_base_id));
-        }
-        if self.protocol == ProtocolKind::Cia402 {
-            let ok = |n: u32| (1..=127).contains(&n);
-            if !ok(self.left_node_id) || !ok(self.right_node_id) || !ok(u32::from(self.cia402_bridge_node_id)) {
-                return Err("CANopen node ids must be in [1, 127]".into());
-            }
-        } else if self.left_node_id > odrive::MAX_NODE_ID || self.right_node_id > odrive::MAX_NODE_ID {
-            return Err("node ids must be in [0, 63]".into());
-        }
-        if self.left_node_id == self.right_node_id {
-            return Err("left and right node ids must differ".into());
-        }
-        Ok(())
-    }
-}
-
-/// A fault to inject.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FaultKind {
-    /// Sets error bits on one axis or both (generic: Error_Code, state FAULT;
-    /// ODrive: Axis_Error, idle). Latched until cleared by the bridge.
-    AxisError { code: u32, wheel: Option<Wheel> },
-    /// No heartbeats / status frames while active.
-    HeartbeatSilence,
-    /// No feedback frames while active.
-    FeedbackSilence,
-    /// Nothing at all is sent while active (the drive still listens).
-    Silence,
-    /// Feedback frames leave this late while active (s).
-    FeedbackDelay { delay_s: f64 },
-    /// The drive stops sending for good, as if killed.
-    Exit,
-    /// CiA 402: SDO requests get no answer while active.
-    SdoSilence,
-    /// CiA 402: the node(s) reboot (boot-up message, dictionary defaults,
-    /// switch on disabled), as after a power glitch.
-    Reboot { wheel: Option<Wheel> },
-}
-
-/// A fault at a time (from the drive's start), optionally for a duration.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FaultSpec {
-    pub kind: FaultKind,
-    pub start_s: f64,
-    /// `None`: until the end (one-shot kinds ignore it).
-    pub duration_s: Option<f64>,
-}
-
-impl FaultSpec {
-    fn active(&self, t_s: f64) -> bool {
-        t_s >= self.start_s && self.duration_s.is_none_or(|d| t_s < self.start_s + d)
-    }
-}
-
-fn parse_num(s: &str, what: &str) -> Result<f64, String> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite() && *v >= 0.0)
-        .ok_or_else(|| format!("{what} `{s}` is not a non-negative number"))
-}
-
-fn parse_u32(s: &str) -> Result<u32, String> {
-    let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
-        Some(hex) => u32::from_str_radix(hex, 16),
-        None => s.parse(),
-    };
-    r.map_err(|_| format!("error code `{s}` is not a u32 (decimal or 0x hex)"))
-}
-
-impl FromStr for FaultSpec {
-    type Err = String;
-
-    /// `KIND@START[+DURATION][:ARG[:ARG]]`, e.g. `axis_error@2:0x20:left`,
-    /// `heartbeat_silence@3+1.5`, `feedback_delay@1+5:0.3`, `exit@4`.
-    fn from_str(s: &str) -> Result<Self, String> {
-        let (kind, rest) = s
-            .split_once('@')
-            .ok_or_else(|| format!("fault `{s}`: expected KIND@START[+DURATION][:ARGS]"))?;
-        let mut parts = rest.split(':');
-        let when = parts.next().unwrap_or_default();
-        let args: Vec<&str> = parts.collect();
-        let (start, dur) = match when.split_once('+') {
-            Some((a, b)) => (parse_num(a, "start")?, Some(parse_num(b, "duration")?)),
-            None => (parse_num(when, "start")?, None),
-        };
-        let no_args = |k: FaultKind| {
-            if args.is_empty() {
-                Ok(k)
-            } else {
-                Err(format!("fault `{s}`: {kind} takes no arguments"))
-            }
-        };
-        let kind = match kind {
-            "axis_error" => {
-                let code = match args.first() {
-                    Some(c) => parse_u32(c)?,
-                    None => 0x1,
-                };
-                let wheel = match args.get(1).copied() {
-                    None | Some("both") => None,
-                    Some("left") => Some(Wheel::Left),
-                    Some("right") => Some(Wheel::Right),
-                    Some(w) => return Err(format!("fault `{s}`: wheel `{w}` is not left, right or both")),
-                };
-                if code == 0 {
-                    return Err(format!("fault `{s}`: error code 0 is no error"));
-                }
-                FaultKind::AxisError { code, wheel }
-            }
-            "heartbeat_silence" => no_args(FaultKind::HeartbeatSilence)?,
-            "feedback_silence" => no_args(FaultKind::FeedbackSilence)?,
-            "silence" => no_args(FaultKind::Silence)?,
-            "feedback_delay" => {
-                let d = args
-                    .first()
-                    .ok_or_else(|| format!("fault `{s}`: feedback_delay needs :SECONDS"))?;
-                FaultKind::FeedbackDelay {
-                    delay_s: parse_num(d, "delay")?,
-                }
-            }
-            "exit" => no_args(FaultKind::Exit)?,
-            "sdo_silence" => no_args(FaultKind::SdoSilence)?,
-            "reboot" => {
-                let wheel = match args.first().copied() {
-                    None | Some("both") => None,
-                    Some("left") => Some(Wheel::Left),
-                    Some("right") => Some(Wheel::Right),
-                    Some(w) => return Err(format!("fault `{s}`: wheel `{w}` is not left, right or both")),
-                };
-                if args.len() > 1 {
-                    return Err(format!("fault `{s}`: reboot takes at most a wheel"));
-                }
-                FaultKind::Reboot { wheel }
-            }
-            k => {
-                return Err(format!(
-                    "fault `{s}`: unknown kind `{k}`; allowed: axis_error, heartbeat_silence, feedback_silence, silence, feedback_delay, exit, sdo_silence, reboot"
-                ))
-            }
-        };
-        Ok(FaultSpec {
-            kind,
-            start_s: start,
-            duration_s: dur,
-        })
-    }
-}
 
 /// One axis as seen from outside.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -470,23 +254,6 @@ impl VirtualDrive {
         self.exited
     }
 
-    /// Injects a fault now (the schedule's times are relative to the drive's start).
-    pub fn inject(&mut self, kind: FaultKind, duration_s: Option<f64>, now: Timestamp) {
-        let start_s = (now - self.start).as_secs_f64();
-        self.cfg.faults.push(FaultSpec {
-            kind,
-            start_s,
-            duration_s,
-        });
-        self.applied.push(false);
-    }
-
-    /// Ends every injected or scheduled fault (latched axis errors stay until cleared).
-    pub fn clear_faults(&mut self) {
-        self.cfg.faults.clear();
-        self.applied.clear();
-    }
-
     fn running(&self, w: Wheel) -> bool {
         match self.cfg.protocol {
             ProtocolKind::Generic => self.generic_state == generic::STATE_ENABLED,
@@ -528,10 +295,6 @@ impl VirtualDrive {
         }
     }
 
-    fn fault_active(&self, t_s: f64, pred: impl Fn(&FaultKind) -> bool) -> Option<FaultSpec> {
-        self.cfg.faults.iter().copied().find(|f| pred(&f.kind) && f.active(t_s))
-    }
-
     /// A received frame.
     pub fn handle_frame(&mut self, f: &CanFrame, now: Timestamp) {
         if self.exited {
@@ -548,136 +311,6 @@ impl VirtualDrive {
                 for n in &mut self.co {
                     n.handle(f, now, sdo_silent, bridge);
                 }
-            }
-        }
-    }
-
-    fn generic_set_error(&mut self, code: u32) {
-        for a in &mut self.axes {
-            a.error |= code;
-            a.input = 0.0;
-        }
-        self.generic_state = generic::STATE_FAULT;
-    }
-
-    fn handle_generic(&mut self, f: &CanFrame, now: Timestamp) {
-        let (w, sp) = match generic::decode_setpoint(self.generic_ids(), f) {
-            Ok(Some(x)) => x,
-            Ok(None) => return,
-            Err(e) => {
-                self.stats.setpoints_rejected += 1;
-                log::warn!("rejected setpoint: {e}");
-                return;
-            }
-        };
-        let a = &mut self.axes[w.index()];
-        if a.last_counter == Some(sp.counter) {
-            self.stats.setpoints_rejected += 1;
-            self.stats.frozen_counters += 1;
-            return;
-        }
-        a.last_counter = Some(sp.counter);
-        self.stats.setpoints_accepted += 1;
-        if sp.estop {
-            if self.generic_state != generic::STATE_ESTOP {
-                self.stats.estops += 1;
-                log::warn!("e-stop received");
-            }
-            self.generic_state = generic::STATE_ESTOP;
-            for a in &mut self.axes {
-                a.input = 0.0;
-            }
-            return;
-        }
-        if !sp.enable {
-            // Disable and clear: a latched e-stop or error goes away.
-            self.stats.clear_requests += 1;
-            for a in &mut self.axes {
-                a.error = 0;
-                a.input = 0.0;
-            }
-            self.generic_state = generic::STATE_DISABLED;
-            self.axes[w.index()].last_setpoint = Some(now);
-            return;
-        }
-        match self.generic_state {
-            // Enable (from disabled, without error).
-            generic::STATE_DISABLED if self.axes.iter().all(|a| a.error == 0) => {
-                self.generic_state = generic::STATE_ENABLED;
-                for a in &mut self.axes {
-                    a.last_setpoint = Some(now);
-                }
-            }
-            generic::STATE_ENABLED => {}
-            // E-stop or fault latched (or disabled with an error): ignored until cleared.
-            _ => return,
-        }
-        let a = &mut self.axes[w.index()];
-        a.input = sp.vel_radps;
-        a.last_setpoint = Some(now);
-    }
-
-    fn handle_odrive(&mut self, f: &CanFrame, now: Timestamp) {
-        let (node, _) = odrive::split_id(f.id);
-        let Some(w) = Wheel::BOTH.into_iter().find(|w| self.node(*w) == node) else {
-            return;
-        };
-        let c = match odrive::decode_command(f) {
-            Ok(Some(c)) => c,
-            Ok(None) => return,
-            Err(e) => {
-                self.stats.setpoints_rejected += 1;
-                log::warn!("rejected command: {e}");
-                return;
-            }
-        };
-        let a = &mut self.axes[w.index()];
-        match c {
-            Command::SetInputVel { vel_turns_per_s, .. } => {
-                if !vel_turns_per_s.is_finite() {
-                    // A NaN on the wire is a bridge bug: fault, never follow it.
-                    self.stats.setpoints_rejected += 1;
-                    a.error |= 0x1;
-                    a.running = false;
-                    a.input = 0.0;
-                    return;
-                }
-                self.stats.setpoints_accepted += 1;
-                a.input = f64::from(vel_turns_per_s) * TAU;
-                a.last_setpoint = Some(now);
-            }
-            Command::SetAxisState(s) if s == odrive::AXIS_STATE_CLOSED_LOOP => {
-                if a.input != 0.0 {
-                    self.stats.closed_loop_with_nonzero_input += 1;
-                    log::warn!("{} axis: closed loop requested with input {} rad/s", w.name(), a.input);
-                }
-                if a.error == 0 && a.control_mode == odrive::CONTROL_MODE_VELOCITY {
-                    a.running = true;
-                    a.last_setpoint = Some(now);
-                }
-            }
-            Command::SetAxisState(_) => {
-                a.running = false;
-                a.input = 0.0;
-            }
-            Command::SetControllerMode {
-                control_mode,
-                input_mode,
-            } => {
-                a.control_mode = control_mode;
-                a.input_mode = input_mode;
-            }
-            Command::ClearErrors => {
-                self.stats.clear_requests += 1;
-                a.error = 0;
-            }
-            Command::Estop => {
-                if a.error & odrive::AXIS_ERROR_ESTOP_REQUESTED == 0 {
-                    self.stats.estops += 1;
-                }
-                a.error |= odrive::AXIS_ERROR_ESTOP_REQUESTED;
-                a.running = false;
-                a.input = 0.0;
             }
         }
     }
@@ -713,56 +346,6 @@ impl VirtualDrive {
             t = t + h;
         }
         self.last_advance = self.last_advance.max(now);
-    }
-
-    fn apply_scheduled(&mut self, t_s: f64, now: Timestamp) {
-        for i in 0..self.cfg.faults.len() {
-            let f = self.cfg.faults[i];
-            if self.applied[i] || t_s < f.start_s {
-                continue;
-            }
-            match f.kind {
-                FaultKind::AxisError { code, wheel } => {
-                    self.applied[i] = true;
-                    log::warn!("injecting axis error 0x{code:X} on {wheel:?}");
-                    match self.cfg.protocol {
-                        ProtocolKind::Generic => self.generic_set_error(code),
-                        ProtocolKind::Cia402 => {
-                            for n in &mut self.co {
-                                if wheel.is_none_or(|x| x == n.wheel) {
-                                    n.fault(u16::try_from(code).unwrap_or(0x1000));
-                                }
-                            }
-                        }
-                        ProtocolKind::Odrive => {
-                            for w in Wheel::BOTH {
-                                if wheel.is_none_or(|x| x == w) {
-                                    let a = &mut self.axes[w.index()];
-                                    a.error |= code;
-                                    a.running = false;
-                                    a.input = 0.0;
-                                }
-                            }
-                        }
-                    }
-                }
-                FaultKind::Reboot { wheel } => {
-                    self.applied[i] = true;
-                    log::warn!("rebooting {wheel:?}");
-                    for n in &mut self.co {
-                        if wheel.is_none_or(|x| x == n.wheel) {
-                            n.boot(now);
-                        }
-                    }
-                }
-                FaultKind::Exit => {
-                    self.applied[i] = true;
-                    log::warn!("exit fault: going silent for good");
-                    self.exited = true;
-                }
-                _ => {}
-            }
-        }
     }
 
     fn watchdog(&mut self, now: Timestamp) {
@@ -941,55 +524,5 @@ fn next_grid(prev: Timestamp, now: Timestamp, rate_hz: f64) -> Timestamp {
     prev + period * (skip + 1)
 }
 
-/// Runs `drive` on `bus` until `stop` is set or the drive exits (fault `exit`).
-/// The drive is shared so tests can inject faults and read its state.
-pub fn run_virtual_drive<B: CanBus>(
-    drive: &Mutex<VirtualDrive>,
-    bus: &mut B,
-    clock: &dyn Clock,
-    stop: &AtomicBool,
-) -> Result<(), crate::bus::BusError> {
-    let lock = || drive.lock().unwrap_or_else(|e| e.into_inner());
-    bus.set_rx_filters(&lock().rx_filters())?;
-    let mut out = Vec::new();
-    let mut last_error_log: Option<Timestamp> = None;
-    while !stop.load(Ordering::Relaxed) {
-        let now = clock.now();
-        let deadline = {
-            let mut d = lock();
-            d.step(now, &mut out);
-            if d.exited() {
-                return Ok(());
-            }
-            d.next_deadline()
-        };
-        for f in out.drain(..) {
-            match bus.send(&f) {
-                Ok(()) | Err(SendError::QueueFull) => {}
-                Err(e) => {
-                    if last_error_log.is_none_or(|t| now - t > Duration::from_secs(1)) {
-                        log::warn!("virtual drive: {e}");
-                        last_error_log = Some(now);
-                    }
-                }
-            }
-        }
-        let wait = (deadline - clock.now()).min(Duration::from_millis(20));
-        match bus.recv(wait) {
-            Ok(Some(BusEvent::Frame(f))) => lock().handle_frame(&f, clock.now()),
-            Ok(_) => {}
-            Err(e) => {
-                if last_error_log.is_none_or(|t| now - t > Duration::from_secs(1)) {
-                    log::warn!("virtual drive: {e}");
-                    last_error_log = Some(now);
-                }
-                std::thread::sleep(wait.min(Duration::from_millis(5)));
-            }
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
-#[path = "virtual_drive_tests.rs"]
 mod tests;
