@@ -287,19 +287,30 @@ if e:
 else:
     row("clock jump backwards", "stop", None, None, "case did not run", False)
 
-for mode in ("nan", "inf", "zero"):
-    e, e2 = ev(f"scan_{mode}"), ev(f"scan_{mode}_end")
-    if not e or not e2:
-        row(f"all-{mode} scans", "proceed", None, None, "case did not run", False)
-        continue
-    # Settled: from one control period + ramp after the switch to its end.
+# REP 117 (docs/ALGORITHM.md §1): NaN and 0.0 (below range_min) are unknown,
+# and unknown is not free: a front sector mostly unknown for blind_timeout_s
+# is a blind sensor (stop, diagnostics sensor_blind), resumed on good scans.
+blind_timeout = algo_cfg["laser"]["blind_timeout_s"]
+blind_limit = blind_timeout + scan_limit
+for mode in ("nan", "zero"):
+    stop_case(f"scan_{mode}", f"all-{mode} scans (every beam unknown)",
+              "unknown is not free: stop once blind for blind_timeout_s, resume on good scans", blind_limit, "safety filter",
+              lambda d: d["values"].get("sensor_blind") == "true" and d["values"].get("valid_beams") == "0",
+              "oldbf_node diagnostics sensor_blind true, valid_beams 0", end_mode=f"scan_{mode}_end")
+e, e2 = ev("scan_inf"), ev("scan_inf_end")
+if not e or not e2:
+    row("all-inf scans", "proceed", None, None, "case did not run", False)
+else:
+    # +inf is "no return within range_max": free space (REP 117). Settled: from
+    # one control period + ramp after the switch to its end.
     sp = setpoints(e["t"] + ctrl_period + 0.2, e2["t"])
     stops = [v for _, _, v in sp if v == 0.0]
-    d = reported(e["t"] + 0.5, e2["t"] + 0.5, "safety filter", lambda d: d["values"].get("valid_beams") == "0")
-    no_stop = d is not None and d["values"].get("stop_reason", "") == ""
+    d = reported(e["t"] + 0.5, e2["t"] + 0.5, "safety filter",
+                 lambda d: d["values"].get("valid_beams") == "0" and d["values"].get("unknown_beams") == "0")
+    no_stop = d is not None and d["values"].get("stop_reason", "") == "" and d["values"].get("sensor_blind") == "false"
     ok = len(sp) > 10 and not stops and no_stop
-    row(f"all-{mode} scans", "no valid beam = free space (definition): proceed at the nominal, finite", None, None,
-        f"{len(sp)} setpoints, {len(stops)} zero; diagnostics valid_beams 0, no stop reason: {no_stop}", ok)
+    row("all-inf scans (no return within range_max)", "free space (REP 117): proceed at the nominal, finite", None, None,
+        f"{len(sp)} setpoints, {len(stops)} zero; diagnostics valid_beams 0, unknown_beams 0, no stop reason, not blind: {no_stop}", ok)
 
 e = ev("bridge_kill")
 if e:

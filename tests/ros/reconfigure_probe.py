@@ -6,7 +6,7 @@ filter's behaviour before and after.
     reconfigure_probe.py NS
 
 Needs oldbf_node in NS with the constant nominal (0.15 m/s ahead). An
-"approach" publishes scans of a wall dead ahead at a distance falling from
+"approach" publishes scans of a straight wall dead ahead (±60°) at a distance falling from
 1.0 m to 0.3 m in 1 cm steps, and reads for each scan the command computed
 from it (the ~state carrying its stamp): the stop distance is the wall
 distance of the first scan whose command has no forward speed.
@@ -53,10 +53,19 @@ scan.header.frame_id = "laser"
 
 
 def command_for_wall(d):
-    """Publishes one scan with a wall d m ahead; the (v, h) computed from it."""
+    """Publishes one scan with a wall d m ahead; the (v, h) computed from it.
+
+    A straight wall across the front (bearings within ±60°, range d / cos φ):
+    at least 1 m wide, so the node's tracker never takes it for a person (a
+    narrow slab that jumps 1 cm per scan, faster than the robot drives, is
+    rightly treated as a mover coming at the robot, and then the stop
+    distance is about the mover, not d_safe).
+    """
     ranges = [float("inf")] * n
-    for i in range(180 - 10, 180 + 11):
-        ranges[i] = d
+    for i in range(n):
+        phi = scan.angle_min + i * scan.angle_increment
+        if abs(phi) <= math.radians(60.0) + 1e-9:
+            ranges[i] = d / math.cos(phi)
     scan.ranges = ranges
     scan.header.stamp = rospy.Time.from_sec(time.time())
     stamp = scan.header.stamp.to_nsec()
