@@ -384,7 +384,7 @@ impl Default for ObstacleParams {
             max_misses: 5,
             accel_noise_mps2: 1.0,
             measurement_noise_m: 0.05,
-            moving_speed_mps: 0.05,
+            moving_speed_mps: 0.02,
             min_travel_m: 0.3,
             lookahead_s: 2.0,
             max_tracks: 32,
