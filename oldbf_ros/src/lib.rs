@@ -11,7 +11,8 @@
 //! * [`config`] — YAML configuration with unknown keys and out-of-range
 //!   values rejected by name.
 
-pub mod algo;
+/// The pure core, from the `oldbf` crate (no ROS, no CAN: the compiler enforces it).
+pub use oldbf::algo;
 pub mod baselines;
 pub mod batch;
 pub mod carmen;
