@@ -150,3 +150,42 @@ fn runs_are_deterministic_for_a_seed() {
     assert_eq!(a.final_pose, b.final_pose);
     assert_eq!(a.min_clearance_m, b.min_clearance_m);
 }
+
+/// A wall across the line, with a LiDAR whose range_min (0.6 m) lies beyond
+/// where the filter stops (r + d_safe = 0.178 + 0.2 = 0.378 m from the
+/// robot's centre): the wall's beams read below range_min, i.e. unknown,
+/// before the robot gets there (ALGORITHM.md §1, the issue's "person inside
+/// the minimum range").
+const WALL_INSIDE_RANGE_MIN: &str = r#"
+name: wall_inside_range_min
+description: A wall across the line; the LiDAR cannot see closer than 0.6 m.
+duration_s: 60
+seed: 1
+robot: {preset: turtlebot3_burger}
+start: {x_m: 0.0, y_m: 0.0, theta_deg: 0.0}
+lidar: {beams: 360, fov_deg: 360, range_min_m: 0.6, range_max_m: 3.5, noise_std_m: 0.0, dropout_prob: 0.0, dropout: mixed, rate_hz: 10}
+nominal: {kind: line, v_mps: 0.15, length_m: 4.0}
+goal_tolerance_m: 0.15
+world:
+  polygons:
+    - [[-1.0, -2.5], [5.5, -2.5], [5.5, 2.5], [-1.0, 2.5]]
+  boxes:
+    - {center: [2.0, 0.0], size: [0.2, 4.0]}
+"#;
+
+#[test]
+fn unknown_is_not_free_a_wall_inside_range_min_stops_the_robot() {
+    let s = Scenario::from_str(WALL_INSIDE_RANGE_MIN, "wall_inside_range_min", None).unwrap();
+    let r = run(&s, Controller::Oldbf, 1);
+    assert_eq!(r.collisions, 0, "{r:?}");
+    // It stopped short of the wall: not just out of contact, but outside d_safe
+    // minus the braking tolerance (the wall was last seen at >= 0.6 m and held).
+    assert!(r.min_clearance_m > 0.15, "{r:?}");
+    assert!(!r.reached_goal, "{r:?}");
+    // The front went unknown and the robot stopped for it, rather than driving on.
+    assert!(r.blind_steps > 0, "{r:?}");
+    // The paper's rule (every invalid range is free space) drives into the same wall:
+    // without REP 117 semantics this test would fail.
+    let r = run(&s, Controller::OldbfPaper, 1);
+    assert!(r.closing_contacts >= 1, "{r:?}");
+}
