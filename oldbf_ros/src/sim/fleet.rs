@@ -19,6 +19,8 @@ use crate::algo::geometry::{Pose2, Twist, Vec2};
 
 /// A contact is closing when the robot moved towards the touched point
 /// faster than this at its onset (m/s); the figure of merit of §5b.
+/// Fixed on purpose, independent of the tunable `passive.closing_speed_mps`,
+/// so that contact figures stay comparable across configurations.
 pub const CLOSING_SPEED_MPS: f64 = 0.02;
 
 /// One contact, at its onset.

@@ -7,15 +7,31 @@
 //! safe set S = { d_min ≥ d_safe } must hold all around the robot.
 //!
 //! Departure (ALGORITHM.md §4b, smooth steering): with a positive
-//! `barrier.side_fade_deg` the sides have no hard edges. A point counts for a side with its
-//! clearance raised by a penalty that grows linearly from 0 to the activation
-//! band's width as its bearing goes from the side's own half into the other
-//! half by the fade angle, and likewise as it nears the hemisphere's rear
-//! edge. A penalised point at full penalty sits beyond d_act, where it no
-//! longer raises the barrier, so a point that crosses bearing 0 (or the
-//! hemisphere edge) moves B_l and B_r continuously: dead ahead it counts the
-//! same on both sides, and the steering term k (B_r − B_l) passes through 0
-//! instead of jumping from one sign to the other. 0 gives the hard sectors.
+//! `barrier.side_fade_deg` the sides have no hard edges ([`SideFade`]). With
+//! fade φ = min(side_fade, hemisphere_fov/2, 90°), hemisphere half-angle
+//! H = min(hemisphere_fov/2, 180°) and d_act = d_safe + Γ^(2/σ) (1.2 m by
+//! default), a point at bearing b (left positive) counts for a side with its
+//! clearance raised by the penalty f · d_act, where f is the larger of
+//! * the cross-side ramp, sin b / sin φ for the right side and −sin b / sin φ
+//!   for the left: negative (no penalty) on the side's own half, 0 dead
+//!   ahead, growing linearly in sin(bearing) to 1 at φ into the other half;
+//! * the rear ramp (only when H < 180°), max(0, (cos(H − φ) − cos b) /
+//!   (cos(H − φ) − cos H)): 0 up to |b| = H − φ, growing linearly in
+//!   cos(bearing) to 1 at the hemisphere's edge |b| = H.
+//!
+//! Where f ≥ 1 the point does not count for that side at all (nor in its
+//! crowding): the penalty ranges over [0, d_act), approaching its supremum
+//! d_act at the end of either ramp, where the point drops out. With the
+//! defaults (φ = 30°, H = 90°) a point counts without penalty on its own side
+//! up to 60° of bearing, with a penalty rising to d_act (linearly in cos) from
+//! 60° to 90°, and on the other side with a penalty rising to d_act (linearly
+//! in sin) from 0° to 30°. Near the end of a ramp a point's penalised clearance
+//! is close to c + d_act, so (for c ≥ 0) its B_d is at or next to its floor of
+//! 1 when it drops out: a point that crosses bearing 0 (or the hemisphere edge)
+//! moves B_l and B_r continuously, dead ahead it counts the same on both sides,
+//! and the steering term k (B_r − B_l) passes through 0 instead of jumping from
+//! one sign to the other. d_min and the front sector are not faded. A fade of 0
+//! gives the hard sectors.
 
 use super::geometry::Vec2;
 
@@ -82,8 +98,8 @@ impl Clearances {
 /// How the side clearances fade near bearing 0 and the hemisphere's edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SideFade {
-    /// Penalty at full fade (m): the width of the activation band, d_act − d_safe
-    /// + d_safe = d_act, so a fully faded point no longer raises the barrier.
+    /// Penalty at full fade (m): d_act, so a fully faded point (clearance ≥ 0)
+    /// sits at or beyond d_act, where it no longer raises the barrier.
     penalty_m: f64,
     /// 1 / sin(fade angle): the cross-side ramp, on sin(bearing).
     inv_sin_fade: f64,

@@ -586,13 +586,18 @@ impl Params {
         self.footprint.radius_m()
     }
 
-    /// The same parameters with what this project added beyond the paper
-    /// switched off: every invalid range is free space (no hold, no
-    /// blindness), hard side sectors, no committed turns, yaw-rate step
-    /// limit or unstuck, no braking check or evasion, no reversing. This is the
-    /// filter as it was before REP 117 semantics and passive motion safety,
-    /// kept so the batch and compare tables can measure the difference on
-    /// the same worlds (`config/paper_method.yaml` says the same in YAML).
+    /// The same parameters with what this project added beyond the paper switched
+    /// off: `laser.range_semantics: all_invalid_free` (every invalid range is
+    /// free space: no hold, no blindness check), `barrier.side_fade_deg: 0` (hard
+    /// side sectors), `doaa.commit_turns: false`, `doaa.max_omega_change_radps:
+    /// 0` (no yaw-rate step limit), `unstuck.enabled: false`, `passive.enabled:
+    /// false` (no braking check or evasion) and `control.allow_reverse: false`.
+    /// Everything else, obstacle tracking included, is left as given. This is the
+    /// filter as it was before REP 117 semantics, passive motion safety and the
+    /// liveness additions. It is the `oldbf-paper` controller (`oldbf batch
+    /// --controllers oldbf-paper`, also `oldbf compare` and `oldbf sim
+    /// --controller`), kept so the tables can measure the difference on the same
+    /// worlds (ALGORITHM.md §8). There is no YAML file for it.
     pub fn paper_method(mut self) -> Self {
         self.laser.range_semantics = RangeSemantics::AllInvalidFree;
         self.barrier.side_fade_deg = 0.0;

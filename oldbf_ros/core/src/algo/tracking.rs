@@ -10,15 +10,15 @@
 //! Kanayama's law is local: with the reference behind the robot (e_θ ≈ π after
 //! an avoidance detour) it asks for reverse speed and, with sin e_θ ≈ 0, no
 //! turn, so a forward-only robot would sit still. Beyond `capture_radius_m`
-//! the command therefore blends continuously into a go-to-point law that turns
-//! towards the reference point (bearing β = atan2(e_y, e_x)) and drives while
-//! it is roughly ahead:
-//!   v = (v_r + k_x ‖e‖) clamp(2 cos β, 0, 1),  ω = k_β β,
+//! (R_c) the command therefore blends continuously, with weight
+//! λ = clamp((‖e‖ − R_c) / R_c, 0, 1) on the go-to-point command (fully at
+//! 2 R_c), into a go-to-point law that turns towards the reference point
+//! (bearing β = atan2(e_y, e_x)) and drives while it is roughly ahead:
+//!   v = (|v_r| + k_x ‖e‖) clamp(2 cos β, 0, 1),  ω = k_β β,
 //! full speed for |β| ≤ 60°, none beyond 90°. Keeping the speed up while the
 //! DOAA steers is what carries the robot round an obstacle standing between
 //! it and the reference (the paper's robot always drives at v_r); scaling v by
 //! cos β instead stalls it in front of the obstacle.
-//! with weight λ = clamp((‖e‖ − R_c) / R_c, 0, 1) on the go-to-point command.
 
 use super::geometry::{wrap_angle, Pose2, Twist};
 use super::params::TrackingParams;

@@ -19,11 +19,17 @@
 //!   path: the shortest path when it is reachable (through the gap nearest
 //!   the reference that the robot fits through), else to the reachable cell
 //!   nearest it. The nominal becomes a turn towards the path's farthest
-//!   visible cell within 1 m, at up to the nominal speed, slower the more it
-//!   must turn. Replanned every step, so the way slides along the obstacle's
-//!   boundary as the robot goes round it; it keeps to the side of the line
-//!   to the goal it chose first while that side is about as good. A gap
-//!   narrower than 2 (r + d_safe + margin) is not one.
+//!   visible cell within 1 m (`WAYPOINT_REACH_M`), at up to the nominal
+//!   speed, slower the more it must turn. Not replanned every step: a new
+//!   plan is made once the last is `REPLAN_S` = 0.5 s old or its waypoint is
+//!   within `WAYPOINT_REACHED_M` = 0.15 m of the robot; in between, the last
+//!   waypoint (fixed in the tracking frame, re-expressed in the robot frame
+//!   each step) is followed. So the way slides along the obstacle's boundary
+//!   as the robot goes round it. (With nowhere to go, see below, nothing is
+//!   kept and every step plans again.) Each new plan keeps to the side of
+//!   the line to the goal chosen first while the way on that side ends at
+//!   most `SIDE_SLACK_M` = 0.3 m farther from the goal than the best way. A
+//!   gap narrower than 2 (r + d_safe + margin) is not one.
 //! * **Release**: progress has grown by `unstuck.progress_m` since the
 //!   stall, or the reference is within the capture radius, or a tracked
 //!   mover has come near (a robot held up by people waits for them to pass:
