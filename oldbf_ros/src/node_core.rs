@@ -36,7 +36,7 @@ use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
 use crate::algo::scan::{LaserScan, ScanRejection};
-use crate::algo::tracking::{track, TrackingError};
+use crate::algo::tracking::track;
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use serde::{Deserialize, Serialize};
@@ -483,8 +483,8 @@ impl NodeCore {
             let (reference, progress) = self.reference.as_mut().expect("checked above");
             return match odom {
                 Some(o) => {
-                    let e = TrackingError::between(o.pose, reference.pose_at(progress.t_s)).distance_m();
-                    let rate = ReferenceProgress::rate(e, params.capture_radius_m);
+                    let lag = ReferenceProgress::lag_m(o.pose, reference.pose_at(progress.t_s));
+                    let rate = ReferenceProgress::rate(lag, params.capture_radius_m);
                     let (ref_pose, ref_twist) = progress.reference(reference, rate);
                     // Where the reference heads, for the unstuck logic (§4b).
                     let guidance = Guidance::of_reference(reference, progress, o.pose, ahead_m);

@@ -428,7 +428,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     a.max_err = a.max_err.max(e);
                     a.sum_err += e;
                     a.tracked_steps += 1;
-                    let rate = ReferenceProgress::rate(e, params.tracking.capture_radius_m);
+                    let lag = ReferenceProgress::lag_m(pose, ref_pose);
+                    let rate = ReferenceProgress::rate(lag, params.tracking.capture_radius_m);
                     let (ref_pose, ref_twist) = a.progress.reference(reference, rate);
                     a.pipeline.set_guidance(Some(Guidance::of_reference(
                         reference,
