@@ -771,7 +771,11 @@ impl SafetyPipeline {
         // Evasion: a mover's predicted disc reaches the robot within the horizon, or a
         // mover closes on a robot that cannot go forward. Among the commands as
         // admissible as the chosen one: the latest predicted contact; among those with
-        // none within the horizon, the closest to the DOAA command.
+        // none within the horizon, the closest to the DOAA command. Smooth steering
+        // (§4b): a command whose yaw rate jumps by more than ω_max from the last one
+        // sent is taken only if it gains `evasion_min_gain_s` of time to contact over
+        // the best command that does not jump (grid neighbours score alike, and a
+        // swerve that reverses the turn every step gains nothing).
         let mut evading = false;
         let chosen_stalled = out.infeasible || chosen.cmd.v_mps.abs() < stall;
         if movers && ((closing_in && chosen_stalled) || threatened(&mut self.passive, chosen.cmd, &self.params)) {
@@ -780,7 +784,10 @@ impl SafetyPipeline {
             let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
             let current = self.passive.evasion_score(chosen.cmd, p);
             let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
+            let (last_omega, jump) = (self.last_cmd.omega_radps, p.control.omega_max_radps);
+            let smooth = |c: Twist| (c.omega_radps - last_omega).abs() <= jump + 1e-9;
             let (mut best, mut best_score) = (chosen, current);
+            let mut smooth_best = smooth(chosen.cmd).then_some((chosen, current));
             let speeds = [bx.v_lo, 0.5 * bx.v_hi, bx.v_hi];
             for k in 0..EVASION_OMEGAS {
                 let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
@@ -802,14 +809,24 @@ impl SafetyPipeline {
                         passive,
                     };
                     let score = self.passive.evasion_score(c.cmd, &self.params);
-                    let ahead = if score.time_to_contact_s >= horizon && best_score.time_to_contact_s >= horizon {
-                        cost(c.cmd) < cost(best.cmd)
-                    } else {
-                        better(&score, &best_score)
+                    let ahead = |b: &Candidate, b_score: &EvasionScore| {
+                        if score.time_to_contact_s >= horizon && b_score.time_to_contact_s >= horizon {
+                            cost(c.cmd) < cost(b.cmd)
+                        } else {
+                            better(&score, b_score)
+                        }
                     };
-                    if ahead {
+                    if ahead(&best, &best_score) {
                         (best, best_score) = (c, score);
                     }
+                    if smooth(cmd) && smooth_best.as_ref().is_none_or(|(b, bs)| ahead(b, bs)) {
+                        smooth_best = Some((c, score));
+                    }
+                }
+            }
+            if let Some((sb, sb_score)) = smooth_best {
+                if !best_score.beats(&sb_score, min_gain_s, EVASION_MIN_GAP_GAIN_M) {
+                    (best, best_score) = (sb, sb_score);
                 }
             }
             if best_score.beats(&current, min_gain_s, EVASION_MIN_GAP_GAIN_M) {
