@@ -28,7 +28,7 @@
 #         (tests/e2e_group.sh)
 #   soak  the short soak: random worlds with moving obstacles for a stretch of
 #         simulated time; no panic, no NaN, resident memory flat
-#         (tests/soak_group.sh; the full hour is `oldbf soak`, see README)
+#         (tests/soak_group.sh; the full hour is `oldbf soak`, see docs/SAFETY.md)
 #   fuzz  every fuzz target's committed corpus replayed, then a time-boxed
 #         coverage-guided run of each (tests/fuzz_group.sh; installs cargo-fuzz)
 #   faults  one guest boot: faults injected into the running ROS + CAN system,

@@ -14,14 +14,14 @@
 #    robot's speed, noisy LiDAR with dropouts. 0 panics, 0 non-finite
 #    commands, 0 closing contacts (the robot driving into anything) and flat
 #    memory are strict. Movers that walk blind into a robot that cannot get
-#    away do cause passive contacts and CBF violations (docs: "Soak"); at
+#    away do cause passive contacts and CBF violations (docs/SAFETY.md, "Soak"); at
 #    seed 1 they are 1 contact, 2367 logged and 2763 exact violation steps
 #    over these 10 h, and the bounds below (about twice those) catch a
 #    regression, not the known limitation. (With movers read as moving only
 #    above 0.05 m/s these people, at 0.015-0.045 m/s, counted as static and
 #    pinned robots: 10 contacts, 5942 violations; now 0.02 m/s.)
 #
-# The full hour of the README is `oldbf soak --sim-hours 1`. Exits non-zero on
+# The full hour of docs/SAFETY.md ("Soak") is `oldbf soak --sim-hours 1`. Exits non-zero on
 # any failed gate.
 set -Eeuo pipefail
 trap 'echo "soak_group: ERROR at line $LINENO: $BASH_COMMAND" >&2' ERR

@@ -69,7 +69,7 @@ fn figures_do_not_depend_on_the_thread_count() {
 #[test]
 fn violations_and_collisions_fail_the_gates_unless_allowed() {
     // Moving obstacles at seed 1: the first hour has CBF violations (blind
-    // movers walk into the robot; README "Soak"), so the strict default fails.
+    // movers walk into the robot; docs/SAFETY.md "Soak"), so the strict default fails.
     let out = soak(&["--sim-hours", "1", "--seed", "1"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{text}");
