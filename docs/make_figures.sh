@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Regenerates every figure and result table the README shows, from the
+# Regenerates every figure and result table of docs/RESULTS.md, from the
 # commands a user would run. Deterministic except for compute times.
 #
-#   docs/make_figures.sh            # all (about half an hour on 2 cores: the batches)
+#   docs/make_figures.sh            # all (about 4 minutes on 2 cores, mostly the batches)
 #
-# Writes docs/figures/*.png and docs/results/*.txt|json; the README's numbers
+# Writes docs/figures/*.png and docs/results/*.txt|csv|json, then rewrites the
+# generated tables of docs/RESULTS.md (docs/update_tables.py); the other numbers in docs/RESULTS.md
 # are copied from docs/results by hand.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,7 +33,7 @@ cp "$tmp/fig9/trajectories.png" "$figs/fig9_circle_trajectories.png"
 cp "$tmp/fig9/tracking_error.png" "$figs/fig9_circle_tracking_error.png"
 cp "$tmp/fig9/comparison.json" "$results/fig9_circle_oldbf_vs_dcbf.json"
 
-# Every shipped scenario with every controller (the README's scenario tables).
+# Every shipped scenario with every controller (the scenario tables of docs/RESULTS.md).
 for s in config/scenarios/*.yaml; do
     name=$(basename "$s" .yaml)
     "$oldbf" compare "$s" --controllers oldbf,oldbf-paper,dcbf,vo,none >"$results/scenario_$name.txt"
@@ -49,4 +50,6 @@ for t in slow_obstacles fast_obstacles movers_crossing movers_head_on movers_ove
     cp "$tmp/batch_$t/min_clearance.png" "$figs/batch_${t}_min_clearance.png"
     cp "$tmp/batch_$t/comparison.csv" "$results/batch_$t.csv"
 done
+# The tables of docs/RESULTS.md, from the outputs above.
+python3 docs/update_tables.py
 echo "figures in $figs, tables in $results"

@@ -15,7 +15,7 @@
 #    commands, 0 closing contacts (the robot driving into anything) and flat
 #    memory are strict. Movers that walk blind into a robot that cannot get
 #    away do cause passive contacts and CBF violations (docs/SAFETY.md, "Soak"); at
-#    seed 1 they are 1 contact, 2367 logged and 2763 exact violation steps
+#    seed 1 they are 1 contact, 3134 logged and 3272 exact violation steps
 #    over these 10 h, and the bounds below (about twice those) catch a
 #    regression, not the known limitation. (With movers read as moving only
 #    above 0.05 m/s these people, at 0.015-0.045 m/s, counted as static and
@@ -45,6 +45,6 @@ echo "--- soak 1/2: static obstacles, ideal LiDAR, every gate strict"
 
 echo "--- soak 2/2: moving obstacles, noisy LiDAR"
 "$OLDBF" soak --sim-hours 10 --seed 1 --template config/batch/soak.yaml \
-  --max-rss-growth-mib 4 --max-collisions 3 --max-cbf-violations 5000 \
+  --max-rss-growth-mib 4 --max-collisions 3 --max-cbf-violations 6500 \
   || die "the moving-obstacle soak failed a gate (see above)"
 echo "soak_group: both soaks passed"
