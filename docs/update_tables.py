@@ -29,8 +29,8 @@ SCENARIOS = [
     ("dead_end", "constant 0.15 m/s into a cul-de-sac: the both-sides ω_0 turn takes the robot round and out"),
     ("crossing", "four obstacles crossing ahead of the robot from both sides"),
     ("cluttered_room", "8 × 6 m room, seven static obstacles, two movers off the line"),
-    ("two_robots", "two robots on crossing lines, timed to meet: each is the other's obstacle"),
-    ("two_robots_offset", "the same with robot2 0.5 m further back (the ROS multi-robot test)"),
+    ("two_robots", "two robots on crossing lines, timed to meet: each is the other's obstacle (the ROS multi-robot test, 5 runs)"),
+    ("two_robots_offset", "the same with robot2 0.5 m further back: it gives way"),
 ]
 # Batch templates (config/batch/NAME.yaml), in table order.
 TEMPLATES = [
