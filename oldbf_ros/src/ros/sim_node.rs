@@ -195,7 +195,7 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
             "parameter ~cmd_timeout_s = {cmd_timeout_s} is out of range; allowed: (0, 60] s"
         ));
     }
-    let mut fleet = Fleet::new(&scenario, seed)?;
+    let mut fleet = Fleet::new(&scenario, seed).map_err(|e| e.to_string())?;
     let n = fleet.agents().len();
     let multi = n > 1;
     let world_frame = if multi { "map" } else { "odom" };

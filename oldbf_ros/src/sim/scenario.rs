@@ -194,12 +194,12 @@ impl Scenario {
         check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
         spec.lidar
             .validate()
-            .map_err(|m| config::section_error(file, "lidar", &m))?;
+            .map_err(|e| config::section_error(file, "lidar", &e.to_string()))?;
         let robot = spec
             .robot
             .resolve()
-            .map_err(|m| config::section_error(file, "robot", &m))?;
-        World::new(&spec.world).map_err(|m| config::section_error(file, "world", &m))?;
+            .map_err(|e| config::section_error(file, "robot", &e.to_string()))?;
+        World::new(&spec.world).map_err(|e| config::section_error(file, "world", &e.to_string()))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),
