@@ -384,12 +384,8 @@ impl Template {
         )?;
         c.value("goal_tolerance_m", s.goal_tolerance_m, 0.0, 10.0, true, " m")?;
         c.value("start_clearance_m", s.start_clearance_m, 0.0, 10.0, false, " m")?;
-        s.robot
-            .resolve()
-            .map_err(|e| config::section_error(&self.file, "robot", &e.to_string()))?;
-        s.lidar
-            .validate()
-            .map_err(|e| config::section_error(&self.file, "lidar", &e.to_string()))?;
+        s.robot.resolve().map_err(|e| config::section_error(&self.file, &e))?;
+        s.lidar.validate().map_err(|e| config::section_error(&self.file, &e))?;
 
         let v_max = self.params.control.v_max_mps;
         if s.nominal.v_mps > v_max {

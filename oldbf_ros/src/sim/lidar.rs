@@ -14,6 +14,7 @@
 
 use super::world::{ScanScratch, World};
 use crate::algo::geometry::{Pose2, Vec2};
+use crate::config::SectionError;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -100,10 +101,9 @@ pub enum LidarError {
     },
 }
 
-impl LidarError {
-    /// The dotted key the error is about (`lidar.beams`).
-    pub fn key(&self) -> &'static str {
-        match self {
+impl SectionError for LidarError {
+    fn key(&self) -> String {
+        let key = match self {
             Self::Beams { .. } => "lidar.beams",
             Self::FovDeg { .. } => "lidar.fov_deg",
             Self::RangeMin { .. } => "lidar.range_min_m",
@@ -111,11 +111,11 @@ impl LidarError {
             Self::NoiseStd { .. } | Self::Noise { .. } => "lidar.noise_std_m",
             Self::DropoutProb { .. } => "lidar.dropout_prob",
             Self::RateHz { .. } => "lidar.rate_hz",
-        }
+        };
+        key.into()
     }
 
-    /// The message without [`Self::key`].
-    pub fn detail(&self) -> String {
+    fn detail(&self) -> String {
         match self {
             Self::Beams { beams } => format!("must be in [1, {MAX_BEAMS}] (got {beams})"),
             Self::FovDeg { fov_deg } => format!("must be in (0, 360] (got {fov_deg})"),

@@ -12,6 +12,7 @@
 use super::world::World;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::unicycle::arc_step;
+use crate::config::SectionError;
 use serde::{Deserialize, Serialize};
 
 /// Robots with built-in limits (YAML: `turtlebot3_burger`, `quanser_qbot`).
@@ -131,14 +132,12 @@ pub struct RobotLimitsError {
     pub value: f64,
 }
 
-impl RobotLimitsError {
-    /// The dotted key (`robot.v_max_mps`).
-    pub fn key(&self) -> String {
+impl SectionError for RobotLimitsError {
+    fn key(&self) -> String {
         format!("robot.{}", self.field)
     }
 
-    /// The message without [`Self::key`].
-    pub fn detail(&self) -> String {
+    fn detail(&self) -> String {
         format!("must be > 0 and finite (got {})", self.value)
     }
 }

@@ -22,6 +22,7 @@
 use super::motion::{MovingObstacle, MovingObstacleError, MovingObstacleSpec};
 use super::shapes::{Circle, Segment};
 use crate::algo::geometry::Vec2;
+use crate::config::SectionError;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -133,10 +134,10 @@ pub enum WorldError {
     },
 }
 
-impl WorldError {
-    /// The dotted key the error is about: the item, or its field when the
-    /// message names one (`world.circles[0].radius_m`).
-    pub fn key(&self) -> String {
+/// The key is the item, or its field when the message names one
+/// (`world.circles[0].radius_m`).
+impl SectionError for WorldError {
+    fn key(&self) -> String {
         match self {
             Self::NotFinite { item, .. } => item.to_string(),
             Self::ZeroLengthWall { index } => WorldItem::Wall(*index).to_string(),
@@ -153,8 +154,7 @@ impl WorldError {
         }
     }
 
-    /// The message without [`Self::key`].
-    pub fn detail(&self) -> String {
+    fn detail(&self) -> String {
         match self {
             Self::NotFinite { value, .. } => format!("coordinates must be finite (got {value:?})"),
             Self::ZeroLengthWall { .. } => "zero length".into(),
