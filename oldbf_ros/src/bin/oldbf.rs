@@ -462,8 +462,9 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("--rate {rate} is out of range; allowed: (0, 10000] Hz");
             }
             let carmen = oldbf_ros::carmen::open_log(&log).with_context(|| format!("reading {}", log.display()))?;
+            // As text: rosrust's error is not `Sync`, which anyhow needs.
             let summary =
-                oldbf_ros::ros::carmen_play::play(&carmen, &topic, &frame, rate).map_err(anyhow::Error::msg)?;
+                oldbf_ros::ros::carmen_play::play(&carmen, &topic, &frame, rate).map_err(|e| anyhow::anyhow!("{e}"))?;
             println!("published {} scans on {topic}", summary.published);
             Ok(ExitCode::SUCCESS)
         }
