@@ -59,11 +59,25 @@ impl CarmenScan {
     }
 }
 
+/// Why a FLASER line could not be parsed, with the offending values as data.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FlaserError {
+    /// The line ends before field `index` (`what`: `beam count`, `x`, …).
+    #[error("missing {what} (field {index})")]
+    Missing { what: &'static str, index: usize },
+    #[error("{what} `{token}` is not a number")]
+    NotANumber { what: &'static str, token: String },
+    #[error("beam count {beams} out of range [1, 100000]")]
+    BeamCount { beams: usize },
+    #[error("{fields} fields, expected at least {needed} for {beams} beams")]
+    TooFewFields { fields: usize, needed: usize, beams: usize },
+}
+
 /// A malformed line: where and why.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CarmenLineError {
     pub line: usize,
-    pub reason: String,
+    pub reason: FlaserError,
 }
 
 /// Everything read from a log.
@@ -76,34 +90,38 @@ pub struct CarmenLog {
     pub other_lines: usize,
 }
 
-fn field<T: std::str::FromStr>(tokens: &[&str], i: usize, what: &str) -> Result<T, String> {
-    let tok = tokens.get(i).ok_or_else(|| format!("missing {what} (field {i})"))?;
-    tok.parse().map_err(|_| format!("{what} `{tok}` is not a number"))
+fn field<T: std::str::FromStr>(tokens: &[&str], i: usize, what: &'static str) -> Result<T, FlaserError> {
+    let tok = tokens.get(i).ok_or(FlaserError::Missing { what, index: i })?;
+    tok.parse().map_err(|_| FlaserError::NotANumber {
+        what,
+        token: tok.to_string(),
+    })
 }
 
 /// Parses one line; `Ok(None)` for lines that are not FLASER.
-pub fn parse_line(text: &str, line: usize) -> Result<Option<CarmenScan>, String> {
+pub fn parse_line(text: &str, line: usize) -> Result<Option<CarmenScan>, FlaserError> {
     let tokens: Vec<&str> = text.split_ascii_whitespace().collect();
     if tokens.first() != Some(&"FLASER") {
         return Ok(None);
     }
     let n: usize = field(&tokens, 1, "beam count")?;
     if n == 0 || n > 100_000 {
-        return Err(format!("beam count {n} out of range [1, 100000]"));
+        return Err(FlaserError::BeamCount { beams: n });
     }
     let needed = 2 + n + 7;
     if tokens.len() < needed {
-        return Err(format!(
-            "{} fields, expected at least {needed} for {n} beams",
-            tokens.len()
-        ));
+        return Err(FlaserError::TooFewFields {
+            fields: tokens.len(),
+            needed,
+            beams: n,
+        });
     }
     let mut ranges_m = Vec::with_capacity(n);
     for i in 0..n {
         // Non-numeric ranges are kept as NaN: the pipeline treats them as "no return".
         ranges_m.push(tokens[2 + i].parse::<f32>().unwrap_or(f32::NAN));
     }
-    let f = |k: usize, what: &str| field::<f64>(&tokens, 2 + n + k, what);
+    let f = |k: usize, what: &'static str| field::<f64>(&tokens, 2 + n + k, what);
     let laser_pose = Pose2::new(f(0, "x")?, f(1, "y")?, f(2, "theta")?);
     let odom_pose = Pose2::new(f(3, "odom_x")?, f(4, "odom_y")?, f(5, "odom_theta")?);
     let timestamp_s = f(6, "timestamp")?;
@@ -181,12 +199,14 @@ mod tests {
         assert_eq!(parse_line("ODOM 0 0 0 0 0 0 0.1 pippo 0.1", 1), Ok(None));
         assert_eq!(parse_line("# comment", 1), Ok(None));
         assert_eq!(parse_line("", 1), Ok(None));
-        assert!(parse_line("FLASER", 1).unwrap_err().contains("beam count"));
+        assert!(parse_line("FLASER", 1).unwrap_err().to_string().contains("beam count"));
         assert!(parse_line("FLASER 4 1 2 3 4 0 0", 1)
             .unwrap_err()
+            .to_string()
             .contains("expected at least 13"));
         assert!(parse_line("FLASER 1 1 x 0 0 0 0 0 1 h 1", 1)
             .unwrap_err()
+            .to_string()
             .contains("`x` is not a number"));
         // A garbage range is kept as NaN (then rejected per beam by the pipeline).
         let s = parse_line("FLASER 1 abc 0 0 0 0 0 0 1 h 1", 1).unwrap().unwrap();

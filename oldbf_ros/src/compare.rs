@@ -17,6 +17,7 @@
 use crate::algo::geometry::Vec2;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::plot::{plot_time_series, plot_trajectory, Series, TimePanel, TrajectoryPlot};
+use crate::sim::fleet::FleetError;
 use crate::sim::run::{run_scenario, Controller, RunResult, RunSummary, StepRow};
 use crate::sim::scenario::Scenario;
 use anyhow::Context;
@@ -55,7 +56,11 @@ pub struct ComparedFigures {
 }
 
 /// Runs `scenario` once per controller (in parallel), same seed.
-pub fn run_comparison(scenario: &Scenario, controllers: &[Controller], seed: u64) -> Result<Vec<ComparedRun>, String> {
+pub fn run_comparison(
+    scenario: &Scenario,
+    controllers: &[Controller],
+    seed: u64,
+) -> Result<Vec<ComparedRun>, FleetError> {
     let reference = scenario.agents.first().and_then(|a| a.reference);
     controllers
         .par_iter()

@@ -100,38 +100,23 @@ pub fn from_value<T: DeserializeOwned>(value: Value, file: &str, prefix: &str) -
     })
 }
 
-/// An error from a section's own check (`lidar`, `robot`, `world`), whose
-/// message starts with the dotted key it is about (`lidar.beams must be in
-/// [1, 16384] (got 0)`, `world.moving[1]: radius_m must be > 0 ...`): the key
-/// is lifted out of the message so the error names it like any other;
-/// `section` when the message names none.
-pub fn section_error(file: &str, section: &str, message: &str) -> ConfigError {
-    let is_key = |t: &str| {
-        !t.is_empty()
-            && t.chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '.' | '[' | ']'))
-    };
-    let mut key = section.to_string();
-    let mut rest = message;
-    let first = message.split([' ', ':']).next().unwrap_or("");
-    if is_key(first) && first.starts_with(&format!("{section}.")) {
-        key = first.to_string();
-        rest = message[first.len()..].trim_start_matches(':').trim_start();
-        // `world.moving[1]: radius_m must be ...`: the field follows the item
-        // (a key: it has a unit or a section in its name; `coordinates must
-        // be finite` is about the item itself).
-        if let Some((field, _)) = rest.split_once(" must ") {
-            if is_key(field) && !field.contains('[') && field.contains(['_', '.']) {
-                key = format!("{key}.{field}");
-                rest = &rest[field.len()..];
-                rest = rest.trim_start();
-            }
-        }
-    }
+/// An error from a section's own check (`lidar`, `robot`, `world`) that
+/// carries the dotted key it is about, so that a file error can name the key
+/// like any other without parsing the message.
+pub trait SectionError: std::error::Error {
+    /// The dotted key: `lidar.beams`, `world.walls[2]`,
+    /// `world.moving[1].radius_m`.
+    fn key(&self) -> String;
+    /// The message without the key: `must be in [1, 16384] (got 0)`.
+    fn detail(&self) -> String;
+}
+
+/// A section's check error as a file error naming its key.
+pub fn section_error(file: &str, e: &dyn SectionError) -> ConfigError {
     ConfigError::Parse {
         file: file.to_string(),
-        key,
-        message: rest.to_string(),
+        key: e.key(),
+        message: e.detail(),
     }
 }
 
@@ -276,23 +261,203 @@ mod tests {
 
     #[test]
     fn section_errors_name_the_key_in_their_message() {
-        let e = section_error("s.yaml", "lidar", "lidar.beams must be in [1, 16384] (got 0)");
-        assert_eq!(
-            e.to_string(),
-            "s.yaml: key `lidar.beams`: must be in [1, 16384] (got 0)"
-        );
-        let e = section_error(
-            "s.yaml",
-            "world",
-            "world.moving[1]: radius_m must be > 0 and finite (got 0)",
-        );
-        assert_eq!(e.keys(), ["world.moving[1].radius_m"], "{e}");
-        let e = section_error("s.yaml", "world", "world.walls[2]: zero length");
-        assert_eq!(e.to_string(), "s.yaml: key `world.walls[2]`: zero length");
-        let e = section_error("s.yaml", "world", "world.boxes[0]: coordinates must be finite");
-        assert_eq!(e.keys(), ["world.boxes[0]"], "{e}");
-        let e = section_error("s.yaml", "robot", "unknown preset `x`");
-        assert_eq!(e.to_string(), "s.yaml: key `robot`: unknown preset `x`");
+        use crate::sim::motion::{MovingObstacleError as M, PointField};
+        use crate::sim::world::WorldItem;
+        use crate::sim::{LidarError, RobotLimitsError, WorldError as W};
+        let moving = |source: M| W::Moving { index: 1, source };
+        let cases: Vec<(Box<dyn SectionError>, &str)> = vec![
+            (
+                Box::new(LidarError::Beams { beams: 0 }),
+                "key `lidar.beams`: must be in [1, 16384] (got 0)",
+            ),
+            (
+                Box::new(LidarError::FovDeg { fov_deg: 361.0 }),
+                "key `lidar.fov_deg`: must be in (0, 360] (got 361)",
+            ),
+            (
+                Box::new(LidarError::RangeMin { range_min_m: -1.0 }),
+                "key `lidar.range_min_m`: must be >= 0 and finite (got -1)",
+            ),
+            (
+                Box::new(LidarError::NoiseStd { noise_std_m: -0.01 }),
+                "key `lidar.noise_std_m`: must be >= 0 and finite (got -0.01)",
+            ),
+            (
+                Box::new(LidarError::DropoutProb { dropout_prob: 1.5 }),
+                "key `lidar.dropout_prob`: must be in [0, 1] (got 1.5)",
+            ),
+            (
+                Box::new(LidarError::Noise {
+                    source: rand_distr::NormalError::BadVariance,
+                }),
+                "key `lidar.noise_std_m`: variation parameter is non-finite in (log)normal distribution",
+            ),
+            (
+                Box::new(LidarError::RateHz { rate_hz: 0.0 }),
+                "key `lidar.rate_hz`: must be in (0, 1000] (got 0)",
+            ),
+            (
+                Box::new(LidarError::RangeMax {
+                    range_max_m: 0.1,
+                    range_min_m: 0.12,
+                }),
+                "key `lidar.range_max_m`: must be finite and > lidar.range_min_m (got 0.1 <= 0.12)",
+            ),
+            (
+                Box::new(RobotLimitsError {
+                    field: "v_max_mps",
+                    value: f64::NAN,
+                }),
+                "key `robot.v_max_mps`: must be > 0 and finite (got NaN)",
+            ),
+            (
+                Box::new(RobotLimitsError {
+                    field: "omega_accel_max_radps2",
+                    value: 0.0,
+                }),
+                "key `robot.omega_accel_max_radps2`: must be > 0 and finite (got 0)",
+            ),
+            (
+                Box::new(W::NotFinite {
+                    item: WorldItem::Wall(0),
+                    value: [f64::NAN, 0.0],
+                }),
+                "key `world.walls[0]`: coordinates must be finite (got [NaN, 0.0])",
+            ),
+            (
+                Box::new(W::NotFinite {
+                    item: WorldItem::Polygon(4),
+                    value: [f64::NAN, 0.0],
+                }),
+                "key `world.polygons[4]`: coordinates must be finite (got [NaN, 0.0])",
+            ),
+            (
+                Box::new(W::NotFinite {
+                    item: WorldItem::Circle(0),
+                    value: [0.0, f64::NAN],
+                }),
+                "key `world.circles[0]`: coordinates must be finite (got [0.0, NaN])",
+            ),
+            (
+                Box::new(moving(M::NotFinite {
+                    field: PointField::Start,
+                    value: [f64::NAN, 0.0],
+                })),
+                "key `world.moving[1].motion.start`: must be finite (got [NaN, 0.0])",
+            ),
+            (
+                Box::new(moving(M::NotFinite {
+                    field: PointField::VelocityMps,
+                    value: [f64::INFINITY, 0.0],
+                })),
+                "key `world.moving[1].motion.velocity_mps`: must be finite (got [inf, 0.0])",
+            ),
+            (
+                Box::new(moving(M::NotFinite {
+                    field: PointField::RegionMin,
+                    value: [f64::NAN, 0.0],
+                })),
+                "key `world.moving[1].motion.region_min`: must be finite (got [NaN, 0.0])",
+            ),
+            (Box::new(W::ZeroLengthWall { index: 2 }), "key `world.walls[2]`: zero length"),
+            (
+                Box::new(W::NotFinite {
+                    item: WorldItem::Box(0),
+                    value: [f64::INFINITY, 0.0],
+                }),
+                "key `world.boxes[0]`: coordinates must be finite (got [inf, 0.0])",
+            ),
+            (
+                Box::new(W::TooFewVertices { index: 0, vertices: 2 }),
+                "key `world.polygons[0]`: needs at least 3 vertices (got 2)",
+            ),
+            (
+                Box::new(W::ZeroLengthEdge {
+                    index: 0,
+                    edge: 2,
+                    next: 0,
+                }),
+                "key `world.polygons[0]`: edge 2 (vertex 2 to vertex 0) has zero length",
+            ),
+            (
+                Box::new(W::BoxSize {
+                    index: 1,
+                    size: [-1.0, 0.3],
+                }),
+                "key `world.boxes[1]`: size must be > 0 and finite (got [-1.0, 0.3])",
+            ),
+            (
+                Box::new(W::BoxYaw {
+                    index: 1,
+                    yaw_deg: f64::NAN,
+                }),
+                "key `world.boxes[1].yaw_deg`: must be finite",
+            ),
+            (
+                Box::new(W::CircleRadius {
+                    index: 3,
+                    radius_m: -0.1,
+                }),
+                "key `world.circles[3].radius_m`: must be > 0 and finite (got -0.1)",
+            ),
+            (
+                Box::new(moving(M::Radius { radius_m: 0.0 })),
+                "key `world.moving[1].radius_m`: must be > 0 and finite (got 0)",
+            ),
+            (
+                Box::new(moving(M::NotFinite {
+                    field: PointField::RegionMax,
+                    value: [0.0, f64::INFINITY],
+                })),
+                "key `world.moving[1].motion.region_max`: must be finite (got [0.0, inf])",
+            ),
+            (
+                Box::new(moving(M::NotFinite {
+                    field: PointField::Waypoint(2),
+                    value: [f64::NAN, 0.0],
+                })),
+                "key `world.moving[1]`: motion.waypoints[2] must be finite (got [NaN, 0.0])",
+            ),
+            (
+                Box::new(moving(M::StartTime {
+                    start_time_s: f64::NAN,
+                })),
+                "key `world.moving[1].motion.start_time_s`: must be finite (got NaN)",
+            ),
+            (
+                Box::new(moving(M::Speed { speed_mps: -0.1 })),
+                "key `world.moving[1].motion.speed_mps`: must be >= 0 and finite (got -0.1)",
+            ),
+            (
+                Box::new(moving(M::Waypoints {
+                    points: 1,
+                    loop_length_m: 0.0,
+                })),
+                "key `world.moving[1]`: motion.waypoints needs at least 2 distinct points (got 1 point(s), loop length 0 m)",
+            ),
+            (
+                Box::new(moving(M::EmptyRegion {
+                    region_min: [0.0, 0.0],
+                    region_max: [1.0, 0.0],
+                })),
+                "key `world.moving[1].motion.region_min`: must be < motion.region_max on both axes (got [0.0, 0.0], [1.0, 0.0])",
+            ),
+            (
+                Box::new(moving(M::StartOutside {
+                    start: [2.0, 0.5],
+                    region_min: [0.0, 0.0],
+                    region_max: [1.0, 1.0],
+                })),
+                "key `world.moving[1]`: motion.start [2.0, 0.5] must lie inside the region [[0.0, 0.0], [1.0, 1.0]]",
+            ),
+        ];
+        for (e, want) in &cases {
+            assert_eq!(
+                section_error("s.yaml", e.as_ref()).to_string(),
+                format!("s.yaml: {want}")
+            );
+            assert_eq!(section_error("s.yaml", e.as_ref()).keys(), [e.key()]);
+        }
     }
 
     #[test]

@@ -57,10 +57,11 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         config::merge(&mut settings_value, over);
     }
     let settings: NodeSettings = config::from_value(settings_value, source, "node.")?;
-    settings.validate().map_err(|message| ConfigError::Parse {
+    // The message names the key itself (`key `node.x` = v is out of range`).
+    settings.validate().map_err(|e| ConfigError::Parse {
         file: source.to_string(),
         key: String::new(),
-        message,
+        message: e.to_string(),
     })?;
 
     let (mut params_value, _) = config::base_params_value(None)?;

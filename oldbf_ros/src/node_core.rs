@@ -90,19 +90,39 @@ impl Default for NodeSettings {
     }
 }
 
+/// A node setting that cannot be used, naming its key (under `node.`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NodeSettingsError {
+    /// A timeout outside (0, 60] s.
+    #[error("key `{key}` = {value} is out of range; allowed: (0, 60] s")]
+    Timeout { key: &'static str, value: f64 },
+    #[error("key `node.base_frame` must not be empty")]
+    EmptyBaseFrame,
+}
+
+impl NodeSettingsError {
+    /// The dotted key the error is about.
+    pub fn key(&self) -> &'static str {
+        match self {
+            Self::Timeout { key, .. } => key,
+            Self::EmptyBaseFrame => "node.base_frame",
+        }
+    }
+}
+
 impl NodeSettings {
     /// Range checks, naming the key (under `node.`).
-    pub fn validate(&self) -> Result<(), String> {
-        for (key, v) in [
+    pub fn validate(&self) -> Result<(), NodeSettingsError> {
+        for (key, value) in [
             ("node.cmd_in_timeout_s", self.cmd_in_timeout_s),
             ("node.odom_timeout_s", self.odom_timeout_s),
         ] {
-            if !(v.is_finite() && v > 0.0 && v <= 60.0) {
-                return Err(format!("key `{key}` = {v} is out of range; allowed: (0, 60] s"));
+            if !(value.is_finite() && value > 0.0 && value <= 60.0) {
+                return Err(NodeSettingsError::Timeout { key, value });
             }
         }
         if self.base_frame.is_empty() {
-            return Err("key `node.base_frame` must not be empty".into());
+            return Err(NodeSettingsError::EmptyBaseFrame);
         }
         Ok(())
     }
@@ -970,7 +990,9 @@ mod tests {
             cmd_in_timeout_s: 0.0,
             ..NodeSettings::default()
         };
-        assert!(s.validate().unwrap_err().contains("node.cmd_in_timeout_s"));
+        let e = s.validate().unwrap_err();
+        assert_eq!(e.key(), "node.cmd_in_timeout_s");
+        assert!(e.to_string().contains("node.cmd_in_timeout_s"), "{e}");
         assert!(NodeSettings::default().validate().is_ok());
     }
 }

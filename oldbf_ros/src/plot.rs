@@ -66,18 +66,21 @@ const OBSTACLE_COLOR: RGBColor = RGBColor(110, 110, 110);
 /// under the generic family names so plotters' defaults (tick labels, legend)
 /// find it too; bold/italic requests fall back to this regular face.
 fn ensure_fonts() -> Result<()> {
-    static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
-    REGISTERED
-        .get_or_init(|| {
-            for family in ["sans-serif", "serif", "monospace"] {
-                register_font(family, FontStyle::Normal, FONT_BYTES)
-                    .map_err(|_| "embedded font DejaVuSans.ttf was rejected".to_string())?;
-            }
-            Ok(())
-        })
-        .clone()
-        .map_err(|e| anyhow!(e))
+    static REGISTERED: OnceLock<std::result::Result<(), FontRejected>> = OnceLock::new();
+    let registered = REGISTERED.get_or_init(|| {
+        for family in ["sans-serif", "serif", "monospace"] {
+            register_font(family, FontStyle::Normal, FONT_BYTES).map_err(|_| FontRejected)?;
+        }
+        Ok(())
+    });
+    Ok((*registered)?)
 }
+
+/// plotters refused the embedded font (its own error carries nothing and is
+/// not an `Error`). Remembered once per process, hence `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("embedded font DejaVuSans.ttf was rejected")]
+struct FontRejected;
 
 /// plotters' error types are generic over the backend; flatten them to text.
 fn pe<E: std::fmt::Display>(e: E) -> anyhow::Error {

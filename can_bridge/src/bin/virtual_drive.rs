@@ -89,12 +89,24 @@ struct Args {
     status_rate_hz: f64,
 }
 
-fn parse_id(s: &str) -> Result<u32, String> {
+/// A `--node-id`-style value that is not a number.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{text}` is not an id (decimal or 0x hex)")]
+struct IdError {
+    text: String,
+    #[source]
+    source: std::num::ParseIntError,
+}
+
+fn parse_id(s: &str) -> Result<u32, IdError> {
     let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => u32::from_str_radix(h, 16),
         None => s.parse(),
     };
-    r.map_err(|_| format!("`{s}` is not an id (decimal or 0x hex)"))
+    r.map_err(|source| IdError {
+        text: s.to_string(),
+        source,
+    })
 }
 
 fn main() {

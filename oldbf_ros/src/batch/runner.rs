@@ -9,6 +9,7 @@
 use super::template::{GeneratedWorld, Template};
 use super::{BatchReport, WorldOutcome};
 use crate::config::ConfigError;
+use crate::sim::fleet::FleetError;
 use crate::sim::run::{run_scenario, Controller};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -32,17 +33,38 @@ pub fn default_threads() -> usize {
     std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
 }
 
-fn pool(threads: usize) -> Result<rayon::ThreadPool, String> {
+/// The worker pool could not be started.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot start {threads} worker threads: {source}")]
+struct PoolError {
+    threads: usize,
+    #[source]
+    source: rayon::ThreadPoolBuildError,
+}
+
+/// A world could not be run (its world or LiDAR could not be built).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file} with {controller:?}: {source}")]
+struct WorldRunError {
+    /// The world's scenario name.
+    file: String,
+    controller: Controller,
+    #[source]
+    source: FleetError,
+}
+
+fn pool(threads: usize) -> Result<rayon::ThreadPool, PoolError> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
         .thread_name(|i| format!("batch-{i}"))
         .build()
-        .map_err(|e| format!("cannot start {threads} worker threads: {e}"))
+        .map_err(|source| PoolError { threads, source })
 }
 
 /// Draws worlds 0..`options.worlds`. On failure, the error of the lowest
 /// failing world index (so the message does not depend on scheduling).
 pub fn generate_worlds(template: &Template, options: &BatchOptions) -> anyhow::Result<Vec<GeneratedWorld>> {
+    // `msg`: the text once; as a chain, `{:#}` would print the source twice.
     let pool = pool(options.threads).map_err(anyhow::Error::msg)?;
     let drawn: Vec<Result<GeneratedWorld, ConfigError>> = pool.install(|| {
         (0..options.worlds)
@@ -63,7 +85,7 @@ pub fn run_worlds(
 ) -> anyhow::Result<BatchReport> {
     let pool = pool(options.threads).map_err(anyhow::Error::msg)?;
     let started = Instant::now();
-    let per_world: Vec<Result<Vec<WorldOutcome>, String>> = pool.install(|| {
+    let per_world: Vec<Result<Vec<WorldOutcome>, WorldRunError>> = pool.install(|| {
         worlds
             .par_iter()
             .map(|w| {
@@ -71,8 +93,11 @@ pub fn run_worlds(
                     .controllers
                     .iter()
                     .map(|&c| {
-                        let result = run_scenario(&w.scenario, c, w.sensor_seed)
-                            .map_err(|m| format!("{} with {c:?}: {m}", w.scenario.file))?;
+                        let result = run_scenario(&w.scenario, c, w.sensor_seed).map_err(|source| WorldRunError {
+                            file: w.scenario.file.clone(),
+                            controller: c,
+                            source,
+                        })?;
                         progress.inc(1);
                         Ok(WorldOutcome::from_run(w, &result))
                     })

@@ -384,12 +384,8 @@ impl Template {
         )?;
         c.value("goal_tolerance_m", s.goal_tolerance_m, 0.0, 10.0, true, " m")?;
         c.value("start_clearance_m", s.start_clearance_m, 0.0, 10.0, false, " m")?;
-        s.robot
-            .resolve()
-            .map_err(|m| config::section_error(&self.file, "robot", &m))?;
-        s.lidar
-            .validate()
-            .map_err(|m| config::section_error(&self.file, "lidar", &m))?;
+        s.robot.resolve().map_err(|e| config::section_error(&self.file, &e))?;
+        s.lidar.validate().map_err(|e| config::section_error(&self.file, &e))?;
 
         let v_max = self.params.control.v_max_mps;
         if s.nominal.v_mps > v_max {
@@ -938,7 +934,7 @@ fn path_exists_in(
         moving: Vec::new(),
         ..spec.clone()
     };
-    let world = World::new(&statics).map_err(|m| invalid(file, "", m))?;
+    let world = World::new(&statics).map_err(|e| invalid(file, "", e.to_string()))?;
     let Some((lo, hi)) = world.bounds() else {
         return Ok(true);
     };
@@ -1031,12 +1027,16 @@ mod tests {
     }
 
     /// Every validity rule of the module docs, checked independently of the generator.
-    fn check_world(t: &Template, w: &GeneratedWorld) -> Result<(), String> {
+    fn check_world(t: &Template, w: &GeneratedWorld) -> anyhow::Result<()> {
         let (width, height) = (t.spec.room.width_m, t.spec.room.height_m);
         let free = t.start_clearance_radius_m();
         let agent = &w.scenario.agents[0];
         let start = agent.start.position();
-        let goal = agent.reference.ok_or("no reference")?.goal().position();
+        let goal = agent
+            .reference
+            .ok_or_else(|| anyhow::anyhow!("no reference"))?
+            .goal()
+            .position();
         let spec = &w.scenario.spec.world;
         let statics = World::new(&WorldSpec {
             polygons: spec.polygons.clone(),
@@ -1047,12 +1047,12 @@ mod tests {
         for (what, p) in [("start", start), ("goal", goal)] {
             let d = statics.distance_to_nearest(p);
             if d < free - 1e-9 {
-                return Err(format!("{what} {p:?} is {d} m from a static obstacle (< {free})"));
+                anyhow::bail!("{what} {p:?} is {d} m from a static obstacle (< {free})");
             }
             // The room outline first (4 edges), then 4 edges per box.
             for k in 0..spec.boxes.len() {
                 if inside_convex(p, &statics.segments()[4 + 4 * k..8 + 4 * k]) {
-                    return Err(format!("{what} is inside box {k}"));
+                    anyhow::bail!("{what} is inside box {k}");
                 }
             }
         }
@@ -1063,7 +1063,7 @@ mod tests {
         })?;
         if let Some((lo, hi)) = only_obstacles.bounds() {
             if lo.x < -1e-9 || lo.y < -1e-9 || hi.x > width + 1e-9 || hi.y > height + 1e-9 {
-                return Err(format!("static obstacles span {lo:?}..{hi:?}, outside the room"));
+                anyhow::bail!("static obstacles span {lo:?}..{hi:?}, outside the room");
             }
         }
         let v_nom = t.spec.nominal.v_mps;
@@ -1073,17 +1073,17 @@ mod tests {
             let r = m.radius_m();
             let d0 = (m.position_at(0.0) - start).norm() - r;
             if d0 < free - 1e-9 {
-                return Err(format!("mover {i} starts {d0} m from the robot (< {free})"));
+                anyhow::bail!("mover {i} starts {d0} m from the robot (< {free})");
             }
             for k in 0..=(t.spec.duration_s as usize * 4) {
                 let ts = k as f64 * 0.25;
                 let p = m.position_at(ts);
                 if p.x - r < -1e-9 || p.y - r < -1e-9 || p.x + r > width + 1e-9 || p.y + r > height + 1e-9 {
-                    return Err(format!("mover {i} at {p:?} (r {r}) leaves the room at t = {ts} s"));
+                    anyhow::bail!("mover {i} at {p:?} (r {r}) leaves the room at t = {ts} s");
                 }
                 let speed = m.velocity_at(ts).norm();
                 if speed < f_lo * v_nom - 1e-9 || speed > f_hi * v_nom + 1e-9 {
-                    return Err(format!("mover {i} moves at {speed} m/s at t = {ts} s"));
+                    anyhow::bail!("mover {i} moves at {speed} m/s at t = {ts} s");
                 }
             }
         }
@@ -1136,7 +1136,7 @@ mod tests {
             center: [start.x + 0.5, start.y],
             radius_m: 0.1,
         });
-        assert!(check_world(&t, &w).unwrap_err().contains("start"));
+        assert!(check_world(&t, &w).unwrap_err().to_string().contains("start"));
     }
 
     #[test]

@@ -247,13 +247,29 @@ enum Command {
     },
 }
 
+/// A `--sim-hours` value that cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum SimHoursError {
+    #[error("`{text}` is not a number of hours")]
+    NotANumber {
+        text: String,
+        #[source]
+        source: std::num::ParseFloatError,
+    },
+    #[error("{hours} is out of range; allowed: (0, 10000] h")]
+    OutOfRange { hours: f64 },
+}
+
 /// `--sim-hours`: finite, in (0, 10000].
-fn parse_sim_hours(s: &str) -> Result<f64, String> {
-    let h: f64 = s.parse().map_err(|_| format!("`{s}` is not a number of hours"))?;
+fn parse_sim_hours(s: &str) -> Result<f64, SimHoursError> {
+    let h: f64 = s.parse().map_err(|source| SimHoursError::NotANumber {
+        text: s.to_string(),
+        source,
+    })?;
     if h.is_finite() && h > 0.0 && h <= 10_000.0 {
         Ok(h)
     } else {
-        Err(format!("{h} is out of range; allowed: (0, 10000] h"))
+        Err(SimHoursError::OutOfRange { hours: h })
     }
 }
 
@@ -462,8 +478,9 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("--rate {rate} is out of range; allowed: (0, 10000] Hz");
             }
             let carmen = oldbf_ros::carmen::open_log(&log).with_context(|| format!("reading {}", log.display()))?;
+            // As text: rosrust's error is not `Sync`, which anyhow needs.
             let summary =
-                oldbf_ros::ros::carmen_play::play(&carmen, &topic, &frame, rate).map_err(anyhow::Error::msg)?;
+                oldbf_ros::ros::carmen_play::play(&carmen, &topic, &frame, rate).map_err(|e| anyhow::anyhow!("{e}"))?;
             println!("published {} scans on {topic}", summary.published);
             Ok(ExitCode::SUCCESS)
         }

@@ -6,6 +6,7 @@
 
 use super::lifecycle;
 use super::msg::sensor_msgs::LaserScan;
+use super::RosError;
 use crate::carmen::CarmenLog;
 use std::time::Duration;
 
@@ -17,13 +18,14 @@ pub struct PlaySummary {
 }
 
 /// Publishes every scan of `log` on `topic` at `rate_hz`, in frame `frame`.
-pub fn play(log: &CarmenLog, topic: &str, frame: &str, rate_hz: f64) -> Result<PlaySummary, String> {
+pub fn play(log: &CarmenLog, topic: &str, frame: &str, rate_hz: f64) -> Result<PlaySummary, RosError> {
     super::logging::init();
     let stop = lifecycle::install_signal_handler();
     if !lifecycle::connect(&lifecycle::node_name("carmen_player"), &stop) {
         return Ok(PlaySummary::default());
     }
-    let publisher = rosrust::publish::<LaserScan>(topic, 10).map_err(|e| format!("advertising {topic}: {e}"))?;
+    let publisher =
+        rosrust::publish::<LaserScan>(topic, 10).map_err(RosError::doing(format!("advertising {topic}")))?;
     // Give subscribers a moment to connect before the first scan.
     let _ = publisher.wait_for_subscribers(Some(Duration::from_secs(5)));
     let rate = rosrust::rate(rate_hz);
@@ -46,7 +48,7 @@ pub fn play(log: &CarmenLog, topic: &str, frame: &str, rate_hz: f64) -> Result<P
         };
         m.header.frame_id = frame.into();
         m.header.stamp = rosrust::now();
-        publisher.send(m).map_err(|e| format!("publishing: {e}"))?;
+        publisher.send(m).map_err(RosError::doing("publishing"))?;
         published += 1;
         rate.sleep();
     }

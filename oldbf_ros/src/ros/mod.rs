@@ -14,3 +14,28 @@ pub mod params;
 pub mod reconfigure;
 pub mod safety_node;
 pub mod sim_node;
+
+use std::borrow::Cow;
+
+/// A rosrust call (advertise, subscribe, serve, publish) that failed: what
+/// the node was doing, and rosrust's error.
+#[derive(Debug, thiserror::Error)]
+#[error("{what}: {source}")]
+pub struct RosError {
+    /// `advertising ~state`, `subscribing to scan`, …
+    pub what: Cow<'static, str>,
+    /// Boxed: rosrust's error is large, and it is the rare path.
+    #[source]
+    pub source: Box<rosrust::error::Error>,
+}
+
+impl RosError {
+    /// For `map_err`: `.map_err(RosError::doing("advertising ~state"))`.
+    pub fn doing(what: impl Into<Cow<'static, str>>) -> impl FnOnce(rosrust::error::Error) -> RosError {
+        let what = what.into();
+        move |source| RosError {
+            what,
+            source: Box::new(source),
+        }
+    }
+}

@@ -1,15 +1,51 @@
 //! Reading a node's private parameter namespace as one YAML document.
 
+use rosrust::error::ResponseError;
+
+/// A parameter that could not be read: its name, and the parameter server's
+/// answer where there is one.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum ParamError {
+    #[error("cannot resolve the private parameter namespace `~`")]
+    NoPrivateNamespace,
+    #[error("asking the parameter server for {name}: {source}")]
+    Exists {
+        name: String,
+        #[source]
+        source: ResponseError,
+    },
+    #[error("reading parameters under {name}: {source}")]
+    Namespace {
+        name: String,
+        #[source]
+        source: ResponseError,
+    },
+    /// A single parameter's name does not resolve.
+    #[error("cannot resolve parameter {name}")]
+    Unresolved { name: String },
+    /// A single parameter could not be asked for or read.
+    #[error("parameter {name}: {source}")]
+    Read {
+        name: String,
+        #[source]
+        source: ResponseError,
+    },
+}
+
 /// Everything under `~` (null when nothing is set there).
-pub fn private_namespace() -> Result<serde_yaml::Value, String> {
+pub fn private_namespace() -> Result<serde_yaml::Value, ParamError> {
     let Some(p) = rosrust::param("~") else {
-        return Err("cannot resolve the private parameter namespace `~`".into());
+        return Err(ParamError::NoPrivateNamespace);
     };
     match p.exists() {
         Ok(false) => Ok(serde_yaml::Value::Null),
-        Ok(true) => p
-            .get::<serde_yaml::Value>()
-            .map_err(|e| format!("reading parameters under {}: {e}", p.name())),
-        Err(e) => Err(format!("asking the parameter server for {}: {e}", p.name())),
+        Ok(true) => p.get::<serde_yaml::Value>().map_err(|source| ParamError::Namespace {
+            name: p.name().to_string(),
+            source,
+        }),
+        Err(source) => Err(ParamError::Exists {
+            name: p.name().to_string(),
+            source,
+        }),
     }
 }

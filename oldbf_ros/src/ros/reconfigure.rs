@@ -27,6 +27,7 @@ use super::msg::dynamic_reconfigure::{
     BoolParameter, Config, ConfigDescription, DoubleParameter, Group, GroupState, IntParameter, ParamDescription,
     Reconfigure, ReconfigureRes,
 };
+use super::RosError;
 use crate::reconfigure::{Kind, ReconfigureError, Spec, Value};
 
 /// Name and id of the root group (the reference implementations' `Default`, id 0).
@@ -165,20 +166,19 @@ fn write_param_server(specs: &[Spec], changes: &[(String, Value)]) {
 }
 
 /// Advertises the description and the running values, and serves requests with `apply`.
-pub fn start(specs: Vec<Spec>, initial: &[(&str, Value)], apply: Box<Apply>) -> Result<Server, String> {
-    let err = |what: &'static str| move |e: rosrust::error::Error| format!("{what}: {e}");
+pub fn start(specs: Vec<Spec>, initial: &[(&str, Value)], apply: Box<Apply>) -> Result<Server, RosError> {
     let mut descriptions = rosrust::publish::<ConfigDescription>("~parameter_descriptions", 1)
-        .map_err(err("advertising ~parameter_descriptions"))?;
+        .map_err(RosError::doing("advertising ~parameter_descriptions"))?;
     descriptions.set_latching(true);
     descriptions
         .send(description_msg(&specs))
-        .map_err(err("publishing ~parameter_descriptions"))?;
-    let mut updates =
-        rosrust::publish::<Config>("~parameter_updates", 1).map_err(err("advertising ~parameter_updates"))?;
+        .map_err(RosError::doing("publishing ~parameter_descriptions"))?;
+    let mut updates = rosrust::publish::<Config>("~parameter_updates", 1)
+        .map_err(RosError::doing("advertising ~parameter_updates"))?;
     updates.set_latching(true);
     updates
         .send(config_msg(initial, &specs, true))
-        .map_err(err("publishing ~parameter_updates"))?;
+        .map_err(RosError::doing("publishing ~parameter_updates"))?;
     let publisher = updates.clone();
     let service = rosrust::service::<Reconfigure, _>("~set_parameters", move |req| {
         let changes = changes_from_msg(&req.config);
@@ -198,7 +198,7 @@ pub fn start(specs: Vec<Spec>, initial: &[(&str, Value)], apply: Box<Apply>) -> 
         }
         Ok(ReconfigureRes { config })
     })
-    .map_err(err("advertising ~set_parameters"))?;
+    .map_err(RosError::doing("advertising ~set_parameters"))?;
     Ok(Server {
         _service: service,
         _descriptions: descriptions,

@@ -32,8 +32,10 @@ use super::msg::{
     std_srvs, visualization_msgs::MarkerArray,
 };
 use super::pacer::Pacer;
-use super::params::private_namespace;
+use super::params::{private_namespace, ParamError};
 use super::reconfigure as ros_reconfigure;
+use super::RosError;
+use crate::config::ConfigError;
 use crate::node_config::{node_config_from_params, NodeConfig};
 use crate::node_core::{NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
 use crate::reconfigure;
@@ -87,10 +89,19 @@ pub fn stop_reason(tick: &Tick) -> String {
     }
 }
 
-fn load_config() -> Result<NodeConfig, String> {
+/// Why the node's configuration could not be loaded (the text is theirs).
+#[derive(Debug, thiserror::Error)]
+enum LoadConfigError {
+    #[error(transparent)]
+    Params(#[from] ParamError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}
+
+fn load_config() -> Result<NodeConfig, LoadConfigError> {
     let source = format!("ROS parameters of {}", rosrust::name());
     let ns = private_namespace()?;
-    node_config_from_params(ns, &source).map_err(|e| e.to_string())
+    Ok(node_config_from_params(ns, &source)?)
 }
 
 /// Runs the node; returns the process exit status.
@@ -194,24 +205,21 @@ fn lock(n: &Mutex<Node>) -> std::sync::MutexGuard<'_, Node> {
 }
 
 /// Ok(true): stopped by a signal; Ok(false): the master restarted.
-fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool, String> {
+fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool, RosError> {
     let params = config.params.clone();
     let settings = config.settings.clone();
     let mut core = NodeCore::new(config.params, config.settings, config.reference);
     if let Some(c) = config.constant {
         core = core.with_constant(c);
     }
-    fn err(what: &'static str) -> impl Fn(rosrust::error::Error) -> String {
-        move |e| format!("{what}: {e}")
-    }
-
-    let cmd_pub = rosrust::publish::<geometry_msgs::Twist>("cmd_vel", 1).map_err(err("advertising cmd_vel"))?;
+    let cmd_pub =
+        rosrust::publish::<geometry_msgs::Twist>("cmd_vel", 1).map_err(RosError::doing("advertising cmd_vel"))?;
     let node = Arc::new(Mutex::new(Node {
         core,
         cmd_pub: cmd_pub.clone(),
-        state_pub: rosrust::publish("~state", 1).map_err(err("advertising ~state"))?,
-        markers_pub: rosrust::publish("~markers", 1).map_err(err("advertising ~markers"))?,
-        diag_pub: rosrust::publish("/diagnostics", 10).map_err(err("advertising /diagnostics"))?,
+        state_pub: rosrust::publish("~state", 1).map_err(RosError::doing("advertising ~state"))?,
+        markers_pub: rosrust::publish("~markers", 1).map_err(RosError::doing("advertising ~markers"))?,
+        diag_pub: rosrust::publish("/diagnostics", 10).map_err(RosError::doing("advertising /diagnostics"))?,
         settings: settings.clone(),
         name: rosrust::name(),
         activity: Activity::default(),
@@ -229,13 +237,13 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         node.activity.scan_arrived(now);
         node.tick(now);
     })
-    .map_err(err("subscribing to scan"))?;
+    .map_err(RosError::doing("subscribing to scan"))?;
     let n = node.clone();
     let _odom_sub = rosrust::subscribe("odom", 1, move |m: nav_msgs::Odometry| {
         let (pose, twist) = odom_from_msg(&m);
         lock(&n).core.on_odom(pose, twist, now_s());
     })
-    .map_err(err("subscribing to odom"))?;
+    .map_err(RosError::doing("subscribing to odom"))?;
     // So is a new upstream command, against the latest scan.
     let n = node.clone();
     let _cmd_in_sub = rosrust::subscribe("cmd_vel_in", 1, move |m: geometry_msgs::Twist| {
@@ -244,7 +252,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         node.core.on_cmd_in(twist_from_msg(&m), now);
         node.tick(now);
     })
-    .map_err(err("subscribing to cmd_vel_in"))?;
+    .map_err(RosError::doing("subscribing to cmd_vel_in"))?;
     // An e-stop goes out at once too.
     let n = node.clone();
     let _e_stop_sub = rosrust::subscribe("e_stop", 10, move |m: std_msgs::Bool| {
@@ -254,7 +262,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             node.tick(now_s());
         }
     })
-    .map_err(err("subscribing to e_stop"))?;
+    .map_err(RosError::doing("subscribing to e_stop"))?;
     let n = node.clone();
     let _enable_srv = rosrust::service::<std_srvs::SetBool, _>("~enable", move |req| {
         lock(&n).core.set_enabled(req.data);
@@ -268,7 +276,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             message: message.into(),
         })
     })
-    .map_err(err("advertising ~enable"))?;
+    .map_err(RosError::doing("advertising ~enable"))?;
     let n = node.clone();
     let _reset_srv = rosrust::service::<std_srvs::Trigger, _>("~reset_e_stop", move |_| {
         Ok(match lock(&n).core.reset_e_stop() {
@@ -282,7 +290,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             },
         })
     })
-    .map_err(err("advertising ~reset_e_stop"))?;
+    .map_err(RosError::doing("advertising ~reset_e_stop"))?;
 
     // dynamic_reconfigure: the parameters of reconfigure::RECONFIGURABLE.
     let (specs, problems) = reconfigure::specs();

@@ -32,8 +32,11 @@ use super::msg::{
     geometry_msgs, nav_msgs, sensor_msgs, std_msgs, tf2_msgs,
     visualization_msgs::{Marker, MarkerArray},
 };
+use super::params::ParamError;
+use super::RosError;
 use crate::algo::geometry::{Pose2, Twist};
-use crate::sim::fleet::Fleet;
+use crate::config::ConfigError;
+use crate::sim::fleet::{Fleet, FleetError};
 use crate::sim::scenario::Scenario;
 use serde::Serialize;
 use std::path::Path;
@@ -68,15 +71,16 @@ struct RobotIo {
     _cmd_sub: rosrust::Subscriber,
 }
 
-fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, String> {
-    let p = rosrust::param(name).ok_or_else(|| format!("cannot resolve parameter {name}"))?;
+fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, ParamError> {
+    let p = rosrust::param(name).ok_or_else(|| ParamError::Unresolved { name: name.to_string() })?;
+    let read = |source| ParamError::Read {
+        name: p.name().to_string(),
+        source,
+    };
     match p.exists() {
         Ok(false) => Ok(None),
-        Ok(true) => p
-            .get::<T>()
-            .map(Some)
-            .map_err(|e| format!("parameter {}: {e}", p.name())),
-        Err(e) => Err(format!("parameter {}: {e}", p.name())),
+        Ok(true) => p.get::<T>().map(Some).map_err(read),
+        Err(source) => Err(read(source)),
     }
 }
 
@@ -154,6 +158,27 @@ fn world_markers(fleet: &Fleet, frame: &str, stamp: rosrust::Time) -> MarkerArra
     MarkerArray { markers: v }
 }
 
+/// Why the node cannot run: a private parameter, the scenario, or a ROS call.
+#[derive(Debug, thiserror::Error)]
+enum SimNodeError {
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error("the private parameter ~scenario (a scenario file) is required")]
+    NoScenario,
+    #[error(transparent)]
+    Scenario(#[from] ConfigError),
+    #[error("parameter ~motion_source = {value:?}; allowed: cmd_vel, odom")]
+    MotionSource { value: String },
+    #[error("parameter ~odom_rate_hz = {value} is out of range; allowed: (0, 1000] Hz")]
+    OdomRate { value: f64 },
+    #[error("parameter ~cmd_timeout_s = {value} is out of range; allowed: (0, 60] s")]
+    CmdTimeout { value: f64 },
+    #[error(transparent)]
+    Fleet(#[from] FleetError),
+    #[error(transparent)]
+    Ros(#[from] RosError),
+}
+
 /// Runs the node; returns the process exit status.
 pub fn run() -> i32 {
     super::logging::init();
@@ -173,9 +198,9 @@ pub fn run() -> i32 {
     }
 }
 
-fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
-    let path: String = param("~scenario")?.ok_or("the private parameter ~scenario (a scenario file) is required")?;
-    let scenario = Scenario::load(Path::new(&path), None).map_err(|e| e.to_string())?;
+fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
+    let path: String = param("~scenario")?.ok_or(SimNodeError::NoScenario)?;
+    let scenario = Scenario::load(Path::new(&path), None)?;
     let seed: u64 = param::<i64>("~seed")?.map_or(scenario.spec.seed, |s| s as u64);
     let odom_rate_hz: f64 = param("~odom_rate_hz")?.unwrap_or(50.0);
     let cmd_timeout_s: f64 = param("~cmd_timeout_s")?.unwrap_or(0.5);
@@ -183,17 +208,17 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
     let from_odom = match motion_source.as_str() {
         "cmd_vel" => false,
         "odom" => true,
-        other => return Err(format!("parameter ~motion_source = {other:?}; allowed: cmd_vel, odom")),
+        other => {
+            return Err(SimNodeError::MotionSource {
+                value: other.to_string(),
+            })
+        }
     };
     if !(odom_rate_hz.is_finite() && odom_rate_hz > 0.0 && odom_rate_hz <= 1000.0) {
-        return Err(format!(
-            "parameter ~odom_rate_hz = {odom_rate_hz} is out of range; allowed: (0, 1000] Hz"
-        ));
+        return Err(SimNodeError::OdomRate { value: odom_rate_hz });
     }
     if !(cmd_timeout_s.is_finite() && cmd_timeout_s > 0.0 && cmd_timeout_s <= 60.0) {
-        return Err(format!(
-            "parameter ~cmd_timeout_s = {cmd_timeout_s} is out of range; allowed: (0, 60] s"
-        ));
+        return Err(SimNodeError::CmdTimeout { value: cmd_timeout_s });
     }
     let mut fleet = Fleet::new(&scenario, seed)?;
     let n = fleet.agents().len();
@@ -221,24 +246,26 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), String> {
                 c.lock().expect("cmd lock")[i] = (twist_from_msg(&m), now_s());
             })
         }
-        .map_err(|e| format!("subscribing to the motion source of robot {i}: {e}"))?;
+        .map_err(RosError::doing(format!(
+            "subscribing to the motion source of robot {i}"
+        )))?;
         let odom = if from_odom {
             None
         } else {
-            Some(rosrust::publish(&topic("odom"), 5).map_err(|e| format!("advertising odom: {e}"))?)
+            Some(rosrust::publish(&topic("odom"), 5).map_err(RosError::doing("advertising odom"))?)
         };
         io.push(RobotIo {
             frame_prefix: agent.name.clone(),
-            scan: rosrust::publish(&topic("scan"), 5).map_err(|e| format!("advertising scan: {e}"))?,
+            scan: rosrust::publish(&topic("scan"), 5).map_err(RosError::doing("advertising scan"))?,
             odom,
             _cmd_sub: cmd_sub,
         });
     }
-    let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(|e| format!("advertising /tf: {e}"))?;
+    let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(RosError::doing("advertising /tf"))?;
     let markers_pub =
-        rosrust::publish::<MarkerArray>("~world_markers", 2).map_err(|e| format!("advertising ~world_markers: {e}"))?;
-    let diag_pub = rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(|e| format!("diagnostics: {e}"))?;
-    let mut summary_pub = rosrust::publish::<std_msgs::String>("~summary", 1).map_err(|e| format!("~summary: {e}"))?;
+        rosrust::publish::<MarkerArray>("~world_markers", 2).map_err(RosError::doing("advertising ~world_markers"))?;
+    let diag_pub = rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(RosError::doing("diagnostics"))?;
+    let mut summary_pub = rosrust::publish::<std_msgs::String>("~summary", 1).map_err(RosError::doing("~summary"))?;
     summary_pub.set_latching(true);
 
     let lidar = fleet.lidar_spec().clone();

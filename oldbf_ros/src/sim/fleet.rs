@@ -10,11 +10,11 @@
 //! [`CLOSING_SPEED_MPS`] (it drove in), else *passive* (it was at rest, or
 //! turning, or moving away: the obstacle came to it).
 
-use super::lidar::{Lidar, LidarSpec};
+use super::lidar::{Lidar, LidarError, LidarSpec};
 use super::robot::SimRobot;
 use super::scenario::Scenario;
 use super::shapes::Circle;
-use super::world::World;
+use super::world::{World, WorldError};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 
 /// A contact is closing when the robot moved towards the touched point
@@ -65,6 +65,15 @@ pub struct SimAgent {
     pub contacts: Vec<Contact>,
 }
 
+/// Why a scenario's world or LiDAR could not be built (the text is theirs).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FleetError {
+    #[error(transparent)]
+    World(#[from] WorldError),
+    #[error(transparent)]
+    Lidar(#[from] LidarError),
+}
+
 /// The world and its robots.
 #[derive(Debug, Clone)]
 pub struct Fleet {
@@ -77,7 +86,7 @@ pub struct Fleet {
 impl Fleet {
     /// Builds the scenario's world and robots; robot i's LiDAR noise is seeded
     /// from `seed` and i, so runs are reproducible.
-    pub fn new(scenario: &Scenario, seed: u64) -> Result<Fleet, String> {
+    pub fn new(scenario: &Scenario, seed: u64) -> Result<Fleet, FleetError> {
         let world = World::new(&scenario.spec.world)?;
         let mut agents = Vec::with_capacity(scenario.agents.len());
         for (i, plan) in scenario.agents.iter().enumerate() {

@@ -14,6 +14,7 @@
 
 use super::world::{ScanScratch, World};
 use crate::algo::geometry::{Pose2, Vec2};
+use crate::config::SectionError;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -74,41 +75,95 @@ impl Default for LidarSpec {
 /// Largest accepted `beams`.
 pub const MAX_BEAMS: usize = 16384;
 
+/// Why a [`LidarSpec`] is rejected, with the offending values as data, so
+/// that a scenario error can name the key without parsing the message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LidarError {
+    #[error("lidar.beams must be in [1, {MAX_BEAMS}] (got {beams})")]
+    Beams { beams: usize },
+    #[error("lidar.fov_deg must be in (0, 360] (got {fov_deg})")]
+    FovDeg { fov_deg: f64 },
+    #[error("lidar.range_min_m must be >= 0 and finite (got {range_min_m})")]
+    RangeMin { range_min_m: f64 },
+    #[error("lidar.range_max_m must be finite and > lidar.range_min_m (got {range_max_m} <= {range_min_m})")]
+    RangeMax { range_max_m: f64, range_min_m: f64 },
+    #[error("lidar.noise_std_m must be >= 0 and finite (got {noise_std_m})")]
+    NoiseStd { noise_std_m: f64 },
+    #[error("lidar.dropout_prob must be in [0, 1] (got {dropout_prob})")]
+    DropoutProb { dropout_prob: f64 },
+    #[error("lidar.rate_hz must be in (0, 1000] (got {rate_hz})")]
+    RateHz { rate_hz: f64 },
+    /// The noise distribution refused the standard deviation.
+    #[error("lidar.noise_std_m: {source}")]
+    Noise {
+        #[source]
+        source: rand_distr::NormalError,
+    },
+}
+
+impl SectionError for LidarError {
+    fn key(&self) -> String {
+        let key = match self {
+            Self::Beams { .. } => "lidar.beams",
+            Self::FovDeg { .. } => "lidar.fov_deg",
+            Self::RangeMin { .. } => "lidar.range_min_m",
+            Self::RangeMax { .. } => "lidar.range_max_m",
+            Self::NoiseStd { .. } | Self::Noise { .. } => "lidar.noise_std_m",
+            Self::DropoutProb { .. } => "lidar.dropout_prob",
+            Self::RateHz { .. } => "lidar.rate_hz",
+        };
+        key.into()
+    }
+
+    fn detail(&self) -> String {
+        match self {
+            Self::Beams { beams } => format!("must be in [1, {MAX_BEAMS}] (got {beams})"),
+            Self::FovDeg { fov_deg } => format!("must be in (0, 360] (got {fov_deg})"),
+            Self::RangeMin { range_min_m } => format!("must be >= 0 and finite (got {range_min_m})"),
+            Self::RangeMax {
+                range_max_m,
+                range_min_m,
+            } => format!("must be finite and > lidar.range_min_m (got {range_max_m} <= {range_min_m})"),
+            Self::NoiseStd { noise_std_m } => format!("must be >= 0 and finite (got {noise_std_m})"),
+            Self::DropoutProb { dropout_prob } => format!("must be in [0, 1] (got {dropout_prob})"),
+            Self::RateHz { rate_hz } => format!("must be in (0, 1000] (got {rate_hz})"),
+            Self::Noise { source } => source.to_string(),
+        }
+    }
+}
+
 impl LidarSpec {
-    /// Checks every field; the message names the key.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every field; the error names the key.
+    pub fn validate(&self) -> Result<(), LidarError> {
         if !(1..=MAX_BEAMS).contains(&self.beams) {
-            return Err(format!("lidar.beams must be in [1, {MAX_BEAMS}] (got {})", self.beams));
+            return Err(LidarError::Beams { beams: self.beams });
         }
         if !(self.fov_deg > 0.0 && self.fov_deg <= 360.0) {
-            return Err(format!("lidar.fov_deg must be in (0, 360] (got {})", self.fov_deg));
+            return Err(LidarError::FovDeg { fov_deg: self.fov_deg });
         }
         if !(self.range_min_m.is_finite() && self.range_min_m >= 0.0) {
-            return Err(format!(
-                "lidar.range_min_m must be >= 0 and finite (got {})",
-                self.range_min_m
-            ));
+            return Err(LidarError::RangeMin {
+                range_min_m: self.range_min_m,
+            });
         }
         if !(self.range_max_m.is_finite() && self.range_max_m > self.range_min_m) {
-            return Err(format!(
-                "lidar.range_max_m must be finite and > lidar.range_min_m (got {} <= {})",
-                self.range_max_m, self.range_min_m
-            ));
+            return Err(LidarError::RangeMax {
+                range_max_m: self.range_max_m,
+                range_min_m: self.range_min_m,
+            });
         }
         if !(self.noise_std_m.is_finite() && self.noise_std_m >= 0.0) {
-            return Err(format!(
-                "lidar.noise_std_m must be >= 0 and finite (got {})",
-                self.noise_std_m
-            ));
+            return Err(LidarError::NoiseStd {
+                noise_std_m: self.noise_std_m,
+            });
         }
         if !(0.0..=1.0).contains(&self.dropout_prob) {
-            return Err(format!(
-                "lidar.dropout_prob must be in [0, 1] (got {})",
-                self.dropout_prob
-            ));
+            return Err(LidarError::DropoutProb {
+                dropout_prob: self.dropout_prob,
+            });
         }
         if !(self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
-            return Err(format!("lidar.rate_hz must be in (0, 1000] (got {})", self.rate_hz));
+            return Err(LidarError::RateHz { rate_hz: self.rate_hz });
         }
         Ok(())
     }
@@ -174,10 +229,10 @@ pub struct Lidar {
 
 impl Lidar {
     /// Validates `spec` and seeds the noise/dropout generator with `seed`.
-    pub fn new(spec: LidarSpec, seed: u64) -> Result<Lidar, String> {
+    pub fn new(spec: LidarSpec, seed: u64) -> Result<Lidar, LidarError> {
         spec.validate()?;
         let noise = if spec.noise_std_m > 0.0 {
-            Some(Normal::new(0.0, spec.noise_std_m).map_err(|e| format!("lidar.noise_std_m: {e}"))?)
+            Some(Normal::new(0.0, spec.noise_std_m).map_err(|source| LidarError::Noise { source })?)
         } else {
             None
         };
@@ -314,7 +369,7 @@ mod tests {
         let bad = |f: fn(&mut LidarSpec), key: &str| {
             let mut s = LidarSpec::default();
             f(&mut s);
-            let e = s.validate().unwrap_err();
+            let e = s.validate().unwrap_err().to_string();
             assert!(e.starts_with(key), "{e}");
             assert!(Lidar::new(s, 0).is_err());
         };

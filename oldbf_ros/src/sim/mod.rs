@@ -27,8 +27,8 @@ pub mod scenario;
 pub mod shapes;
 pub mod world;
 
-pub use lidar::{DropoutKind, Lidar, LidarSpec};
-pub use motion::{MotionSpec, MovingObstacle, MovingObstacleSpec};
-pub use robot::{RobotLimits, RobotPreset, RobotSpec, SimRobot};
+pub use lidar::{DropoutKind, Lidar, LidarError, LidarSpec};
+pub use motion::{MotionSpec, MovingObstacle, MovingObstacleError, MovingObstacleSpec};
+pub use robot::{RobotLimits, RobotLimitsError, RobotPreset, RobotSpec, SimRobot};
 pub use shapes::{Circle, Segment};
-pub use world::{BoxSpec, CircleSpec, ScanScratch, WallSpec, World, WorldSpec};
+pub use world::{BoxSpec, CircleSpec, ScanScratch, WallSpec, World, WorldError, WorldSpec};

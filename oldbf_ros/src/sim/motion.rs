@@ -11,6 +11,7 @@
 
 use crate::algo::geometry::Vec2;
 use serde::{Deserialize, Serialize};
+use std::fmt;
 
 /// A moving disc as written in a scenario file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -85,11 +86,99 @@ pub struct MovingObstacle {
     law: Law,
 }
 
-fn finite2(v: [f64; 2], field: &str) -> Result<Vec2, String> {
+/// A point `[x, y]` of a motion law, as named in messages (`motion.start`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointField {
+    Start,
+    VelocityMps,
+    RegionMin,
+    RegionMax,
+    /// `motion.waypoints[i]`.
+    Waypoint(usize),
+}
+
+impl fmt::Display for PointField {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Start => f.write_str("motion.start"),
+            Self::VelocityMps => f.write_str("motion.velocity_mps"),
+            Self::RegionMin => f.write_str("motion.region_min"),
+            Self::RegionMax => f.write_str("motion.region_max"),
+            Self::Waypoint(i) => write!(f, "motion.waypoints[{i}]"),
+        }
+    }
+}
+
+/// Why [`MovingObstacle::new`] rejected a spec, with the offending values as
+/// data, so that a scenario error can name the field without parsing text.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MovingObstacleError {
+    #[error("radius_m must be > 0 and finite (got {radius_m})")]
+    Radius { radius_m: f64 },
+    #[error("{field} must be finite (got {value:?})")]
+    NotFinite { field: PointField, value: [f64; 2] },
+    #[error("motion.start_time_s must be finite (got {start_time_s})")]
+    StartTime { start_time_s: f64 },
+    #[error("motion.speed_mps must be >= 0 and finite (got {speed_mps})")]
+    Speed { speed_mps: f64 },
+    /// The loop through the waypoints has no positive finite length.
+    #[error(
+        "motion.waypoints needs at least 2 distinct points (got {points} point(s), loop length {loop_length_m} m)"
+    )]
+    Waypoints { points: usize, loop_length_m: f64 },
+    #[error("motion.region_min must be < motion.region_max on both axes (got {region_min:?}, {region_max:?})")]
+    EmptyRegion { region_min: [f64; 2], region_max: [f64; 2] },
+    #[error("motion.start {start:?} must lie inside the region [{region_min:?}, {region_max:?}]")]
+    StartOutside {
+        start: [f64; 2],
+        region_min: [f64; 2],
+        region_max: [f64; 2],
+    },
+}
+
+impl MovingObstacleError {
+    /// The field the error is about, relative to the obstacle (`radius_m`,
+    /// `motion.start`); None when the message names the obstacle as a whole
+    /// (a waypoint, the waypoint count, the start outside its region).
+    pub fn field(&self) -> Option<String> {
+        match self {
+            Self::Radius { .. } => Some("radius_m".into()),
+            Self::NotFinite {
+                field: PointField::Waypoint(_),
+                ..
+            } => None,
+            Self::NotFinite { field, .. } => Some(field.to_string()),
+            Self::StartTime { .. } => Some("motion.start_time_s".into()),
+            Self::Speed { .. } => Some("motion.speed_mps".into()),
+            Self::EmptyRegion { .. } => Some("motion.region_min".into()),
+            Self::Waypoints { .. } | Self::StartOutside { .. } => None,
+        }
+    }
+
+    /// The message without [`Self::field`] (the whole message when that is None).
+    pub fn detail(&self) -> String {
+        match self {
+            Self::Radius { radius_m } => format!("must be > 0 and finite (got {radius_m})"),
+            Self::NotFinite {
+                field: PointField::Waypoint(_),
+                ..
+            } => self.to_string(),
+            Self::NotFinite { value, .. } => format!("must be finite (got {value:?})"),
+            Self::StartTime { start_time_s } => format!("must be finite (got {start_time_s})"),
+            Self::Speed { speed_mps } => format!("must be >= 0 and finite (got {speed_mps})"),
+            Self::EmptyRegion { region_min, region_max } => {
+                format!("must be < motion.region_max on both axes (got {region_min:?}, {region_max:?})")
+            }
+            Self::Waypoints { .. } | Self::StartOutside { .. } => self.to_string(),
+        }
+    }
+}
+
+fn finite2(v: [f64; 2], field: PointField) -> Result<Vec2, MovingObstacleError> {
     if v[0].is_finite() && v[1].is_finite() {
         Ok(Vec2::new(v[0], v[1]))
     } else {
-        Err(format!("{field} must be finite (got {v:?})"))
+        Err(MovingObstacleError::NotFinite { field, value: v })
     }
 }
 
@@ -98,9 +187,11 @@ impl MovingObstacle {
     /// and times finite, a waypoint loop needs ≥ 2 distinct waypoints and a
     /// speed ≥ 0, a bounce region needs `region_min < region_max` on both
     /// axes with `start` inside it. Errors name the offending field.
-    pub fn new(spec: &MovingObstacleSpec) -> Result<MovingObstacle, String> {
+    pub fn new(spec: &MovingObstacleSpec) -> Result<MovingObstacle, MovingObstacleError> {
         if !(spec.radius_m.is_finite() && spec.radius_m > 0.0) {
-            return Err(format!("radius_m must be > 0 and finite (got {})", spec.radius_m));
+            return Err(MovingObstacleError::Radius {
+                radius_m: spec.radius_m,
+            });
         }
         let law = match &spec.motion {
             MotionSpec::ConstantVelocity {
@@ -109,22 +200,24 @@ impl MovingObstacle {
                 start_time_s,
             } => {
                 if !start_time_s.is_finite() {
-                    return Err(format!("motion.start_time_s must be finite (got {start_time_s})"));
+                    return Err(MovingObstacleError::StartTime {
+                        start_time_s: *start_time_s,
+                    });
                 }
                 Law::ConstantVelocity {
-                    start: finite2(*start, "motion.start")?,
-                    velocity_mps: finite2(*velocity_mps, "motion.velocity_mps")?,
+                    start: finite2(*start, PointField::Start)?,
+                    velocity_mps: finite2(*velocity_mps, PointField::VelocityMps)?,
                     start_time_s: *start_time_s,
                 }
             }
             MotionSpec::WaypointLoop { waypoints, speed_mps } => {
                 if !(speed_mps.is_finite() && *speed_mps >= 0.0) {
-                    return Err(format!("motion.speed_mps must be >= 0 and finite (got {speed_mps})"));
+                    return Err(MovingObstacleError::Speed { speed_mps: *speed_mps });
                 }
                 let points = waypoints
                     .iter()
                     .enumerate()
-                    .map(|(i, w)| finite2(*w, &format!("motion.waypoints[{i}]")))
+                    .map(|(i, w)| finite2(*w, PointField::Waypoint(i)))
                     .collect::<Result<Vec<_>, _>>()?;
                 let n = points.len();
                 let mut cum_m = Vec::with_capacity(n);
@@ -134,9 +227,10 @@ impl MovingObstacle {
                     acc += (points[(i + 1) % n] - points[i]).norm();
                 }
                 if !(acc > 0.0 && acc.is_finite()) {
-                    return Err(format!(
-                        "motion.waypoints needs at least 2 distinct points (got {n} point(s), loop length {acc} m)"
-                    ));
+                    return Err(MovingObstacleError::Waypoints {
+                        points: n,
+                        loop_length_m: acc,
+                    });
                 }
                 Law::WaypointLoop {
                     points,
@@ -151,20 +245,22 @@ impl MovingObstacle {
                 region_min,
                 region_max,
             } => {
-                let start = finite2(*start, "motion.start")?;
-                let velocity_mps = finite2(*velocity_mps, "motion.velocity_mps")?;
-                let min = finite2(*region_min, "motion.region_min")?;
-                let max = finite2(*region_max, "motion.region_max")?;
+                let start = finite2(*start, PointField::Start)?;
+                let velocity_mps = finite2(*velocity_mps, PointField::VelocityMps)?;
+                let min = finite2(*region_min, PointField::RegionMin)?;
+                let max = finite2(*region_max, PointField::RegionMax)?;
                 if !(min.x < max.x && min.y < max.y) {
-                    return Err(format!(
-                        "motion.region_min must be < motion.region_max on both axes (got {region_min:?}, {region_max:?})"
-                    ));
+                    return Err(MovingObstacleError::EmptyRegion {
+                        region_min: *region_min,
+                        region_max: *region_max,
+                    });
                 }
                 if !(min.x <= start.x && start.x <= max.x && min.y <= start.y && start.y <= max.y) {
-                    return Err(format!(
-                        "motion.start {:?} must lie inside the region [{region_min:?}, {region_max:?}]",
-                        [start.x, start.y]
-                    ));
+                    return Err(MovingObstacleError::StartOutside {
+                        start: [start.x, start.y],
+                        region_min: *region_min,
+                        region_max: *region_max,
+                    });
                 }
                 Law::Bounce {
                     start,
@@ -452,8 +548,8 @@ mod tests {
             velocity_mps: [1.0, 0.0],
             start_time_s: 0.0,
         };
-        assert!(mk(0.0, cv.clone()).unwrap_err().contains("radius_m"));
-        assert!(mk(f64::NAN, cv).unwrap_err().contains("radius_m"));
+        assert!(mk(0.0, cv.clone()).unwrap_err().to_string().contains("radius_m"));
+        assert!(mk(f64::NAN, cv).unwrap_err().to_string().contains("radius_m"));
         let e = mk(
             0.1,
             MotionSpec::ConstantVelocity {
@@ -462,7 +558,8 @@ mod tests {
                 start_time_s: 0.0,
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("velocity_mps"), "{e}");
         let e = mk(
             0.1,
@@ -471,7 +568,8 @@ mod tests {
                 speed_mps: 1.0,
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("waypoints"), "{e}");
         let e = mk(
             0.1,
@@ -480,7 +578,8 @@ mod tests {
                 speed_mps: 1.0,
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("waypoints"), "{e}");
         let e = mk(
             0.1,
@@ -489,7 +588,8 @@ mod tests {
                 speed_mps: -1.0,
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("speed_mps"), "{e}");
         let e = mk(
             0.1,
@@ -500,7 +600,8 @@ mod tests {
                 region_max: [1.0, 0.0],
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("region_min"), "{e}");
         let e = mk(
             0.1,
@@ -511,7 +612,8 @@ mod tests {
                 region_max: [1.0, 1.0],
             },
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("motion.start"), "{e}");
     }
 

@@ -12,6 +12,7 @@
 use super::world::World;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::unicycle::arc_step;
+use crate::config::SectionError;
 use serde::{Deserialize, Serialize};
 
 /// Robots with built-in limits (YAML: `turtlebot3_burger`, `quanser_qbot`).
@@ -92,7 +93,7 @@ impl RobotSpec {
     }
 
     /// The preset's limits with the overrides applied, validated.
-    pub fn resolve(&self) -> Result<RobotLimits, String> {
+    pub fn resolve(&self) -> Result<RobotLimits, RobotLimitsError> {
         let p = self.preset.limits();
         let l = RobotLimits {
             body_radius_m: self.body_radius_m.unwrap_or(p.body_radius_m),
@@ -121,19 +122,39 @@ pub struct RobotLimits {
     pub omega_accel_max_radps2: f64,
 }
 
+/// A robot limit that is not > 0 and finite: the field (`v_max_mps`) and
+/// its value as data, so that a scenario error can name the key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("robot.{field} must be > 0 and finite (got {value})")]
+pub struct RobotLimitsError {
+    /// The field of [`RobotLimits`].
+    pub field: &'static str,
+    pub value: f64,
+}
+
+impl SectionError for RobotLimitsError {
+    fn key(&self) -> String {
+        format!("robot.{}", self.field)
+    }
+
+    fn detail(&self) -> String {
+        format!("must be > 0 and finite (got {})", self.value)
+    }
+}
+
 impl RobotLimits {
-    /// Checks every value is > 0 and finite; the message names the key
+    /// Checks every value is > 0 and finite; the error names the key
     /// (`robot.<field>`).
-    pub fn validate(&self) -> Result<(), String> {
-        for (key, v) in [
+    pub fn validate(&self) -> Result<(), RobotLimitsError> {
+        for (field, value) in [
             ("body_radius_m", self.body_radius_m),
             ("v_max_mps", self.v_max_mps),
             ("omega_max_radps", self.omega_max_radps),
             ("accel_max_mps2", self.accel_max_mps2),
             ("omega_accel_max_radps2", self.omega_accel_max_radps2),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("robot.{key} must be > 0 and finite (got {v})"));
+            if !(value.is_finite() && value > 0.0) {
+                return Err(RobotLimitsError { field, value });
             }
         }
         Ok(())
@@ -241,16 +262,17 @@ mod tests {
 
     #[test]
     fn bad_overrides_name_the_key() {
+        let err = |s: &RobotSpec| s.resolve().unwrap_err().to_string();
         let mut s = RobotSpec::from_preset(RobotPreset::QuanserQbot);
         s.accel_max_mps2 = Some(-1.0);
-        let e = s.resolve().unwrap_err();
+        let e = err(&s);
         assert!(e.starts_with("robot.accel_max_mps2 must be > 0"), "{e}");
         s.accel_max_mps2 = None;
         s.body_radius_m = Some(f64::NAN);
-        assert!(s.resolve().unwrap_err().starts_with("robot.body_radius_m"));
+        assert!(err(&s).starts_with("robot.body_radius_m"));
         s.body_radius_m = None;
         s.omega_accel_max_radps2 = Some(0.0);
-        assert!(s.resolve().unwrap_err().starts_with("robot.omega_accel_max_radps2"));
+        assert!(err(&s).starts_with("robot.omega_accel_max_radps2"));
     }
 
     #[test]

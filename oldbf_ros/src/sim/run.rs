@@ -17,7 +17,7 @@
 //! simulator's exact geometry after the step: it also sees sensor noise,
 //! actuator lag and obstacle motion that a static one-step prediction cannot.
 
-use super::fleet::{Contact, Fleet, CLOSING_SPEED_MPS};
+use super::fleet::{Contact, Fleet, FleetError, CLOSING_SPEED_MPS};
 use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
 use crate::algo::doaa::DoaaState;
@@ -324,7 +324,7 @@ struct AgentLoop {
 }
 
 /// Runs `scenario` in closed loop with `controller`.
-pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> Result<RunResult, String> {
+pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> Result<RunResult, FleetError> {
     let spec = &scenario.spec;
     let paper_params;
     let params = if controller == Controller::OldbfPaper {

@@ -192,14 +192,9 @@ impl Scenario {
         check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
         check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;
         check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
-        spec.lidar
-            .validate()
-            .map_err(|m| config::section_error(file, "lidar", &m))?;
-        let robot = spec
-            .robot
-            .resolve()
-            .map_err(|m| config::section_error(file, "robot", &m))?;
-        World::new(&spec.world).map_err(|m| config::section_error(file, "world", &m))?;
+        spec.lidar.validate().map_err(|e| config::section_error(file, &e))?;
+        let robot = spec.robot.resolve().map_err(|e| config::section_error(file, &e))?;
+        World::new(&spec.world).map_err(|e| config::section_error(file, &e))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),

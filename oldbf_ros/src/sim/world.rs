@@ -19,10 +19,12 @@
 //!
 //! Units: m, s; box yaw in degrees in YAML only (`yaw_deg`).
 
-use super::motion::{MovingObstacle, MovingObstacleSpec};
+use super::motion::{MovingObstacle, MovingObstacleError, MovingObstacleSpec};
 use super::shapes::{Circle, Segment};
 use crate::algo::geometry::Vec2;
+use crate::config::SectionError;
 use serde::{Deserialize, Serialize};
+use std::fmt;
 
 /// A single wall from `from` to `to` (m).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -85,11 +87,94 @@ pub struct World {
     bounds: Option<(Vec2, Vec2)>,
 }
 
-fn point(v: [f64; 2], what: &str) -> Result<Vec2, String> {
+/// A static item of a [`WorldSpec`], as named in messages (`world.walls[2]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorldItem {
+    Wall(usize),
+    Polygon(usize),
+    Box(usize),
+    Circle(usize),
+}
+
+impl fmt::Display for WorldItem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Wall(i) => write!(f, "world.walls[{i}]"),
+            Self::Polygon(i) => write!(f, "world.polygons[{i}]"),
+            Self::Box(i) => write!(f, "world.boxes[{i}]"),
+            Self::Circle(i) => write!(f, "world.circles[{i}]"),
+        }
+    }
+}
+
+/// Why [`World::new`] rejected a spec: the item (and field) as data, so that
+/// a scenario error can name the key without parsing the message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WorldError {
+    #[error("{item}: coordinates must be finite (got {value:?})")]
+    NotFinite { item: WorldItem, value: [f64; 2] },
+    #[error("world.walls[{index}]: zero length")]
+    ZeroLengthWall { index: usize },
+    #[error("world.polygons[{index}]: needs at least 3 vertices (got {vertices})")]
+    TooFewVertices { index: usize, vertices: usize },
+    /// Edge `edge` runs from vertex `edge` to vertex `next`.
+    #[error("world.polygons[{index}]: edge {edge} (vertex {edge} to vertex {next}) has zero length")]
+    ZeroLengthEdge { index: usize, edge: usize, next: usize },
+    #[error("world.boxes[{index}]: size must be > 0 and finite (got {size:?})")]
+    BoxSize { index: usize, size: [f64; 2] },
+    #[error("world.boxes[{index}]: yaw_deg must be finite")]
+    BoxYaw { index: usize, yaw_deg: f64 },
+    #[error("world.circles[{index}]: radius_m must be > 0 and finite (got {radius_m})")]
+    CircleRadius { index: usize, radius_m: f64 },
+    #[error("world.moving[{index}]: {source}")]
+    Moving {
+        index: usize,
+        #[source]
+        source: MovingObstacleError,
+    },
+}
+
+/// The key is the item, or its field when the message names one
+/// (`world.circles[0].radius_m`).
+impl SectionError for WorldError {
+    fn key(&self) -> String {
+        match self {
+            Self::NotFinite { item, .. } => item.to_string(),
+            Self::ZeroLengthWall { index } => WorldItem::Wall(*index).to_string(),
+            Self::TooFewVertices { index, .. } | Self::ZeroLengthEdge { index, .. } => {
+                WorldItem::Polygon(*index).to_string()
+            }
+            Self::BoxSize { index, .. } => WorldItem::Box(*index).to_string(),
+            Self::BoxYaw { index, .. } => format!("{}.yaw_deg", WorldItem::Box(*index)),
+            Self::CircleRadius { index, .. } => format!("{}.radius_m", WorldItem::Circle(*index)),
+            Self::Moving { index, source } => match source.field() {
+                Some(field) => format!("world.moving[{index}].{field}"),
+                None => format!("world.moving[{index}]"),
+            },
+        }
+    }
+
+    fn detail(&self) -> String {
+        match self {
+            Self::NotFinite { value, .. } => format!("coordinates must be finite (got {value:?})"),
+            Self::ZeroLengthWall { .. } => "zero length".into(),
+            Self::TooFewVertices { vertices, .. } => format!("needs at least 3 vertices (got {vertices})"),
+            Self::ZeroLengthEdge { edge, next, .. } => {
+                format!("edge {edge} (vertex {edge} to vertex {next}) has zero length")
+            }
+            Self::BoxSize { size, .. } => format!("size must be > 0 and finite (got {size:?})"),
+            Self::BoxYaw { .. } => "must be finite".into(),
+            Self::CircleRadius { radius_m, .. } => format!("must be > 0 and finite (got {radius_m})"),
+            Self::Moving { source, .. } => source.detail(),
+        }
+    }
+}
+
+fn point(v: [f64; 2], item: WorldItem) -> Result<Vec2, WorldError> {
     if v[0].is_finite() && v[1].is_finite() {
         Ok(Vec2::new(v[0], v[1]))
     } else {
-        Err(format!("{what}: coordinates must be finite (got {v:?})"))
+        Err(WorldError::NotFinite { item, value: v })
     }
 }
 
@@ -98,41 +183,49 @@ impl World {
     /// zero-length walls or polygon edges, polygons with fewer than 3
     /// vertices, non-positive box sizes and radii. The message names the
     /// item, e.g. `"world.walls[2]: zero length"`. The clock starts at 0 s.
-    pub fn new(spec: &WorldSpec) -> Result<World, String> {
+    pub fn new(spec: &WorldSpec) -> Result<World, WorldError> {
         let mut segments = Vec::new();
         for (i, w) in spec.walls.iter().enumerate() {
-            let what = format!("world.walls[{i}]");
-            let s = Segment::new(point(w.from, &what)?, point(w.to, &what)?);
+            let item = WorldItem::Wall(i);
+            let s = Segment::new(point(w.from, item)?, point(w.to, item)?);
             if s.length_m() <= 0.0 {
-                return Err(format!("{what}: zero length"));
+                return Err(WorldError::ZeroLengthWall { index: i });
             }
             segments.push(s);
         }
         for (i, poly) in spec.polygons.iter().enumerate() {
-            let what = format!("world.polygons[{i}]");
             if poly.len() < 3 {
-                return Err(format!("{what}: needs at least 3 vertices (got {})", poly.len()));
+                return Err(WorldError::TooFewVertices {
+                    index: i,
+                    vertices: poly.len(),
+                });
             }
-            let pts = poly.iter().map(|v| point(*v, &what)).collect::<Result<Vec<_>, _>>()?;
+            let pts = poly
+                .iter()
+                .map(|v| point(*v, WorldItem::Polygon(i)))
+                .collect::<Result<Vec<_>, _>>()?;
             for k in 0..pts.len() {
                 let s = Segment::new(pts[k], pts[(k + 1) % pts.len()]);
                 if s.length_m() <= 0.0 {
-                    return Err(format!(
-                        "{what}: edge {k} (vertex {k} to vertex {}) has zero length",
-                        (k + 1) % pts.len()
-                    ));
+                    return Err(WorldError::ZeroLengthEdge {
+                        index: i,
+                        edge: k,
+                        next: (k + 1) % pts.len(),
+                    });
                 }
                 segments.push(s);
             }
         }
         for (i, b) in spec.boxes.iter().enumerate() {
-            let what = format!("world.boxes[{i}]");
-            let c = point(b.center, &what)?;
+            let c = point(b.center, WorldItem::Box(i))?;
             if !(b.size[0].is_finite() && b.size[1].is_finite() && b.size[0] > 0.0 && b.size[1] > 0.0) {
-                return Err(format!("{what}: size must be > 0 and finite (got {:?})", b.size));
+                return Err(WorldError::BoxSize { index: i, size: b.size });
             }
             if !b.yaw_deg.is_finite() {
-                return Err(format!("{what}: yaw_deg must be finite"));
+                return Err(WorldError::BoxYaw {
+                    index: i,
+                    yaw_deg: b.yaw_deg,
+                });
             }
             let (s, co) = b.yaw_deg.to_radians().sin_cos();
             let (hx, hy) = (0.5 * b.size[0], 0.5 * b.size[1]);
@@ -144,10 +237,12 @@ impl World {
         }
         let mut circles = Vec::with_capacity(spec.circles.len());
         for (i, c) in spec.circles.iter().enumerate() {
-            let what = format!("world.circles[{i}]");
-            let center = point(c.center, &what)?;
+            let center = point(c.center, WorldItem::Circle(i))?;
             if !(c.radius_m.is_finite() && c.radius_m > 0.0) {
-                return Err(format!("{what}: radius_m must be > 0 and finite (got {})", c.radius_m));
+                return Err(WorldError::CircleRadius {
+                    index: i,
+                    radius_m: c.radius_m,
+                });
             }
             circles.push(Circle::new(center, c.radius_m));
         }
@@ -155,7 +250,7 @@ impl World {
             .moving
             .iter()
             .enumerate()
-            .map(|(i, m)| MovingObstacle::new(m).map_err(|e| format!("world.moving[{i}]: {e}")))
+            .map(|(i, m)| MovingObstacle::new(m).map_err(|source| WorldError::Moving { index: i, source }))
             .collect::<Result<Vec<_>, _>>()?;
 
         let mut bounds: Option<(Vec2, Vec2)> = None;
@@ -850,27 +945,28 @@ mod tests {
             ],
             ..WorldSpec::default()
         };
-        assert_eq!(World::new(&s).unwrap_err(), "world.walls[2]: zero length");
+        let err = |s: &WorldSpec| World::new(s).unwrap_err().to_string();
+        assert_eq!(err(&s), "world.walls[2]: zero length");
         s.walls[2].to = [f64::NAN, 1.0];
-        assert!(World::new(&s).unwrap_err().starts_with("world.walls[2]"));
+        assert!(err(&s).starts_with("world.walls[2]"));
         s.walls.truncate(2);
         s.polygons = vec![vec![[0.0, 0.0], [1.0, 0.0]]];
-        assert!(World::new(&s).unwrap_err().starts_with("world.polygons[0]"));
+        assert!(err(&s).starts_with("world.polygons[0]"));
         s.polygons = vec![vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.0]]];
-        assert!(World::new(&s).unwrap_err().contains("edge 1"));
+        assert!(err(&s).contains("edge 1"));
         s.polygons.clear();
         s.boxes = vec![BoxSpec {
             center: [0.0, 0.0],
             size: [1.0, 0.0],
             yaw_deg: 0.0,
         }];
-        assert!(World::new(&s).unwrap_err().starts_with("world.boxes[0]: size"));
+        assert!(err(&s).starts_with("world.boxes[0]: size"));
         s.boxes.clear();
         s.circles = vec![CircleSpec {
             center: [0.0, 0.0],
             radius_m: -1.0,
         }];
-        assert!(World::new(&s).unwrap_err().starts_with("world.circles[0]: radius_m"));
+        assert!(err(&s).starts_with("world.circles[0]: radius_m"));
         s.circles.clear();
         s.moving = vec![MovingObstacleSpec {
             radius_m: 0.0,
@@ -881,7 +977,7 @@ mod tests {
             },
             name: None,
         }];
-        assert!(World::new(&s).unwrap_err().starts_with("world.moving[0]: radius_m"));
+        assert!(err(&s).starts_with("world.moving[0]: radius_m"));
     }
 
     #[test]
