@@ -143,21 +143,31 @@ impl SideFade {
     }
 }
 
-/// Points per batch in `compute_clearances`.
+/// Points per batch in the clearance passes.
 const BATCH: usize = 8;
+
+/// ‖P‖ and 1/‖P‖ of up to `BATCH` points (lanes past the chunk are 0 and +inf,
+/// never read). The square root and the reciprocal are the costly part, and
+/// each waits on the divider; taken a batch at a time over a fixed number of
+/// independent lanes, the compiler issues them two by two. The bookkeeping
+/// then runs point by point, in order. ‖P‖ as nalgebra computes it: the root
+/// of the squared norm.
+#[inline]
+fn norms_and_reciprocals(chunk: &[Vec2]) -> ([f64; BATCH], [f64; BATCH]) {
+    let mut norm2 = [0.0; BATCH];
+    for (n2, p) in norm2.iter_mut().zip(chunk) {
+        *n2 = p.norm_squared();
+    }
+    let norms = norm2.map(f64::sqrt);
+    (norms, norms.map(|n| 1.0 / n))
+}
 
 /// Computes every clearance in one pass over the points; with `fade`, the
 /// side clearances fade by bearing (see the module docs).
 pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
     let mut c = Clearances::OPEN;
-    // Roots and reciprocals a batch at a time, as in `compute_clearances`.
     for chunk in points.chunks(BATCH) {
-        let mut norm2 = [0.0; BATCH];
-        for (n2, p) in norm2.iter_mut().zip(chunk) {
-            *n2 = p.norm_squared();
-        }
-        let norms = norm2.map(f64::sqrt);
-        let reciprocals = norms.map(|n| 1.0 / n);
+        let (norms, reciprocals) = norms_and_reciprocals(chunk);
         for (k, p) in chunk.iter().enumerate() {
             let norm = norms[k];
             let clearance = norm - robot_radius_m;
@@ -195,18 +205,8 @@ pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sec
 /// Computes every clearance in one pass over the points.
 pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sector, front: Sector) -> Clearances {
     let mut c = Clearances::OPEN;
-    // The square root and the reciprocal of every point's distance are the costly
-    // part, and each waits on the divider; taken a batch at a time over a fixed
-    // number of independent lanes, the compiler issues them two by two. The
-    // bookkeeping then runs point by point, in order, as before.
     for chunk in points.chunks(BATCH) {
-        let mut norm2 = [0.0; BATCH];
-        for (n2, p) in norm2.iter_mut().zip(chunk) {
-            *n2 = p.norm_squared();
-        }
-        // ‖P‖ as nalgebra computes it: the root of the squared norm.
-        let norms = norm2.map(f64::sqrt);
-        let reciprocals = norms.map(|n| 1.0 / n);
+        let (norms, reciprocals) = norms_and_reciprocals(chunk);
         for (k, &p) in chunk.iter().enumerate() {
             let norm = norms[k];
             let clearance = norm - robot_radius_m;

@@ -28,6 +28,7 @@
 
 use super::geometry::{Twist, Vec2};
 use super::params::Params;
+use super::unicycle::sinc;
 
 /// Where something may be unseen (held or unknown beams), the body keeps this
 /// much more room while moving towards it (m): it may have come closer since.
@@ -65,17 +66,12 @@ impl ArcWalk {
     fn new(cmd: Twist, step_s: f64) -> Self {
         let dth = cmd.omega_radps * step_s;
         let half = 0.5 * dth;
-        let sinc = if half.abs() < 1e-6 {
-            1.0 - half * half / 6.0
-        } else {
-            half.sin() / half
-        };
         Self {
             pos: Vec2::zeros(),
             heading: Vec2::new(1.0, 0.0),
             turn: (dth.cos(), dth.sin()),
             half: (half.cos(), half.sin()),
-            chord: cmd.v_mps * step_s * sinc,
+            chord: cmd.v_mps * step_s * sinc(half),
         }
     }
 

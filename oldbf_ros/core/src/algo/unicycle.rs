@@ -14,17 +14,23 @@ pub fn euler_step(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
     )
 }
 
+/// sin(x)/x, with its series near 0: an arc of turn 2x and length L has the
+/// chord L·sinc(x).
+#[inline]
+pub fn sinc(x: f64) -> f64 {
+    if x.abs() < 1e-6 {
+        1.0 - x * x / 6.0
+    } else {
+        x.sin() / x
+    }
+}
+
 /// Exact motion under a constant (v, ω) for dt_s: an arc (a line when ω = 0).
 /// The simulator integrates with this.
 pub fn arc_step(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
     let dth = cmd.omega_radps * dt_s;
     let half = 0.5 * dth;
-    let sinc = if half.abs() < 1e-6 {
-        1.0 - half * half / 6.0
-    } else {
-        half.sin() / half
-    };
-    let chord = cmd.v_mps * dt_s * sinc;
+    let chord = cmd.v_mps * dt_s * sinc(half);
     let heading = pose.theta + half;
     Pose2::new(
         pose.x + chord * heading.cos(),

@@ -286,6 +286,17 @@ impl Unstuck {
 mod tests {
     use super::*;
 
+    /// The robot at the origin at `now_s` with `nominal`, seeing `points`.
+    fn at(now_s: f64, nominal: Twist, points: &[Vec2], movers_near: bool) -> Situation<'_> {
+        Situation {
+            now_s,
+            nominal,
+            points,
+            ego: Pose2::default(),
+            movers_near,
+        }
+    }
+
     fn params() -> Params {
         Params::default() // r = 0.178, d_safe = 0.2; stall 6 s, progress 0.15 m
     }
@@ -310,30 +321,10 @@ mod tests {
         };
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
-            let d = u.step(
-                Some(g),
-                &Situation {
-                    now_s: k as f64 * 0.1,
-                    nominal,
-                    points: &pts,
-                    ego: Pose2::default(),
-                    movers_near: false,
-                },
-                &p,
-            );
+            let d = u.step(Some(g), &at(k as f64 * 0.1, nominal, &pts, false), &p);
             assert_eq!(d.nominal, None, "no stall before 6 s");
         }
-        let d = u.step(
-            Some(g),
-            &Situation {
-                now_s: 6.0,
-                nominal,
-                points: &pts,
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
+        let d = u.step(Some(g), &at(6.0, nominal, &pts, false), &p);
         assert!(u.following());
         // The wall ends 0.6 m to the right: the way round is to the right.
         let w = d.waypoint.unwrap();
@@ -346,17 +337,7 @@ mod tests {
             ahead: Vec2::new(2.4, -1.2),
             at_end: false,
         };
-        let d = u.step(
-            Some(g2),
-            &Situation {
-                now_s: 8.0,
-                nominal,
-                points: &[],
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
+        let d = u.step(Some(g2), &at(8.0, nominal, &[], false), &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -377,64 +358,14 @@ mod tests {
                 Vec2::new(0.3 * a.cos(), 0.3 * a.sin())
             })
             .collect();
-        u.step(
-            Some(g),
-            &Situation {
-                now_s: 0.0,
-                nominal: Twist::new(0.15, 0.0),
-                points: &ring,
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
-        let d = u.step(
-            Some(g),
-            &Situation {
-                now_s: 7.0,
-                nominal: Twist::new(0.15, 0.0),
-                points: &ring,
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
+        u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
+        let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, false), &p);
         assert_eq!(d.nominal, Some(Twist::new(0.0, p.doaa.omega_0_radps)));
-        let d = u.step(
-            None,
-            &Situation {
-                now_s: 7.1,
-                nominal: Twist::new(0.15, 0.0),
-                points: &ring,
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
+        let d = u.step(None, &at(7.1, Twist::new(0.15, 0.0), &ring, false), &p);
         assert_eq!((d.nominal, u.following()), (None, false));
         // A mover near: no going round.
-        u.step(
-            Some(g),
-            &Situation {
-                now_s: 0.0,
-                nominal: Twist::new(0.15, 0.0),
-                points: &ring,
-                ego: Pose2::default(),
-                movers_near: false,
-            },
-            &p,
-        );
-        let d = u.step(
-            Some(g),
-            &Situation {
-                now_s: 7.0,
-                nominal: Twist::new(0.15, 0.0),
-                points: &ring,
-                ego: Pose2::default(),
-                movers_near: true,
-            },
-            &p,
-        );
+        u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
+        let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, true), &p);
         assert_eq!((d.nominal, u.following()), (None, false));
     }
 
@@ -452,18 +383,8 @@ mod tests {
                 at_end: false,
             };
             assert_eq!(
-                u.step(
-                    Some(g),
-                    &Situation {
-                        now_s: k as f64 * 0.1,
-                        nominal: Twist::new(0.15, 0.0),
-                        points: &pts,
-                        ego: Pose2::default(),
-                        movers_near: false
-                    },
-                    &p
-                )
-                .nominal,
+                u.step(Some(g), &at(k as f64 * 0.1, Twist::new(0.15, 0.0), &pts, false), &p)
+                    .nominal,
                 None
             );
         }
@@ -476,18 +397,8 @@ mod tests {
         };
         for k in 0..200 {
             assert_eq!(
-                u.step(
-                    Some(g),
-                    &Situation {
-                        now_s: k as f64 * 0.1,
-                        nominal: Twist::ZERO,
-                        points: &pts,
-                        ego: Pose2::default(),
-                        movers_near: false
-                    },
-                    &p
-                )
-                .nominal,
+                u.step(Some(g), &at(k as f64 * 0.1, Twist::ZERO, &pts, false), &p)
+                    .nominal,
                 None
             );
         }
