@@ -122,14 +122,18 @@ group_faults() {
 
 declare -A TOOK
 FAILED=()
+GROUP_LOGS=$ROOT/target/test-logs
+mkdir -p "$GROUP_LOGS"
 for g in "${GROUPS_TO_RUN[@]}"; do
   case " ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]} " in *" $g "*) ;; *) die "unknown group '$g' (groups: ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]})" ;; esac
   say "group $g"
   t0=$(now)
   # Not `if ( … )`: errexit is ignored in a condition, even inside the function.
   set +e
-  ( set -e; "group_$g" )
-  rc=$?
+  # Each group's output is also kept, so the summary can repeat why it failed
+  # (a CI log is often read from its tail).
+  ( set -e; "group_$g" ) 2>&1 | tee "$GROUP_LOGS/$g.log"
+  rc=${PIPESTATUS[0]}
   set -e
   if [ "$rc" -eq 0 ]; then status=ok; else status="FAILED (exit $rc)"; FAILED+=("$g"); fi
   TOOK[$g]="$status $(( $(now) - t0 )) s"
@@ -138,6 +142,12 @@ done
 say "summary"
 for g in "${GROUPS_TO_RUN[@]}"; do printf '  %-6s %s\n' "$g" "${TOOK[$g]}"; done
 if [ ${#FAILED[@]} -gt 0 ]; then
+  for g in "${FAILED[@]}"; do
+    say "why $g failed (the lines that say so, from $GROUP_LOGS/$g.log)"
+    grep -E 'FAIL|[Ff]ailed|check failed|panicked|error(\[|:)|ERROR|Traceback|timed out|no summary' "$GROUP_LOGS/$g.log" | tail -25 || true
+    echo "  -- last lines:"
+    tail -15 "$GROUP_LOGS/$g.log"
+  done
   echo "run_all: FAILED groups: ${FAILED[*]}" >&2
   exit 1
 fi

@@ -500,6 +500,7 @@ impl NodeCore {
             let odom = self.fresh_odom(now_s);
             let params = self.pipeline.params().tracking.clone();
             let ahead_m = self.pipeline.params().unstuck.ahead_m;
+            let omega_max_radps = self.pipeline.params().control.omega_max_radps;
             let (reference, progress) = self.reference.as_mut().expect("checked above");
             return match odom {
                 Some(o) => {
@@ -510,7 +511,7 @@ impl NodeCore {
                     let guidance = Guidance::of_reference(reference, progress, o.pose, ahead_m);
                     self.pipeline.set_guidance(Some(guidance));
                     progress.advance(dt_s, rate);
-                    (track(o.pose, ref_pose, ref_twist, &params), NominalUsed::Reference)
+                    (track(o.pose, ref_pose, ref_twist, &params, omega_max_radps), NominalUsed::Reference)
                 }
                 None => (Twist::ZERO, NominalUsed::ReferenceNoOdom),
             };

@@ -68,19 +68,47 @@ pub fn go_to_point(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &T
     )
 }
 
+/// The final approach to a goal point: go-to-point, with the speed held to
+/// what the turn can follow.
+///
+/// A unicycle at distance d from a point at bearing β reaches it along the
+/// arc of radius d / (2 |sin β|); turning at |ω| it must keep
+/// v ≤ |ω| d / (2 |sin β|). Faster, and with |ω| capped at ω_max
+/// (`omega_max_radps`), it circles the point instead (seen: a robot orbiting
+/// its goal 0.2-0.6 m away for 60 s at v 0.1-0.2 m/s, ω 0.3 rad/s). Within
+/// the bound the bearing falls at least at |ω|/2 while the robot closes in.
+pub fn arrive(robot: Pose2, goal: Pose2, k: &TrackingParams, omega_max_radps: f64) -> Twist {
+    let cmd = go_to_point(robot, goal, Twist::ZERO, k);
+    let e = TrackingError::between(robot, goal);
+    let sin_bearing = e.e_y_m.atan2(e.e_x_m).sin().abs();
+    let turn_radps = cmd.omega_radps.abs().min(omega_max_radps);
+    if sin_bearing == 0.0 {
+        return cmd;
+    }
+    let v_cap_mps = turn_radps * e.distance_m() / (2.0 * sin_bearing);
+    Twist::new(cmd.v_mps.min(v_cap_mps), cmd.omega_radps)
+}
+
 /// The nominal tracking command: Kanayama within `capture_radius_m` of the
 /// reference, blending into `go_to_point` between one and two capture radii.
 ///
 /// Once the reference has ended (zero reference twist) Kanayama cannot steer
 /// (every yaw term is multiplied by v_r), so the goal is approached as a
-/// point with go-to-point, and the command is zero within `arrive_radius_m`.
-pub fn track(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &TrackingParams) -> Twist {
+/// point ([`arrive`], turning at most `omega_max_radps`), and the command is
+/// zero within `arrive_radius_m`.
+pub fn track(
+    robot: Pose2,
+    reference: Pose2,
+    reference_twist: Twist,
+    k: &TrackingParams,
+    omega_max_radps: f64,
+) -> Twist {
     let dist = TrackingError::between(robot, reference).distance_m();
     if reference_twist == Twist::ZERO {
         return if dist <= k.arrive_radius_m {
             Twist::ZERO
         } else {
-            go_to_point(robot, reference, reference_twist, k)
+            arrive(robot, reference, k, omega_max_radps)
         };
     }
     let rc = k.capture_radius_m;
@@ -99,6 +127,7 @@ pub fn track(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &Trackin
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_4;
 
     #[test]
     fn zero_error_gives_the_reference_twist() {
@@ -128,7 +157,7 @@ mod tests {
         let kan = kanayama(robot, reference, Twist::new(0.15, 0.0), &k);
         // Kanayama: v = 0.15·cos 0 + 1·(−2) = −1.85, ω = 0.15·(10·0 + 4·sin 0) = 0.
         assert!((kan.v_mps + 1.85).abs() < 1e-12 && kan.omega_radps.abs() < 1e-12);
-        let cmd = track(robot, reference, Twist::new(0.15, 0.0), &k);
+        let cmd = track(robot, reference, Twist::new(0.15, 0.0), &k, 0.3);
         assert!(cmd.v_mps.abs() < 1e-12);
         assert!((cmd.omega_radps.abs() - k.k_bearing_per_s * std::f64::consts::PI).abs() < 1e-12);
     }
@@ -139,11 +168,11 @@ mod tests {
         let robot = Pose2::default();
         let vr = Twist::new(0.15, 0.0);
         let near = Pose2::new(0.3, 0.2, 0.1);
-        assert_eq!(track(robot, near, vr, &k), kanayama(robot, near, vr, &k));
+        assert_eq!(track(robot, near, vr, &k, 0.3), kanayama(robot, near, vr, &k));
         // 0.75 m ahead-left: λ = 0.5, the average of both laws.
         let mid = Pose2::new(0.6, 0.45, 0.0);
         let (a, b) = (kanayama(robot, mid, vr, &k), go_to_point(robot, mid, vr, &k));
-        let t = track(robot, mid, vr, &k);
+        let t = track(robot, mid, vr, &k, 0.3);
         assert!((t.v_mps - 0.5 * (a.v_mps + b.v_mps)).abs() < 1e-12);
         assert!((t.omega_radps - 0.5 * (a.omega_radps + b.omega_radps)).abs() < 1e-12);
         // Go-to-point hand values: bearing atan2(0.45, 0.6) = 0.6435 rad (36.9° < 60°: full
@@ -163,13 +192,60 @@ mod tests {
         let goal = Pose2::new(0.0, 0.3, 0.0);
         assert_eq!(kanayama(Pose2::default(), goal, Twist::ZERO, &k), Twist::new(0.0, 0.0));
         // Point mode turns towards it: bearing π/2 → v = 0, ω = π/2.
-        let cmd = track(Pose2::default(), goal, Twist::ZERO, &k);
+        let cmd = track(Pose2::default(), goal, Twist::ZERO, &k, 10.0);
         assert!(cmd.v_mps.abs() < 1e-12 && (cmd.omega_radps - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         // Within the arrive radius: zero.
         assert_eq!(
-            track(Pose2::default(), Pose2::new(0.04, 0.0, 1.0), Twist::ZERO, &k),
+            track(Pose2::default(), Pose2::new(0.04, 0.0, 1.0), Twist::ZERO, &k, 0.3),
             Twist::ZERO
         );
+    }
+
+    #[test]
+    fn final_approach_slows_to_the_turn_it_can_make() {
+        let k = TrackingParams::default(); // k_x 1, k_β 1
+        // Goal 0.6 m away at bearing 45° (left ahead): go-to-point asks
+        // v = 1·0.6·clamp(2 cos 45°, 0, 1) = 0.6 m/s and ω = k_β π/4 = 0.785 rad/s.
+        let goal = Pose2::new(0.6 * FRAC_PI_4.cos(), 0.6 * FRAC_PI_4.sin(), 0.0);
+        let free = go_to_point(Pose2::default(), goal, Twist::ZERO, &k);
+        assert!((free.v_mps - 0.6).abs() < 1e-12 && (free.omega_radps - FRAC_PI_4).abs() < 1e-12);
+        // Turning at most 0.3 rad/s the arc through the goal (radius
+        // 0.6 / (2 sin 45°) = 0.4243 m) allows v = 0.3 · 0.4243 = 0.1273 m/s.
+        let cmd = arrive(Pose2::default(), goal, &k, 0.3);
+        assert!((cmd.v_mps - 0.3 * 0.6 / (2.0 * FRAC_PI_4.sin())).abs() < 1e-12, "{cmd:?}");
+        assert!((cmd.omega_radps - FRAC_PI_4).abs() < 1e-12);
+        // Dead ahead no turn is needed: no cap.
+        let ahead = arrive(Pose2::default(), Pose2::new(0.6, 0.0, 0.0), &k, 0.3);
+        assert!((ahead.v_mps - 0.6).abs() < 1e-12 && ahead.omega_radps == 0.0);
+    }
+
+    #[test]
+    fn final_approach_reaches_the_goal_instead_of_circling_it() {
+        // A unicycle with |ω| ≤ 0.3 rad/s and v ≤ 0.22 m/s, integrated at 10 Hz,
+        // from poses around a goal (the two_robots run that circled its goal for
+        // 60 s started like the first: 0.59 m away at bearing 80°).
+        let k = TrackingParams::default();
+        let goal = Pose2::new(2.5, 2.5, 0.0);
+        for start in [Pose2::new(2.398, 1.911, 0.037), Pose2::new(2.0, 2.0, -2.0), Pose2::new(3.5, 2.5, 1.5)] {
+            let mut pose = start;
+            let mut arrived_at_s = None;
+            for step in 0..600 {
+                let cmd = track(pose, goal, Twist::ZERO, &k, 0.3);
+                if cmd == Twist::ZERO {
+                    arrived_at_s = Some(step as f64 * 0.1);
+                    break;
+                }
+                let (v, w) = (cmd.v_mps.clamp(-0.22, 0.22), cmd.omega_radps.clamp(-0.3, 0.3));
+                pose = Pose2::new(
+                    pose.x + v * pose.theta.cos() * 0.1,
+                    pose.y + v * pose.theta.sin() * 0.1,
+                    pose.theta + w * 0.1,
+                );
+            }
+            // Turning to face it takes at most π / 0.3 = 10.5 s, the drive a few seconds.
+            let t = arrived_at_s.unwrap_or_else(|| panic!("from {start:?}: still circling at {pose:?}"));
+            assert!(t < 30.0, "from {start:?}: {t} s");
+        }
     }
 
     #[test]
