@@ -150,7 +150,7 @@ t_sim() {
   local launch bag s
   launch=$(spawn sim_launch roslaunch --wait oldbf_ros sim.launch)
   bag=$(spawn sim_bag rosbag record -O "$LOG/sim.bag" --duration=25 /scan /odom /cmd_vel)
-  s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 150) || { stop_pid "$launch"; say "  no summary: $s"; return 1; }
+  s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 230) || { stop_pid "$launch"; say "  no summary: $s"; return 1; }
   stop_pid "$launch"
   for _ in $(seq 300); do kill -0 "$bag" 2>/dev/null || break; sleep 0.1; done
   figure "sim: $(json "'goal reached at %.1f s, %d collisions, least clearance %.3f m' % (d['robots'][0]['time_to_goal_s'] or -1, d['collisions'], d['robots'][0]['min_clearance_m'])" <<< "$s")"
@@ -253,7 +253,7 @@ t_multi() {
     l=$(spawn "multi_launch_$run" roslaunch --wait oldbf_ros multi_robot.launch scenario:="$ROOT/config/scenarios/two_robots.yaml")
     sleep 6
     [ "$run" -gt 1 ] || topics=$(rostopic list)
-    s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 150) || { stop_pid "$l"; say "  run $run: no summary: $s"; return 1; }
+    s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 230) || { stop_pid "$l"; say "  run $run: no summary: $s"; return 1; }
     stop_pid "$l"
     figure "multi run $run/5: $(json "'; '.join('%s goal %s at %.1f s, %d collisions' % (r['name'], r['reached_goal'], r['time_to_goal_s'] or -1, r['collisions']) for r in d['robots'])" <<< "$s")"
     if [ "$run" -eq 1 ]; then

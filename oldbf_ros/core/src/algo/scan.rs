@@ -241,7 +241,8 @@ impl ScanPoints {
             front_beams: 0,
             rear_beams: 0,
             unknown_rear: 0,
-            phantoms: Vec::with_capacity(beams),
+            // One per beam at most in the pass over the beams, one more per beam of an unknown run.
+            phantoms: Vec::with_capacity(2 * beams),
             directions: BeamDirections {
                 geometry: None,
                 dirs: Vec::with_capacity(beams),
@@ -269,7 +270,7 @@ impl ScanPoints {
         self.points.reserve(beams);
         self.beam_index.reserve(beams);
         self.status.reserve(beams);
-        self.phantoms.reserve(beams);
+        self.phantoms.reserve(2 * beams);
     }
 
     /// Beams with a valid reading (the points less the −inf and held ones).
@@ -484,16 +485,24 @@ pub fn fill_points(
                 unknown += 1;
                 unknown_front += in_front as usize;
                 unknown_rear += in_rear as usize;
+                // A positive reading below range_min is no measurement, but it says
+                // something is that close (REP 117: too close to measure): the braking
+                // check keeps off this beam there, not where the beam last saw
+                // something (a person who stepped inside range_min).
+                let too_close = (p > 0.0).then(|| origin + dir * (p as f64).max(TOO_CLOSE_FLOOR * rmin as f64));
                 match memory.held_point(i, hold_s, |r| origin + dir * r as f64) {
                     Some(q) => {
                         held += 1;
                         points.push(q);
                         beam_index.push(i as u32);
                         // Where it was: it may have come closer since.
-                        phantoms.push(q);
+                        phantoms.push(too_close.unwrap_or(q));
                         BeamStatus::Held
                     }
-                    None => BeamStatus::Unknown,
+                    None => {
+                        phantoms.extend(too_close);
+                        BeamStatus::Unknown
+                    }
                 }
             }
         };
@@ -519,6 +528,11 @@ pub fn fill_points(
         }
     }
 }
+
+/// A reading below range_min puts its phantom at least this fraction of
+/// range_min out: the reading itself may be any garbage down to 0, and a
+/// phantom at the laser's origin would give no direction to keep off.
+pub const TOO_CLOSE_FLOOR: f64 = 0.5;
 
 /// Unknown beams in a row, with nothing held, that may hide something; fewer
 /// are taken for dropouts (at 1 % dropouts, three in a row happen once in a
@@ -551,6 +565,51 @@ mod tests {
 
     fn run(s: &LaserScan<'_>, mount: Pose2) -> Result<ScanPoints, ScanRejection> {
         run_with(s, mount, &LaserParams::default())
+    }
+
+    #[test]
+    fn phantoms_mark_where_unknown_beams_may_hide_something() {
+        // 8 beams 1° apart from 0 rad, range_min 0.1 m. First scan: all see a wall at 1 m.
+        let inc = 1f32.to_radians();
+        let mut out = ScanPoints::default();
+        let mut memory = BeamMemory::with_capacity(8);
+        let params = LaserParams::default();
+        let mount = LaserMount { pose: Pose2::default() };
+        memory.begin_scan(8, Pose2::default(), 10.0);
+        sanitize_scan(&scan(&[1.0; 8], 0.0, inc), 10.0, &params, &mount, &mut out, &mut memory).unwrap();
+        assert!(out.phantoms.is_empty());
+        // Second scan, 0.1 s later: beam 0 NaN (held: phantom where it was, 1 m),
+        // beam 2 reads 0.06 (below range_min: something that close, whatever was
+        // held), beam 4 reads 0.01 (garbage: kept at half range_min, 0.05 m),
+        // beams 5-7 valid.
+        let ranges = [f32::NAN, 1.0, 0.06, 1.0, 0.01, 1.0, 1.0, 1.0];
+        memory.begin_scan(8, Pose2::default(), 10.1);
+        let s2 = LaserScan { stamp_s: 10.1, ..scan(&ranges, 0.0, inc) };
+        sanitize_scan(&s2, 10.1, &params, &mount, &mut out, &mut memory).unwrap();
+        let at = |beam: f64, r: f64| Vec2::new(r * (beam * 1f64.to_radians()).cos(), r * (beam * 1f64.to_radians()).sin());
+        let expected = [at(0.0, 1.0), at(2.0, 0.06), at(4.0, 0.05)];
+        assert_eq!(out.phantoms.len(), 3, "{:?}", out.phantoms);
+        for (got, want) in out.phantoms.iter().zip(expected) {
+            assert!((got - want).norm() < 1e-6, "{got:?} vs {want:?}");
+        }
+        // Held points stay obstacles where they were (all three beams held the wall).
+        assert_eq!(out.held, 3);
+    }
+
+    #[test]
+    fn unknown_runs_without_a_hold_put_phantoms_at_range_min() {
+        // Fresh memory: nothing held. Beams 1-3 NaN (a run of 3: phantoms at
+        // range_min 0.1 m), beams 5-6 NaN (2: a dropout, none); a reading below
+        // range_min gets its own phantom even alone (beam 8, 0.07 m).
+        let ranges = [1.0, f32::NAN, f32::NAN, f32::NAN, 1.0, f32::NAN, f32::NAN, 1.0, 0.07, 1.0];
+        let out = run(&scan(&ranges, 0.0, 1f32.to_radians()), Pose2::default()).unwrap();
+        let mut got: Vec<(i64, i64)> = out
+            .phantoms
+            .iter()
+            .map(|q| ((q.y.atan2(q.x).to_degrees()).round() as i64, (q.norm() * 1000.0).round() as i64))
+            .collect();
+        got.sort();
+        assert_eq!(got, [(1, 100), (2, 100), (3, 100), (8, 70)]);
     }
 
     /// NaN, +inf, −inf, negative, 0, below range_min, exactly range_max, beyond, valid.
