@@ -511,7 +511,10 @@ impl NodeCore {
                     let guidance = Guidance::of_reference(reference, progress, o.pose, ahead_m);
                     self.pipeline.set_guidance(Some(guidance));
                     progress.advance(dt_s, rate);
-                    (track(o.pose, ref_pose, ref_twist, &params, omega_max_radps), NominalUsed::Reference)
+                    (
+                        track(o.pose, ref_pose, ref_twist, &params, omega_max_radps),
+                        NominalUsed::Reference,
+                    )
                 }
                 None => (Twist::ZERO, NominalUsed::ReferenceNoOdom),
             };

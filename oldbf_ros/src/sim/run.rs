@@ -438,7 +438,16 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                         params.unstuck.ahead_m,
                     )));
                     a.progress.advance(dt, rate);
-                    (track(pose, ref_pose, ref_twist, &params.tracking, params.control.omega_max_radps), ref_pose.position())
+                    (
+                        track(
+                            pose,
+                            ref_pose,
+                            ref_twist,
+                            &params.tracking,
+                            params.control.omega_max_radps,
+                        ),
+                        ref_pose.position(),
+                    )
                 }
                 None => (a.plan.constant.unwrap_or(Twist::ZERO), Vec2::new(f64::NAN, f64::NAN)),
             };

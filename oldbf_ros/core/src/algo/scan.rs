@@ -512,6 +512,10 @@ pub fn fill_points(
     (out.unknown_front, out.unknown_rear) = (unknown_front, unknown_rear);
     (out.held, out.too_close) = (held, too_close);
     // Runs of unknown beams with nothing held: something may be right there.
+    // (Every unknown beam held: there are none, and no pass over the beams.)
+    if unknown == held {
+        return;
+    }
     let mut run_start = None;
     for i in 0..=out.status.len() {
         let unknown = out.status.get(i) == Some(&BeamStatus::Unknown);
@@ -584,9 +588,17 @@ mod tests {
         // beams 5-7 valid.
         let ranges = [f32::NAN, 1.0, 0.06, 1.0, 0.01, 1.0, 1.0, 1.0];
         memory.begin_scan(8, Pose2::default(), 10.1);
-        let s2 = LaserScan { stamp_s: 10.1, ..scan(&ranges, 0.0, inc) };
+        let s2 = LaserScan {
+            stamp_s: 10.1,
+            ..scan(&ranges, 0.0, inc)
+        };
         sanitize_scan(&s2, 10.1, &params, &mount, &mut out, &mut memory).unwrap();
-        let at = |beam: f64, r: f64| Vec2::new(r * (beam * 1f64.to_radians()).cos(), r * (beam * 1f64.to_radians()).sin());
+        let at = |beam: f64, r: f64| {
+            Vec2::new(
+                r * (beam * 1f64.to_radians()).cos(),
+                r * (beam * 1f64.to_radians()).sin(),
+            )
+        };
         let expected = [at(0.0, 1.0), at(2.0, 0.06), at(4.0, 0.05)];
         assert_eq!(out.phantoms.len(), 3, "{:?}", out.phantoms);
         for (got, want) in out.phantoms.iter().zip(expected) {
@@ -601,12 +613,28 @@ mod tests {
         // Fresh memory: nothing held. Beams 1-3 NaN (a run of 3: phantoms at
         // range_min 0.1 m), beams 5-6 NaN (2: a dropout, none); a reading below
         // range_min gets its own phantom even alone (beam 8, 0.07 m).
-        let ranges = [1.0, f32::NAN, f32::NAN, f32::NAN, 1.0, f32::NAN, f32::NAN, 1.0, 0.07, 1.0];
+        let ranges = [
+            1.0,
+            f32::NAN,
+            f32::NAN,
+            f32::NAN,
+            1.0,
+            f32::NAN,
+            f32::NAN,
+            1.0,
+            0.07,
+            1.0,
+        ];
         let out = run(&scan(&ranges, 0.0, 1f32.to_radians()), Pose2::default()).unwrap();
         let mut got: Vec<(i64, i64)> = out
             .phantoms
             .iter()
-            .map(|q| ((q.y.atan2(q.x).to_degrees()).round() as i64, (q.norm() * 1000.0).round() as i64))
+            .map(|q| {
+                (
+                    (q.y.atan2(q.x).to_degrees()).round() as i64,
+                    (q.norm() * 1000.0).round() as i64,
+                )
+            })
             .collect();
         got.sort();
         assert_eq!(got, [(1, 100), (2, 100), (3, 100), (8, 70)]);

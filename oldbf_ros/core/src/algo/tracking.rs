@@ -204,15 +204,18 @@ mod tests {
     #[test]
     fn final_approach_slows_to_the_turn_it_can_make() {
         let k = TrackingParams::default(); // k_x 1, k_β 1
-        // Goal 0.6 m away at bearing 45° (left ahead): go-to-point asks
-        // v = 1·0.6·clamp(2 cos 45°, 0, 1) = 0.6 m/s and ω = k_β π/4 = 0.785 rad/s.
+                                           // Goal 0.6 m away at bearing 45° (left ahead): go-to-point asks
+                                           // v = 1·0.6·clamp(2 cos 45°, 0, 1) = 0.6 m/s and ω = k_β π/4 = 0.785 rad/s.
         let goal = Pose2::new(0.6 * FRAC_PI_4.cos(), 0.6 * FRAC_PI_4.sin(), 0.0);
         let free = go_to_point(Pose2::default(), goal, Twist::ZERO, &k);
         assert!((free.v_mps - 0.6).abs() < 1e-12 && (free.omega_radps - FRAC_PI_4).abs() < 1e-12);
         // Turning at most 0.3 rad/s the arc through the goal (radius
         // 0.6 / (2 sin 45°) = 0.4243 m) allows v = 0.3 · 0.4243 = 0.1273 m/s.
         let cmd = arrive(Pose2::default(), goal, &k, 0.3);
-        assert!((cmd.v_mps - 0.3 * 0.6 / (2.0 * FRAC_PI_4.sin())).abs() < 1e-12, "{cmd:?}");
+        assert!(
+            (cmd.v_mps - 0.3 * 0.6 / (2.0 * FRAC_PI_4.sin())).abs() < 1e-12,
+            "{cmd:?}"
+        );
         assert!((cmd.omega_radps - FRAC_PI_4).abs() < 1e-12);
         // Dead ahead no turn is needed: no cap.
         let ahead = arrive(Pose2::default(), Pose2::new(0.6, 0.0, 0.0), &k, 0.3);
@@ -226,7 +229,11 @@ mod tests {
         // 60 s started like the first: 0.59 m away at bearing 80°).
         let k = TrackingParams::default();
         let goal = Pose2::new(2.5, 2.5, 0.0);
-        for start in [Pose2::new(2.398, 1.911, 0.037), Pose2::new(2.0, 2.0, -2.0), Pose2::new(3.5, 2.5, 1.5)] {
+        for start in [
+            Pose2::new(2.398, 1.911, 0.037),
+            Pose2::new(2.0, 2.0, -2.0),
+            Pose2::new(3.5, 2.5, 1.5),
+        ] {
             let mut pose = start;
             let mut arrived_at_s = None;
             for step in 0..600 {
