@@ -25,25 +25,20 @@ use super::clearance::{compute_clearances, compute_clearances_faded, Clearances,
 use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
 use super::doaa::{Doaa, DoaaState};
-use super::dtcbf::{DtcbfFilter, DtcbfOutcome, InputBox};
+use super::dtcbf::{DtcbfFilter, InputBox};
 use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
 use super::obstacle_tracker::ObstacleTracker;
 use super::params::{Params, RangeSemantics};
-use super::passive::{ClosingContact, EvasionScore, Mover, PassiveSafety};
+use super::passive::{ClosingContact, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{check_scan, fill_points, BeamStatus, LaserMount, LaserScan, ScanPoints};
 use super::unicycle::arc_step;
 use super::unstuck::{Guidance, Situation, Unstuck, UnstuckDecision};
 
-/// Numerical tolerance on the DTCBF condition (m), as in the filter.
-const TOL_M: f64 = 1e-9;
-/// Linear speeds tried per yaw rate by the passive-safety search (plus 0).
-const PASSIVE_SPEEDS: usize = 10;
-/// Yaw rates tried by evasion.
-const EVASION_OMEGAS: usize = 5;
-/// Evasion must also gain this much least gap (m) when it cannot gain time.
-const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
+mod admissible;
+use admissible::{Lazy, PASSIVE_SPEEDS};
+
 /// The goal is short of what is ahead when nearer by this (m).
 const GOAL_SHORT_M: f64 = 0.05;
 /// A mover on a collision course this near (beyond r, m) suspends going round obstacles.
@@ -75,41 +70,6 @@ impl Derived {
             ),
         }
     }
-}
-
-/// One command of the passive-safety search, weighed as far as needed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Lazy {
-    cmd: Twist,
-    /// Distance from the DOAA command (m²).
-    cost: f64,
-    h_next_m: f64,
-    condition: bool,
-    /// The braking check, once done.
-    passive: Option<bool>,
-}
-
-impl Lazy {
-    fn weighed(&self) -> Candidate {
-        Candidate {
-            cmd: self.cmd,
-            h_next_m: self.h_next_m,
-            condition: self.condition,
-            passive: self.passive.unwrap_or(false),
-        }
-    }
-}
-
-/// One command the passive-safety search weighed.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Candidate {
-    cmd: Twist,
-    h_next_m: f64,
-    /// Meets the (logged) one-step condition h(k+1) ≥ (1 − γ) h(k).
-    /// the escape rule h(k+1) ≥ h(k) + ε).
-    condition: bool,
-    /// No predicted closing contact.
-    passive: bool,
 }
 
 /// The whole safety filter, with its state (DOAA latch, tracks, beam memory)
@@ -621,259 +581,6 @@ impl SafetyPipeline {
                 .fold(f64::INFINITY, f64::min),
             stop_cause,
         }
-    }
-
-    /// Weighs `cmd`: its predicted h(k+1) and both checks.
-    fn weigh(&mut self, cmd: Twist, h: f64) -> Candidate {
-        let (h_next_m, condition) = self.condition(cmd, h);
-        let passive = self.passive.closing_contact(cmd, &self.params).is_none();
-        Candidate {
-            cmd,
-            h_next_m,
-            condition,
-            passive,
-        }
-    }
-
-    /// `cmd`'s predicted h(k+1) (m) and whether it meets the logged one-step
-    /// condition, the one the record and the tests judge.
-    fn condition(&self, cmd: Twist, h: f64) -> (f64, bool) {
-        let p = &self.params;
-        let h_next = self.filter.h_next(&self.points_next, cmd, p);
-        (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
-    }
-
-    /// The command closest to the DOAA's `desired` that meets both checks,
-    /// over the DTCBF's ω grid and a grid of speeds; else the passively safe
-    /// one keeping h(k+1) highest (ties: the closest); else `own` if it is
-    /// passively safe, else a turn in place. Candidates are weighed in the
-    /// order they could win, each check only when it can still decide, which
-    /// picks what weighing all of them would.
-    fn closest_admissible(&mut self, out: &DtcbfOutcome, desired: Twist, bx: &InputBox, own: Candidate) -> Candidate {
-        let h = out.h_m;
-        let w = self.params.dtcbf.omega_weight_m2_per_rad2;
-        let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
-        self.candidates.clear();
-        let n = self.params.dtcbf.omega_candidates;
-        let omegas = [out.cmd.omega_radps, desired.omega_radps]
-            .into_iter()
-            .chain((0..n).map(|k| grid(-bx.omega_max, bx.omega_max, k, n)));
-        for omega in omegas {
-            let omega = omega.clamp(-bx.omega_max, bx.omega_max);
-            for j in 0..=PASSIVE_SPEEDS + 1 {
-                let v = if j == 0 {
-                    0.0
-                } else {
-                    grid(bx.v_lo, bx.v_hi, j - 1, PASSIVE_SPEEDS + 1)
-                };
-                let cmd = Twist::new(v, omega);
-                self.candidates.push(Lazy {
-                    cmd,
-                    cost: cost(cmd),
-                    h_next_m: f64::NAN,
-                    condition: false,
-                    passive: None,
-                });
-            }
-        }
-        // Closest first; among equals the first generated (as `min_by` would).
-        let by_cost = |a: &(u32, f64), b: &(u32, f64)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
-        self.order.clear();
-        self.order
-            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.cost)));
-        self.order.sort_unstable_by(by_cost);
-        for k in 0..self.order.len() {
-            let i = self.order[k].0 as usize;
-            let (h_next_m, condition) = self.condition(self.candidates[i].cmd, h);
-            let c = &mut self.candidates[i];
-            (c.h_next_m, c.condition) = (h_next_m, condition);
-            if condition && self.passive_of(i) {
-                return self.candidates[i].weighed();
-            }
-        }
-        if own.passive {
-            // The DTCBF's own fallback (least bad, or a turn in place) drives into nothing.
-            return own;
-        }
-        // Highest h(k+1), then closest; among equals the last generated (as `max_by` would).
-        self.order.clear();
-        self.order
-            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.h_next_m)));
-        let candidates = &self.candidates;
-        self.order.sort_unstable_by(|a, b| {
-            let (ca, cb) = (&candidates[a.0 as usize], &candidates[b.0 as usize]);
-            cb.h_next_m
-                .total_cmp(&ca.h_next_m)
-                .then(ca.cost.total_cmp(&cb.cost))
-                .then(b.0.cmp(&a.0))
-        });
-        for k in 0..self.order.len() {
-            let i = self.order[k].0 as usize;
-            if self.passive_of(i) {
-                return self.candidates[i].weighed();
-            }
-        }
-        Candidate {
-            cmd: Twist::new(0.0, out.cmd.omega_radps),
-            ..own
-        }
-    }
-
-    /// Candidate `i`'s braking check, done once.
-    fn passive_of(&mut self, i: usize) -> bool {
-        if let Some(passive) = self.candidates[i].passive {
-            return passive;
-        }
-        let passive = self
-            .passive
-            .closing_contact(self.candidates[i].cmd, &self.params)
-            .is_none();
-        self.candidates[i].passive = Some(passive);
-        passive
-    }
-
-    /// Passive motion safety and evasion (§5b) on the DTCBF's outcome `out`
-    /// for the DOAA command `desired`. Returns the outcome to send, whether
-    /// this changed the command, and whether the robot is evading; updates
-    /// `infeasibility` when no command meets both checks.
-    fn passive_safety(
-        &mut self,
-        out: DtcbfOutcome,
-        desired: Twist,
-        bx: &InputBox,
-        infeasibility: &mut Option<Infeasibility>,
-    ) -> (DtcbfOutcome, bool, bool) {
-        let h = out.h_m;
-        let stall = self.params.passive.closing_speed_mps;
-        let horizon = self.params.passive.evasion_horizon_s;
-        let own = self.weigh(out.cmd, h);
-        // Threatened: a mover's predicted disc reaches the robot within the evasion
-        // horizon if it keeps the DTCBF's command.
-        let movers = !self.passive.movers().is_empty();
-        if movers {
-            self.passive.select_reach(&self.points_next, &self.params);
-        }
-        // Threatened: contact predicted within the collision-cone look-ahead (the evasion
-        // horizon, longer, only ranks the ways out).
-        let trigger = self.params.obstacles.lookahead_s.min(horizon);
-        let threatened = |ps: &mut PassiveSafety, cmd: Twist, p: &Params| {
-            movers && ps.evasion_score(cmd, p).time_to_contact_s < trigger
-        };
-        let closing_in = !self.threats.is_empty();
-        let stalled = out.infeasible || out.cmd.v_mps.abs() < stall;
-        if own.passive && !(closing_in && stalled) && !threatened(&mut self.passive, out.cmd, &self.params) {
-            return (out, false, false);
-        }
-        let mut chosen = own;
-        if !own.passive || out.infeasible {
-            chosen = self.closest_admissible(&out, desired, bx, own);
-        }
-        // Evasion: a mover's predicted disc reaches the robot within the horizon, or a
-        // mover closes on a robot that cannot go forward. Among the commands as
-        // admissible as the chosen one: the latest predicted contact; among those with
-        // none within the horizon, the closest to the DOAA command. Smooth steering
-        // (§4b): a command whose yaw rate jumps by more than ω_max from the last one
-        // sent is taken only if it gains `evasion_min_gain_s` of time to contact over
-        // the best command that does not jump (grid neighbours score alike, and a
-        // swerve that reverses the turn every step gains nothing).
-        let mut evading = false;
-        let chosen_stalled = out.infeasible || chosen.cmd.v_mps.abs() < stall;
-        if movers && ((closing_in && chosen_stalled) || threatened(&mut self.passive, chosen.cmd, &self.params)) {
-            let p = &self.params;
-            let w = p.dtcbf.omega_weight_m2_per_rad2;
-            let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
-            let current = self.passive.evasion_score(chosen.cmd, p);
-            let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
-            let (last_omega, jump) = (self.last_cmd.omega_radps, p.control.omega_max_radps);
-            let smooth = |c: Twist| (c.omega_radps - last_omega).abs() <= jump + 1e-9;
-            let (mut best, mut best_score) = (chosen, current);
-            let mut smooth_best = smooth(chosen.cmd).then_some((chosen, current));
-            let speeds = [bx.v_lo, 0.5 * bx.v_hi, bx.v_hi];
-            for k in 0..EVASION_OMEGAS {
-                let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
-                for v in speeds.into_iter().chain(std::iter::once(0.0)) {
-                    // The cheap condition first: a command it rules out needs no braking check.
-                    let cmd = Twist::new(v, omega);
-                    let (h_next_m, condition) = self.condition(cmd, h);
-                    if tier_both && !condition {
-                        continue;
-                    }
-                    let passive = self.passive.closing_contact(cmd, &self.params).is_none();
-                    if !passive {
-                        continue;
-                    }
-                    let c = Candidate {
-                        cmd,
-                        h_next_m,
-                        condition,
-                        passive,
-                    };
-                    let score = self.passive.evasion_score(c.cmd, &self.params);
-                    let ahead = |b: &Candidate, b_score: &EvasionScore| {
-                        if score.time_to_contact_s >= horizon && b_score.time_to_contact_s >= horizon {
-                            cost(c.cmd) < cost(b.cmd)
-                        } else {
-                            better(&score, b_score)
-                        }
-                    };
-                    if ahead(&best, &best_score) {
-                        (best, best_score) = (c, score);
-                    }
-                    if smooth(cmd) && smooth_best.as_ref().is_none_or(|(b, bs)| ahead(b, bs)) {
-                        smooth_best = Some((c, score));
-                    }
-                }
-            }
-            if let Some((sb, sb_score)) = smooth_best {
-                if !best_score.beats(&sb_score, min_gain_s, EVASION_MIN_GAP_GAIN_M) {
-                    (best, best_score) = (sb, sb_score);
-                }
-            }
-            if best_score.beats(&current, min_gain_s, EVASION_MIN_GAP_GAIN_M) {
-                chosen = best;
-                evading = true;
-            }
-        }
-        if chosen.condition && chosen.passive {
-            // The DTCBF's own search knows nothing of the movers' futures and uses
-            // stricter targets than the logged condition: a command meeting both
-            // makes the step feasible after all.
-            *infeasibility = None;
-        } else if infeasibility.is_none() {
-            *infeasibility = Some(Infeasibility::NoPassiveCommand);
-        }
-        if chosen.cmd == out.cmd {
-            let out = DtcbfOutcome {
-                infeasible: infeasibility.is_some(),
-                ..out
-            };
-            return (out, false, evading);
-        }
-        let target = (1.0 - self.params.dtcbf.gamma) * h;
-        let new = DtcbfOutcome {
-            cmd: chosen.cmd,
-            h_next_m: chosen.h_next_m,
-            changed: true,
-            condition_held: !h.is_finite() || chosen.h_next_m >= target - TOL_M,
-            infeasible: infeasibility.is_some(),
-            ..out
-        };
-        (new, true, evading)
-    }
-}
-
-/// Point k of n evenly spaced over [lo, hi] (n ≥ 2).
-fn grid(lo: f64, hi: f64, k: usize, n: usize) -> f64 {
-    lo + (hi - lo) * k as f64 / (n - 1) as f64
-}
-
-/// Strictly better evasion score: later contact, or the same and more room.
-fn better(a: &EvasionScore, b: &EvasionScore) -> bool {
-    let dt = a.time_to_contact_s - b.time_to_contact_s;
-    if dt.abs() > 1e-9 {
-        dt > 0.0
-    } else {
-        a.mover_gap_m > b.mover_gap_m + 1e-9
     }
 }
 
