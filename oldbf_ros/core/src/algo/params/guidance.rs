@@ -1,0 +1,69 @@
+//! Where the nominal heads: reference tracking and going round obstacles (unstuck).
+
+use serde::{Deserialize, Serialize};
+
+/// Kanayama tracking gains (paper IV.C; eq. 8 completed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackingParams {
+    /// k_x: along-track error gain (1/s).
+    pub k_x_per_s: f64,
+    /// k_y: cross-track error gain (1/m²).
+    pub k_y_per_m2: f64,
+    /// k_θ: heading error gain (1/m).
+    pub k_theta_per_m: f64,
+    /// Within this distance of the reference point Kanayama's law applies alone;
+    /// beyond twice it, the go-to-point law does (m).
+    pub capture_radius_m: f64,
+    /// k_β: yaw rate per radian of bearing to the reference point in go-to-point mode (1/s).
+    pub k_bearing_per_s: f64,
+    /// Once the reference has ended, the command is zero within this distance of the goal (m).
+    pub arrive_radius_m: f64,
+}
+
+impl Default for TrackingParams {
+    fn default() -> Self {
+        Self {
+            k_x_per_s: 1.0,
+            k_y_per_m2: 10.0,
+            k_theta_per_m: 4.0,
+            capture_radius_m: 0.5,
+            k_bearing_per_s: 1.0,
+            arrive_radius_m: 0.05,
+        }
+    }
+}
+
+/// The comparison controllers (ALGORITHM.md §8; `--controller dcbf|vo`).
+/// Not used by the OLDBF filter or the ROS node.
+/// Getting round an obstacle when steering alone has stalled (ALGORITHM.md §4b).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UnstuckParams {
+    /// Follow free directions when progress stalls; false = reactive steering only.
+    pub enabled: bool,
+    /// Progress stalled: less than `progress_m` gained for this long (s).
+    pub stall_s: f64,
+    /// Progress that counts (m of the reference's arc length minus distance to it).
+    pub progress_m: f64,
+    /// Width of the square window round the robot the way round is planned in (m).
+    pub window_m: f64,
+    /// The way round keeps r + d_safe + this from every point (m).
+    pub margin_m: f64,
+    /// The way round heads for the point this far further along the
+    /// reference's path than the (governed) reference point (m).
+    pub ahead_m: f64,
+}
+
+impl Default for UnstuckParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            stall_s: 6.0,
+            progress_m: 0.15,
+            window_m: 5.0,
+            margin_m: 0.05,
+            ahead_m: 1.5,
+        }
+    }
+}

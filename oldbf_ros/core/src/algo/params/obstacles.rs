@@ -1,0 +1,92 @@
+//! Moving obstacles: tracking, and passive motion safety with evasion.
+
+use serde::{Deserialize, Serialize};
+
+/// Moving obstacles: clustering, tracking and the collision cone (ALGORITHM.md §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleParams {
+    /// Track clusters and use their motion in the DTCBF prediction and the barriers.
+    pub enabled: bool,
+    /// Neighbouring points closer than this belong to one cluster (m).
+    pub cluster_gap_m: f64,
+    /// Clusters with fewer points are not tracked.
+    pub min_cluster_points: usize,
+    /// Clusters wider than this (walls, furniture) are not tracked (m).
+    pub max_cluster_diameter_m: f64,
+    /// A cluster is associated with a track within this distance of its prediction (m).
+    pub gate_m: f64,
+    /// Associations in a row that confirm a track.
+    pub confirm_hits: u32,
+    /// A confirmed track coasts this many missed scans before it is deleted.
+    pub max_misses: u32,
+    /// Process noise: white acceleration standard deviation (m/s²).
+    pub accel_noise_mps2: f64,
+    /// Centroid measurement noise standard deviation (m).
+    pub measurement_noise_m: f64,
+    /// A confirmed track faster than this is moving (m/s)…
+    pub moving_speed_mps: f64,
+    /// …once it has been this far from where it was first seen (m; kept when it turns round).
+    pub min_travel_m: f64,
+    /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
+    pub lookahead_s: f64,
+    /// At most this many tracks (bounds memory and time).
+    pub max_tracks: usize,
+}
+
+impl Default for ObstacleParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            cluster_gap_m: 0.15,
+            min_cluster_points: 3,
+            max_cluster_diameter_m: 0.7,
+            gate_m: 0.5,
+            confirm_hits: 3,
+            max_misses: 5,
+            accel_noise_mps2: 1.0,
+            measurement_noise_m: 0.05,
+            moving_speed_mps: 0.02,
+            min_travel_m: 0.3,
+            lookahead_s: 2.0,
+            max_tracks: 32,
+        }
+    }
+}
+
+/// Passive motion safety and evasion (ALGORITHM.md §5b).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PassiveParams {
+    /// The braking check and evasion; false = the paper's one-step condition only.
+    pub enabled: bool,
+    /// Deceleration the robot can always achieve when braking to rest (m/s²).
+    pub brake_decel_mps2: f64,
+    /// A moving obstacle's predicted disc is inflated by this at once (m)…
+    pub mover_margin_m: f64,
+    /// …and grows by this per second of prediction (m/s): unmodelled turns
+    /// and accelerations of people.
+    pub mover_growth_mps: f64,
+    /// Robot speed towards an obstacle above which a contact is "closing" (m/s).
+    pub closing_speed_mps: f64,
+    /// Evasion scores a command by the predicted time to contact with the
+    /// command held this long (s).
+    pub evasion_horizon_s: f64,
+    /// Evasion replaces the filter's command only if it gains at least this
+    /// much predicted time to contact (s): no dithering between near-equals.
+    pub evasion_min_gain_s: f64,
+}
+
+impl Default for PassiveParams {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            brake_decel_mps2: 1.0,
+            mover_margin_m: 0.05,
+            mover_growth_mps: 0.1,
+            closing_speed_mps: 0.02,
+            evasion_horizon_s: 4.0,
+            evasion_min_gain_s: 0.2,
+        }
+    }
+}

@@ -1,0 +1,79 @@
+//! The robot: control limits and rates, and its footprint.
+
+use serde::{Deserialize, Serialize};
+
+/// Control loop and input box.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlParams {
+    /// Control loop rate (Hz); the DTCBF step is Δt = 1 / rate_hz.
+    pub rate_hz: f64,
+    /// Nominal forward speed when neither a reference nor an upstream command is given (m/s).
+    pub v_nom_mps: f64,
+    /// Largest forward speed ever commanded (m/s).
+    pub v_max_mps: f64,
+    /// Largest yaw rate ever commanded (rad/s); the paper's hardware limit is 0.3.
+    pub omega_max_radps: f64,
+    /// Whether the filter may command negative linear speed (backing up). It
+    /// does so only on scans that cover the robot's rear (a 360° LiDAR): a
+    /// robot never backs into what it cannot see.
+    pub allow_reverse: bool,
+    /// Largest reverse speed when `allow_reverse` (m/s, given as a positive number).
+    pub v_reverse_max_mps: f64,
+}
+
+impl Default for ControlParams {
+    fn default() -> Self {
+        Self {
+            rate_hz: 10.0,
+            v_nom_mps: 0.15,
+            v_max_mps: 0.22,
+            omega_max_radps: 0.3,
+            allow_reverse: true,
+            v_reverse_max_mps: 0.15,
+        }
+    }
+}
+
+impl ControlParams {
+    /// Control period Δt (s).
+    pub fn dt_s(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+}
+
+/// Robot footprint: r = max(l1, l2) + b/2 (paper III.A) unless overridden.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FootprintParams {
+    /// l1: first semi-axis of the robot (m).
+    pub semi_axis_1_m: f64,
+    /// l2: second semi-axis of the robot (m).
+    pub semi_axis_2_m: f64,
+    /// b: the robot's overall dimension in the paper's formula (m).
+    pub overall_dimension_m: f64,
+    /// If set, used as r instead of the formula (m). Absent rather than null in
+    /// YAML: ROS parameters travel over XML-RPC, which has no null.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_override_m: Option<f64>,
+}
+
+impl Default for FootprintParams {
+    fn default() -> Self {
+        // TurtleBot3 burger: 178 mm long, 138 mm wide.
+        Self {
+            semi_axis_1_m: 0.089,
+            semi_axis_2_m: 0.069,
+            overall_dimension_m: 0.178,
+            radius_override_m: None,
+        }
+    }
+}
+
+impl FootprintParams {
+    /// Robot radius r (m).
+    pub fn radius_m(&self) -> f64 {
+        self.radius_override_m
+            .unwrap_or_else(|| self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0)
+    }
+}
