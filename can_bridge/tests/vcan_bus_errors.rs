@@ -97,7 +97,11 @@ fn enobufs(protocol: ProtocolKind) {
     let _restore = RestoreVcan;
     let clock = clock();
     let sniff = Sniffer::start(clock);
-    let c = bridge_config(protocol);
+    let mut c = bridge_config(protocol);
+    // The blocked queue also silences the drive's heartbeats for the 0.5 s
+    // block; heartbeat loss (latched) is another test's subject, and at a
+    // 0.5 s timeout a slow guest lost one here now and then.
+    c.timing.heartbeat_timeout_s = 1.5;
     let _drive = DriveThread::start(drive_config(&c), clock);
     let mut b = bridge(c, &clock);
     wait_ready(&mut b, &clock);
