@@ -240,6 +240,9 @@ pub struct Tick {
     pub scan_stamp_s: f64,
     /// Set when the stamp sequence stopped the robot (reported with the stop).
     pub scan_fault: Option<ScanFault>,
+    /// The (governed) reference pose the tracking law followed this tick;
+    /// `None` when the nominal did not come from the reference.
+    pub reference_pose: Option<Pose2>,
 }
 
 /// The node's state between ticks.
@@ -256,8 +259,11 @@ pub struct NodeCore {
     e_stop_input: bool,
     enabled: bool,
     reference: Option<(ReferenceTrajectory, ReferenceProgress)>,
-    /// The constant nominal command (default: v_nom straight ahead).
-    constant: Twist,
+    /// The constant nominal command; `None`: control.v_nom_mps straight
+    /// ahead, read at each tick so a reconfigured v_nom applies at once.
+    constant: Option<Twist>,
+    /// Ticks come exactly once per control period (a simulator's clock).
+    fixed_period: bool,
     last_tick_s: Option<f64>,
     /// Newest scan stamp taken (s): later scans must be newer.
     newest_stamp_s: Option<f64>,
@@ -274,9 +280,9 @@ impl NodeCore {
     }
 
     pub fn new(params: Params, settings: NodeSettings, reference: Option<ReferenceTrajectory>) -> Self {
-        let constant = Twist::new(params.control.v_nom_mps, 0.0);
         Self {
-            constant,
+            constant: None,
+            fixed_period: false,
             pipeline: SafetyPipeline::new(params),
             settings,
             scan: OwnedScan::default(),
@@ -297,8 +303,36 @@ impl NodeCore {
 
     /// Replaces the constant nominal command (a scenario's `kind: constant`).
     pub fn with_constant(mut self, constant: Twist) -> Self {
-        self.constant = constant;
+        self.constant = Some(constant);
         self
+    }
+
+    /// For a simulated clock that ticks exactly once per control period: the
+    /// reference then advances by the period itself, not by the difference
+    /// of two float times (k Δt − (k−1) Δt ≠ Δt in floating point), so a
+    /// simulated run does not depend on rounding of its own clock.
+    pub fn with_fixed_period(mut self) -> Self {
+        self.fixed_period = true;
+        self
+    }
+
+    /// The pipeline, read-only: what it perceived at the last tick (points,
+    /// prediction, clusters, tracks), for monitors and the baselines.
+    pub fn pipeline(&self) -> &SafetyPipeline {
+        &self.pipeline
+    }
+
+    /// The braking condition (ALGORITHM.md §5b) for `cmd` on the last tick's
+    /// prediction: the closing contact it would lead to, if any. For
+    /// monitoring a command the filter did not choose.
+    pub fn braking_check(&mut self, cmd: Twist) -> Option<crate::algo::passive::ClosingContact> {
+        self.pipeline.braking_check(cmd)
+    }
+
+    /// Where the reference trajectory stands now (before the next tick
+    /// advances it); `None` without a reference.
+    pub fn reference_pose(&self) -> Option<Pose2> {
+        self.reference.as_ref().map(|(r, p)| r.pose_at(p.t_s))
     }
 
     pub fn params(&self) -> &Params {
@@ -480,7 +514,9 @@ impl NodeCore {
             .filter(|o| now_s - o.received_s <= self.settings.odom_timeout_s)
     }
 
-    fn nominal(&mut self, now_s: f64, dt_s: f64) -> (Twist, NominalUsed) {
+    /// This tick's nominal command, its source, and the reference pose
+    /// followed (when the reference gave it).
+    fn nominal(&mut self, now_s: f64, dt_s: f64) -> (Twist, NominalUsed, Option<Pose2>) {
         let use_upstream = match self.settings.nominal_source {
             NominalSource::CmdVelIn => true,
             NominalSource::Auto => self.upstream_seen,
@@ -488,8 +524,8 @@ impl NodeCore {
         };
         if use_upstream {
             return match self.cmd_in {
-                Some((t, at)) if now_s - at <= self.settings.cmd_in_timeout_s => (t, NominalUsed::CmdVelIn),
-                _ => (Twist::ZERO, NominalUsed::CmdVelInStale),
+                Some((t, at)) if now_s - at <= self.settings.cmd_in_timeout_s => (t, NominalUsed::CmdVelIn, None),
+                _ => (Twist::ZERO, NominalUsed::CmdVelInStale, None),
             };
         }
         let use_reference = matches!(
@@ -514,15 +550,16 @@ impl NodeCore {
                     (
                         track(o.pose, ref_pose, ref_twist, &params, omega_max_radps),
                         NominalUsed::Reference,
+                        Some(ref_pose),
                     )
                 }
-                None => (Twist::ZERO, NominalUsed::ReferenceNoOdom),
+                None => (Twist::ZERO, NominalUsed::ReferenceNoOdom, None),
             };
         }
-        (
-            Twist::new(self.pipeline.params().control.v_nom_mps, 0.0),
-            NominalUsed::Constant,
-        )
+        let constant = self
+            .constant
+            .unwrap_or_else(|| Twist::new(self.pipeline.params().control.v_nom_mps, 0.0));
+        (constant, NominalUsed::Constant, None)
     }
 
     /// One control tick at time `now_s` (the node's clock, same as scan stamps).
@@ -543,11 +580,11 @@ impl NodeCore {
             self.newest_stamp_s = None;
         }
         let dt = match self.last_tick_s {
-            Some(t) if now_s > t => (now_s - t).min(1.0),
+            Some(t) if now_s > t && !self.fixed_period => (now_s - t).min(1.0),
             _ => self.pipeline.params().control.dt_s(),
         };
         self.last_tick_s = Some(now_s);
-        let (nominal, nominal_used) = self.nominal(now_s, dt);
+        let (nominal, nominal_used, reference_pose) = self.nominal(now_s, dt);
         let odom = self.fresh_odom(now_s);
         let v_now = odom.map_or(f64::NAN, |o| o.twist.v_mps);
 
@@ -602,6 +639,7 @@ impl NodeCore {
             e_stop: self.e_stop_latched,
             scan_stamp_s,
             scan_fault: record.stop_cause.and(scan_fault),
+            reference_pose,
         }
     }
 }
@@ -728,6 +766,51 @@ mod tests {
         // Odometry goes stale: zero.
         n.on_scan(meta(1.8), &open(), &[]);
         assert_eq!(n.tick(1.8).nominal_used, NominalUsed::ReferenceNoOdom);
+    }
+
+    #[test]
+    fn a_scenario_constant_command_is_the_nominal_and_v_nom_only_without_one() {
+        // Free space: the filter passes the nominal unchanged.
+        let mut n = node(NominalSource::Constant).with_constant(Twist::new(0.1, 0.2));
+        n.on_scan(meta(1.0), &open(), &[]);
+        let t = n.tick(1.0);
+        assert_eq!((t.cmd, t.nominal_used), (Twist::new(0.1, 0.2), NominalUsed::Constant));
+        assert_eq!(t.reference_pose, None);
+        // Without one: v_nom, read at the tick, so a reconfigured v_nom applies at once.
+        let mut n = node(NominalSource::Constant);
+        let mut p = Params::default();
+        p.control.v_nom_mps = 0.1;
+        n.set_params(p).unwrap();
+        n.on_scan(meta(1.0), &open(), &[]);
+        assert_eq!(n.tick(1.0).cmd, Twist::new(0.1, 0.0));
+    }
+
+    #[test]
+    fn a_fixed_period_clock_advances_the_reference_by_the_period() {
+        // On the reference (lag 0: rate 1), ticks 0.25 s apart: the node's own
+        // clock would advance the reference 0.25 s per tick, a fixed-period
+        // (simulated) clock exactly Δt = 0.1 s.
+        let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 10.0);
+        // Reference time at each tick (s): the first tick advances by Δt.
+        for (fixed, t_ref_s) in [(false, [0.0, 0.1, 0.35]), (true, [0.0, 0.1, 0.2])] {
+            let mut n = NodeCore::new(Params::default(), NodeSettings::default(), Some(r));
+            if fixed {
+                n = n.with_fixed_period();
+            }
+            for k in 0..3 {
+                let now_s = 1.0 + 0.25 * f64::from(k);
+                n.on_scan(meta(now_s), &open(), &[]);
+                n.on_odom(n.reference_pose().unwrap(), Twist::ZERO, now_s);
+                let t = n.tick(now_s);
+                assert_eq!(t.nominal_used, NominalUsed::Reference);
+                // The pose followed this tick is where the reference stood before it.
+                let expect_x = 0.15 * t_ref_s[k as usize];
+                assert!(
+                    (t.reference_pose.unwrap().x - expect_x).abs() < 1e-12,
+                    "{fixed} {k} {t:?}"
+                );
+            }
+        }
     }
 
     fn stale_fault(t: &Tick) -> bool {

@@ -23,13 +23,11 @@ use super::world::World;
 use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
-use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{Infeasibility, StepRecord, StopCause};
-use crate::algo::reference::ReferenceProgress;
-use crate::algo::scan::{classify_range, BeamStatus, LaserScan, RangeKind};
-use crate::algo::tracking::{track, TrackingError};
-use crate::algo::unstuck::Guidance;
+use crate::algo::scan::{classify_range, BeamStatus, RangeKind};
+use crate::algo::tracking::TrackingError;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
+use crate::node_core::{NodeCore, NodeSettings, ScanMeta};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -292,13 +290,13 @@ pub struct RunResult {
 /// A robot's controller and its bookkeeping.
 struct AgentLoop {
     plan: AgentPlan,
-    pipeline: SafetyPipeline,
+    /// The safety node's logic, as `oldbf_node` runs it (nominal source,
+    /// reference following, scan-order and clock rules, the pipeline).
+    node: NodeCore,
     dcbf: DcbfFilter,
-    progress: ReferenceProgress,
+    /// The scan in hand, as read (m), and each beam's true range (m; +inf: no hit).
     ranges: Vec<f32>,
-    /// The true range of each beam of the scan in hand (m; +inf: no hit).
     truth: Vec<f32>,
-    scan_stamp: f64,
     rows: Vec<StepRow>,
     counts: StateCounts,
     cbf_violations: usize,
@@ -354,12 +352,13 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .iter()
         .map(|plan| AgentLoop {
             plan: plan.clone(),
-            pipeline: SafetyPipeline::new(params.clone()),
+            // No reference: the scenario's constant command (none: stand still).
+            node: NodeCore::new(params.clone(), NodeSettings::default(), plan.reference.clone())
+                .with_constant(plan.constant.unwrap_or(Twist::ZERO))
+                .with_fixed_period(),
             dcbf: DcbfFilter::new(),
-            progress: ReferenceProgress::default(),
             ranges: Vec::with_capacity(lidar.beams),
             truth: Vec::with_capacity(lidar.beams),
-            scan_stamp: f64::NEG_INFINITY,
             rows: Vec::with_capacity(steps_max),
             counts: StateCounts::default(),
             cbf_violations: 0,
@@ -409,62 +408,45 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 fleet.scan(i, &mut a.ranges);
                 a.truth.clear();
                 a.truth.extend_from_slice(fleet.scan_truth(i));
-                a.scan_stamp = t;
+                a.node.on_scan(
+                    ScanMeta {
+                        stamp_s: t,
+                        angle_min_rad: angle_min,
+                        angle_increment_rad: angle_inc,
+                        range_min_m: range_min,
+                        range_max_m: range_max,
+                    },
+                    &a.ranges,
+                    &[],
+                );
             }
-            let scan = LaserScan {
-                stamp_s: a.scan_stamp,
-                angle_min_rad: angle_min,
-                angle_increment_rad: angle_inc,
-                range_min_m: range_min,
-                range_max_m: range_max,
-                ranges_m: &a.ranges,
-                intensities: &[],
-            };
-            let pose = fleet.agents()[i].robot.pose;
-            let (nominal, ref_pos) = match &a.plan.reference {
-                Some(reference) => {
-                    let ref_pose = reference.pose_at(a.progress.t_s);
-                    let e = TrackingError::between(pose, ref_pose).distance_m();
-                    a.max_err = a.max_err.max(e);
-                    a.sum_err += e;
-                    a.tracked_steps += 1;
-                    let lag = ReferenceProgress::lag_m(pose, ref_pose);
-                    let rate = ReferenceProgress::rate(lag, params.tracking.capture_radius_m);
-                    let (ref_pose, ref_twist) = a.progress.reference(reference, rate);
-                    a.pipeline.set_guidance(Some(Guidance::of_reference(
-                        reference,
-                        &a.progress,
-                        pose,
-                        params.unstuck.ahead_m,
-                    )));
-                    a.progress.advance(dt, rate);
-                    (
-                        track(
-                            pose,
-                            ref_pose,
-                            ref_twist,
-                            &params.tracking,
-                            params.control.omega_max_radps,
-                        ),
-                        ref_pose.position(),
-                    )
-                }
-                None => (a.plan.constant.unwrap_or(Twist::ZERO), Vec2::new(f64::NAN, f64::NAN)),
-            };
+            // Odometry: the simulated robot's exact pose and velocity, fresh every step.
+            let robot = &fleet.agents()[i].robot;
+            let (pose, v_now) = (robot.pose, robot.twist.v_mps);
+            a.node.on_odom(pose, robot.twist, t);
+            if let Some(ref_pose) = a.node.reference_pose() {
+                let e = TrackingError::between(pose, ref_pose).distance_m();
+                a.max_err = a.max_err.max(e);
+                a.sum_err += e;
+                a.tracked_steps += 1;
+            }
 
-            let v_now = fleet.agents()[i].robot.twist.v_mps;
             let t0 = Instant::now();
-            let rec: StepRecord = a.pipeline.step_with_pose(&scan, t, nominal, v_now, Some(pose));
+            let tick = a.node.tick(t);
+            let (rec, nominal): (StepRecord, _) = (tick.record, tick.record.nominal);
+            let ref_pos = tick
+                .reference_pose
+                .map_or(Vec2::new(f64::NAN, f64::NAN), |p| p.position());
             // The baselines share the pipeline's perception (points, prediction, tracks)
             // and its rule that no usable scan means a stop; their time includes it.
             let cmd = match controller {
-                Controller::Oldbf | Controller::OldbfPaper => rec.cmd,
+                Controller::Oldbf | Controller::OldbfPaper => tick.cmd,
                 Controller::Dcbf if rec.measured() => {
-                    let pl = &a.pipeline;
+                    let pl = a.node.pipeline();
                     a.dcbf.filter(pl.points(), pl.points_next(), nominal, params).cmd
                 }
                 Controller::Vo if rec.measured() => {
-                    let pl = &a.pipeline;
+                    let pl = a.node.pipeline();
                     let scene = VoScene {
                         points: pl.points(),
                         clusters: pl.clusters(),
@@ -473,7 +455,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     };
                     vo_command(&scene, nominal, params).cmd
                 }
-                Controller::Dcbf | Controller::Vo => rec.cmd,
+                Controller::Dcbf | Controller::Vo => tick.cmd,
                 // Same input box as the filter, so the comparison is only about safety.
                 Controller::None => input_box.clamp(nominal),
             };
@@ -484,7 +466,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
                 // The same prediction the filter made: static points stay, tracked moving
                 // obstacles on a collision course advance by v_o Δt (ALGORITHM.md §5).
-                let h_next = min_distance(a.pipeline.points_next(), disp) - r - d_safe;
+                let h_next = min_distance(a.node.pipeline().points_next(), disp) - r - d_safe;
                 (
                     h_next,
                     !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
@@ -500,7 +482,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             }
             // The braking condition (§5b) for the command actually sent, from the same
             // prediction, whether or not the controller checks it.
-            let braking_held = !rec.measured() || a.pipeline.braking_check(cmd).is_none();
+            let braking_held = !rec.measured() || a.node.braking_check(cmd).is_none();
             if !braking_held {
                 a.braking_violations += 1;
                 if rec.infeasibility.is_none() {
@@ -515,7 +497,13 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             }
             let driven_blind = rec.measured()
                 && cmd.v_mps.abs() > CLOSING_SPEED_MPS
-                && driven_blind(&scan, &a.truth, a.pipeline.scan_points().status.as_slice(), params);
+                && driven_blind(
+                    &a.ranges,
+                    (range_min, range_max),
+                    &a.truth,
+                    a.node.pipeline().scan_points().status.as_slice(),
+                    params,
+                );
             a.driven_blind_steps += usize::from(driven_blind);
             if let Some(w) = a.last_omega {
                 if (cmd.omega_radps - w).abs() > params.control.omega_max_radps + 1e-9 {
@@ -600,7 +588,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             // The goal counts once the (governed) reference has run to its end.
             if let Some(reference) = &a.plan.reference {
                 let at_goal = (sim.robot.pose.position() - reference.goal().position()).norm() <= spec.goal_tolerance_m;
-                if a.progress.finished(reference) && at_goal {
+                if a.node.reference_finished() && at_goal {
                     a.time_to_goal = Some(t + dt);
                 }
             }
@@ -709,15 +697,22 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
     })
 }
 
-/// Whether a beam of `scan` that read unknown (NaN, below range_min) while
-/// something was truly within r + d_act along it was taken as free: the
-/// pipeline neither held its last reading nor stopped for blindness.
-fn driven_blind(scan: &LaserScan<'_>, truth: &[f32], status: &[BeamStatus], p: &crate::algo::Params) -> bool {
+/// Whether a beam that read unknown (NaN, below range_min) while something
+/// was truly within r + d_act along it was taken as free: the pipeline
+/// neither held its last reading nor stopped for blindness. `ranges_m` as
+/// read, `truth` the true ranges, (range_min, range_max) the sensor's (m).
+fn driven_blind(
+    ranges_m: &[f32],
+    (range_min_m, range_max_m): (f32, f32),
+    truth: &[f32],
+    status: &[BeamStatus],
+    p: &crate::algo::Params,
+) -> bool {
     let near = (p.robot_radius_m() + p.barrier.d_act_m()) as f32;
     let zero_free = p.laser.zero_is_no_return;
-    scan.ranges_m.iter().zip(truth).zip(status).any(|((&r, &t), &s)| {
+    ranges_m.iter().zip(truth).zip(status).any(|((&r, &t), &s)| {
         t < near
             && matches!(s, BeamStatus::Free | BeamStatus::Unknown)
-            && classify_range(r, scan.range_min_m, scan.range_max_m, zero_free) == RangeKind::Unknown
+            && classify_range(r, range_min_m, range_max_m, zero_free) == RangeKind::Unknown
     })
 }
