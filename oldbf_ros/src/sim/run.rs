@@ -353,7 +353,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .map(|plan| AgentLoop {
             plan: plan.clone(),
             // No reference: the scenario's constant command (none: stand still).
-            node: NodeCore::new(params.clone(), NodeSettings::default(), plan.reference.clone())
+            node: NodeCore::new(params.clone(), NodeSettings::default(), plan.reference)
                 .with_constant(plan.constant.unwrap_or(Twist::ZERO))
                 .with_fixed_period(),
             dcbf: DcbfFilter::new(),
