@@ -64,7 +64,11 @@ fn bench_simulator(c: &mut Criterion) {
     eprintln!(
         "simulator: {steps} steps per run, path {:.2} m, collisions {}, min clearance {:.3} m, filter changed {}, \
          pipeline {:.1} µs/step",
-        s.path_length_m, s.collisions, s.min_clearance_m, s.filter_changed_steps, s.mean_step_us
+        s.figures.path_length_m,
+        s.figures.collisions,
+        s.figures.min_clearance_m,
+        s.figures.filter_changed_steps,
+        s.mean_step_us
     );
     let mut group = c.benchmark_group("simulator");
     group.throughput(Throughput::Elements(steps));
@@ -72,7 +76,7 @@ fn bench_simulator(c: &mut Criterion) {
         b.iter(|| {
             let r = run_scenario(black_box(&scenario), Controller::Oldbf, seed).expect("runs");
             assert_eq!(r.summary.steps as u64, steps, "deterministic");
-            black_box(r.summary.min_clearance_m)
+            black_box(r.summary.figures.min_clearance_m)
         })
     });
     group.finish();

@@ -17,6 +17,7 @@
 use crate::algo::geometry::Vec2;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::plot::{plot_time_series, plot_trajectory, Series, TimePanel, TrajectoryPlot};
+use crate::sim::figures::RunFigures;
 use crate::sim::fleet::FleetError;
 use crate::sim::run::{run_scenario, Controller, RunResult, RunSummary, StepRow};
 use crate::sim::scenario::Scenario;
@@ -40,18 +41,13 @@ pub struct ComparedRun {
 #[derive(Debug, Clone, Serialize)]
 pub struct ComparedFigures {
     pub controller: Controller,
-    pub collisions: usize,
-    pub min_clearance_m: f64,
-    pub reached_goal: bool,
-    pub time_to_goal_s: Option<f64>,
-    pub path_length_m: f64,
-    /// Distance to the (governed) reference point: max and mean (m).
-    pub max_tracking_error_m: Option<f64>,
-    pub mean_tracking_error_m: Option<f64>,
+    /// Robot 0's figures.
+    #[serde(flatten)]
+    pub robot: RunFigures,
     /// Distance to the reference path: max and mean (m).
     pub max_path_error_m: Option<f64>,
     pub mean_path_error_m: Option<f64>,
-    pub mean_step_us: f64,
+    /// The whole run (mean_step_us: the pipeline's time per step).
     pub summary: RunSummary,
 }
 
@@ -133,16 +129,9 @@ pub fn figures(runs: &[ComparedRun]) -> Vec<ComparedFigures> {
             };
             ComparedFigures {
                 controller: r.controller,
-                collisions: robot.collisions,
-                min_clearance_m: robot.min_clearance_m,
-                reached_goal: robot.reached_goal,
-                time_to_goal_s: robot.time_to_goal_s,
-                path_length_m: robot.path_length_m,
-                max_tracking_error_m: robot.max_tracking_error_m,
-                mean_tracking_error_m: robot.mean_tracking_error_m,
+                robot: robot.figures.clone(),
                 max_path_error_m: max_path,
                 mean_path_error_m: mean_path,
-                mean_step_us: s.mean_step_us,
                 summary: s.clone(),
             }
         })
@@ -167,7 +156,7 @@ pub fn comparison_text(scenario: &Scenario, seed: u64, figs: &[ComparedFigures])
         "µs/step"
     );
     for f in figs {
-        let goal = match f.time_to_goal_s {
+        let goal = match f.robot.time_to_goal_s {
             Some(t) => format!("{t:.1}"),
             None => "no".to_string(),
         };
@@ -175,17 +164,17 @@ pub fn comparison_text(scenario: &Scenario, seed: u64, figs: &[ComparedFigures])
             out,
             "{:<10} {:>10} {:>12.3} {:>8} {:>9.2} {:>17} {:>18} {:>9.1}",
             format!("{:?}", f.controller).to_lowercase(),
-            f.collisions,
-            f.min_clearance_m,
+            f.robot.collisions,
+            f.robot.min_clearance_m,
             goal,
-            f.path_length_m,
+            f.robot.path_length_m,
             format!(
                 "{} / {}",
-                opt(f.max_tracking_error_m, 2),
-                opt(f.mean_tracking_error_m, 2)
+                opt(f.robot.max_tracking_error_m, 2),
+                opt(f.robot.mean_tracking_error_m, 2)
             ),
             format!("{} / {}", opt(f.max_path_error_m, 2), opt(f.mean_path_error_m, 2)),
-            f.mean_step_us
+            f.summary.mean_step_us
         );
     }
     out

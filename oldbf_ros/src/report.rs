@@ -24,49 +24,49 @@ pub fn summary_text(s: &RunSummary) -> String {
         "  {} steps, {:.1} s simulated | goal {} | path {:.2} m",
         s.steps,
         s.sim_time_s,
-        match s.time_to_goal_s {
+        match s.figures.time_to_goal_s {
             Some(t) => format!("reached at {t:.1} s"),
             None => "not reached".to_string(),
         },
-        s.path_length_m
+        s.figures.path_length_m
     );
     let _ = writeln!(
         out,
         "  collisions {} (closing {}, passive {}) | min clearance {:.3} m | CBF violations {} (logged), {} (exact geometry)",
-        s.collisions,
-        s.closing_contacts,
-        s.passive_contacts,
-        s.min_clearance_m,
-        s.cbf_violations,
-        s.true_cbf_violations
+        s.figures.collisions,
+        s.figures.closing_contacts,
+        s.figures.passive_contacts,
+        s.figures.min_clearance_m,
+        s.figures.cbf_violations,
+        s.figures.true_cbf_violations
     );
-    let inf = s.infeasible_steps;
+    let inf = s.figures.infeasible_steps;
     let _ = writeln!(
         out,
         "  braking violations {} | infeasible {} steps (unsafe set {}, approaching {}, no passive command {}) | blind: stopped {}, driven {} steps",
-        s.braking_violations,
+        s.figures.braking_violations,
         inf.total(),
         inf.unsafe_set,
         inf.approaching,
         inf.no_passive_command,
-        s.blind_steps,
-        s.driven_blind_steps
+        s.figures.blind_steps,
+        s.figures.driven_blind_steps
     );
     let _ = writeln!(
         out,
         "  steering flips {} ({:.2} % of steps) | stalled {:.1} s",
-        s.steering_flips,
-        100.0 * s.steering_flips as f64 / s.steps.max(1) as f64,
-        s.stalled_s
+        s.figures.steering_flips,
+        100.0 * s.figures.steering_flips as f64 / s.steps.max(1) as f64,
+        s.figures.stalled_s
     );
     let _ = writeln!(
         out,
         "  tracking error max {} mean {} | filter changed {} steps",
-        opt(s.max_tracking_error_m, "m"),
-        opt(s.mean_tracking_error_m, "m"),
-        s.filter_changed_steps
+        opt(s.figures.max_tracking_error_m, "m"),
+        opt(s.figures.mean_tracking_error_m, "m"),
+        s.figures.filter_changed_steps
     );
-    let c = s.steps_by_state;
+    let c = s.figures.steps_by_state;
     let _ = writeln!(
         out,
         "  states: forward {} avoid {} both_sides {} stop {} escape {} evade {} follow {}",
@@ -83,14 +83,14 @@ pub fn summary_text(s: &RunSummary) -> String {
                 out,
                 "\n  robot {}: goal {} | collisions {} (closing {}) | min clearance {:.3} m | CBF violations {} / {} | path {:.2} m",
                 r.name,
-                r.time_to_goal_s
+                r.figures.time_to_goal_s
                     .map_or("not reached".to_string(), |t| format!("reached at {t:.1} s")),
-                r.collisions,
-                r.closing_contacts,
-                r.min_clearance_m,
-                r.cbf_violations,
-                r.true_cbf_violations,
-                r.path_length_m
+                r.figures.collisions,
+                r.figures.closing_contacts,
+                r.figures.min_clearance_m,
+                r.figures.cbf_violations,
+                r.figures.true_cbf_violations,
+                r.figures.path_length_m
             );
         }
     }

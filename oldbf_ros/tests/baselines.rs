@@ -20,15 +20,15 @@ fn both_baselines_avoid_what_the_nominal_command_hits() {
     // Scenarios where `none` collides (closed_loop.rs checks that too).
     for name in ["paper_line", "paper_circle", "cluttered_room", "two_robots", "dead_end"] {
         assert!(
-            run(name, Controller::None, 1).collisions > 0,
+            run(name, Controller::None, 1).figures.collisions > 0,
             "{name}: none should collide"
         );
         for controller in [Controller::Dcbf, Controller::Vo] {
             for seed in [1, 7] {
                 let r = run(name, controller, seed);
                 let what = format!("{name} {controller:?} seed {seed}: {r:?}");
-                assert_eq!(r.collisions, 0, "{what}");
-                assert!(r.min_clearance_m > 0.0, "{what}");
+                assert_eq!(r.figures.collisions, 0, "{what}");
+                assert!(r.figures.min_clearance_m > 0.0, "{what}");
                 assert!(r.mean_step_us.is_finite(), "{what}");
             }
         }
@@ -42,8 +42,8 @@ fn the_baselines_change_the_command_only_where_it_matters() {
     let none = run("corridor", Controller::None, 1);
     for controller in [Controller::Oldbf, Controller::Dcbf, Controller::Vo] {
         let r = run("corridor", controller, 1);
-        assert!(r.reached_goal, "{controller:?}: {r:?}");
-        assert_eq!(r.time_to_goal_s, none.time_to_goal_s, "{controller:?}");
+        assert!(r.figures.reached_goal, "{controller:?}: {r:?}");
+        assert_eq!(r.figures.time_to_goal_s, none.figures.time_to_goal_s, "{controller:?}");
     }
 }
 
@@ -53,6 +53,6 @@ fn baseline_runs_are_deterministic_for_a_seed() {
         let a = run("crossing", controller, 3);
         let b = run("crossing", controller, 3);
         assert_eq!(a.final_pose, b.final_pose, "{controller:?}");
-        assert_eq!(a.min_clearance_m, b.min_clearance_m, "{controller:?}");
+        assert_eq!(a.figures.min_clearance_m, b.figures.min_clearance_m, "{controller:?}");
     }
 }

@@ -48,12 +48,15 @@ fn every_shipped_scenario_is_safe_on_several_seeds() {
         for seed in SEEDS {
             let r = run(&s, Controller::Oldbf, seed);
             let what = format!("{} seed {seed}: {r:?}", s.spec.name);
-            assert_eq!(r.collisions, 0, "{what}");
-            assert!(r.min_clearance_m > 0.0, "{what}");
-            assert_eq!(r.cbf_violations, 0, "{what}");
-            assert_eq!(r.true_cbf_violations, 0, "{what}");
-            assert_eq!(r.steps_by_state.stop, 0, "no infeasible steps expected: {what}");
-            assert!(r.mean_step_us.is_finite() && r.path_length_m.is_finite(), "{what}");
+            assert_eq!(r.figures.collisions, 0, "{what}");
+            assert!(r.figures.min_clearance_m > 0.0, "{what}");
+            assert_eq!(r.figures.cbf_violations, 0, "{what}");
+            assert_eq!(r.figures.true_cbf_violations, 0, "{what}");
+            assert_eq!(r.figures.steps_by_state.stop, 0, "no infeasible steps expected: {what}");
+            assert!(
+                r.mean_step_us.is_finite() && r.figures.path_length_m.is_finite(),
+                "{what}"
+            );
         }
     }
 }
@@ -63,14 +66,14 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
     let s = scenario("paper_line");
     for seed in SEEDS {
         let r = run(&s, Controller::Oldbf, seed);
-        assert!(r.reached_goal, "seed {seed}: {r:?}");
+        assert!(r.figures.reached_goal, "seed {seed}: {r:?}");
         // 6 m at 0.15 m/s is 40 s; the detours cost time but not more than 30 s.
-        let t = r.time_to_goal_s.unwrap();
+        let t = r.figures.time_to_goal_s.unwrap();
         assert!((40.0..70.0).contains(&t), "seed {seed}: {t}");
         // The crate on the line is passed, so the robot must have left the line and the barrier
         // must have been active.
         assert!(
-            r.steps_by_state.avoid > 0 && r.max_tracking_error_m.unwrap() > 0.3,
+            r.figures.steps_by_state.avoid > 0 && r.figures.max_tracking_error_m.unwrap() > 0.3,
             "{r:?}"
         );
     }
@@ -81,8 +84,11 @@ fn without_the_filter_the_robot_collides() {
     // Proof that the safety tests can fail: the same runs with the nominal command alone.
     for name in ["paper_line", "paper_circle", "dead_end", "cluttered_room"] {
         let r = run(&scenario(name), Controller::None, 1);
-        assert!(r.collisions >= 1, "{name}: {r:?}");
-        assert!(r.cbf_violations >= 1 && r.min_clearance_m < 0.0, "{name}: {r:?}");
+        assert!(r.figures.collisions >= 1, "{name}: {r:?}");
+        assert!(
+            r.figures.cbf_violations >= 1 && r.figures.min_clearance_m < 0.0,
+            "{name}: {r:?}"
+        );
     }
 }
 
@@ -97,36 +103,39 @@ fn the_dtcbf_filter_alone_keeps_the_robot_off_the_crate() {
     s.params.barrier.front_fov_deg = 1e-3;
     s.spec.duration_s = 60.0;
     let r = run(&s, Controller::Oldbf, 1);
-    assert_eq!(r.collisions, 0, "{r:?}");
-    assert_eq!(r.cbf_violations, 0, "{r:?}");
-    assert!(r.min_clearance_m > 0.0, "{r:?}");
+    assert_eq!(r.figures.collisions, 0, "{r:?}");
+    assert_eq!(r.figures.cbf_violations, 0, "{r:?}");
+    assert!(r.figures.min_clearance_m > 0.0, "{r:?}");
     assert!(
-        r.filter_changed_steps > 50,
+        r.figures.filter_changed_steps > 50,
         "the filter must have been slowing the robot: {r:?}"
     );
-    assert!(!r.reached_goal, "it cannot pass the crate without steering: {r:?}");
+    assert!(
+        !r.figures.reached_goal,
+        "it cannot pass the crate without steering: {r:?}"
+    );
     // The same without the filter hits the crate.
     let r = run(&s, Controller::None, 1);
-    assert!(r.collisions >= 1, "{r:?}");
+    assert!(r.figures.collisions >= 1, "{r:?}");
 }
 
 #[test]
 fn paper_circle_completes_the_lap() {
     let s = scenario("paper_circle");
     let r = run(&s, Controller::Oldbf, 1);
-    assert!(r.reached_goal, "{r:?}");
+    assert!(r.figures.reached_goal, "{r:?}");
     // One lap of radius 0.2/0.13 m is 9.67 m; detours round the box and the pillar add some.
-    assert!((9.0..13.0).contains(&r.path_length_m), "{r:?}");
+    assert!((9.0..13.0).contains(&r.figures.path_length_m), "{r:?}");
 }
 
 #[test]
 fn corridor_is_centred_by_the_differential_law_not_both_sides() {
     let r = run(&scenario("corridor"), Controller::Oldbf, 1);
-    assert!(r.reached_goal, "{r:?}");
-    assert_eq!(r.steps_by_state.both_sides, 0, "{r:?}");
+    assert!(r.figures.reached_goal, "{r:?}");
+    assert_eq!(r.figures.steps_by_state.both_sides, 0, "{r:?}");
     // Both walls are always inside d_act: the robot is steered the whole way.
-    assert_eq!(r.steps_by_state.forward, 0, "{r:?}");
-    assert!(r.max_tracking_error_m.unwrap() < 0.4, "{r:?}");
+    assert_eq!(r.figures.steps_by_state.forward, 0, "{r:?}");
+    assert!(r.figures.max_tracking_error_m.unwrap() < 0.4, "{r:?}");
 }
 
 #[test]
@@ -134,10 +143,10 @@ fn dead_end_turns_round_and_leaves() {
     let s = scenario("dead_end");
     for seed in SEEDS {
         let r = run(&s, Controller::Oldbf, seed);
-        assert!(r.steps_by_state.both_sides > 10, "seed {seed}: {r:?}");
+        assert!(r.figures.steps_by_state.both_sides > 10, "seed {seed}: {r:?}");
         // The cul-de-sac spans x = 0.5 … 4 m; the robot starts at x = −1.5 and must come back out.
         assert!(r.final_pose.x < 0.5, "seed {seed}: {r:?}");
-        assert_eq!(r.collisions, 0);
+        assert_eq!(r.figures.collisions, 0);
     }
 }
 
@@ -148,7 +157,7 @@ fn runs_are_deterministic_for_a_seed() {
     let b = run(&s, Controller::Oldbf, 3);
     assert_eq!(a.steps, b.steps);
     assert_eq!(a.final_pose, b.final_pose);
-    assert_eq!(a.min_clearance_m, b.min_clearance_m);
+    assert_eq!(a.figures.min_clearance_m, b.figures.min_clearance_m);
 }
 
 /// A wall across the line, with a LiDAR whose range_min (0.6 m) lies beyond
@@ -177,15 +186,15 @@ world:
 fn unknown_is_not_free_a_wall_inside_range_min_stops_the_robot() {
     let s = Scenario::from_str(WALL_INSIDE_RANGE_MIN, "wall_inside_range_min", None).unwrap();
     let r = run(&s, Controller::Oldbf, 1);
-    assert_eq!(r.collisions, 0, "{r:?}");
+    assert_eq!(r.figures.collisions, 0, "{r:?}");
     // It stopped short of the wall: not just out of contact, but outside d_safe
     // minus the braking tolerance (the wall was last seen at >= 0.6 m and held).
-    assert!(r.min_clearance_m > 0.15, "{r:?}");
-    assert!(!r.reached_goal, "{r:?}");
+    assert!(r.figures.min_clearance_m > 0.15, "{r:?}");
+    assert!(!r.figures.reached_goal, "{r:?}");
     // The front went unknown and the robot stopped for it, rather than driving on.
-    assert!(r.blind_steps > 0, "{r:?}");
+    assert!(r.figures.blind_steps > 0, "{r:?}");
     // The paper's rule (every invalid range is free space) drives into the same wall:
     // without REP 117 semantics this test would fail.
     let r = run(&s, Controller::OldbfPaper, 1);
-    assert!(r.closing_contacts >= 1, "{r:?}");
+    assert!(r.figures.closing_contacts >= 1, "{r:?}");
 }

@@ -19,6 +19,7 @@ pub mod stats;
 pub mod table;
 pub mod template;
 
+use crate::sim::figures::RunFigures;
 use crate::sim::run::{Controller, RunResult};
 pub use runner::{generate_worlds, run_worlds, BatchOptions};
 use serde::Serialize;
@@ -46,38 +47,9 @@ pub struct WorldOutcome {
     pub label: &'static str,
     /// Control steps run.
     pub steps: usize,
-    pub collisions: usize,
-    /// Contacts the robot drove into, and contacts made on it at rest or
-    /// moving away (ALGORITHM.md §5b).
-    pub closing_contacts: usize,
-    pub passive_contacts: usize,
-    /// Least body-to-obstacle distance over the run (m; negative = penetration).
-    pub min_clearance_m: f64,
-    pub reached_goal: bool,
-    pub time_to_goal_s: Option<f64>,
-    pub path_length_m: f64,
-    /// Largest distance from the reference (m).
-    pub max_tracking_error_m: Option<f64>,
-    /// Steps where the logged DTCBF condition failed for the sent command.
-    pub cbf_violations: usize,
-    /// Steps where it failed on the exact geometry.
-    pub true_cbf_violations: usize,
-    /// Logged violations on steps not marked infeasible (must be 0 for oldbf).
-    pub cbf_violations_feasible: usize,
-    /// Steps whose sent command could not brake to rest without a predicted
-    /// closing contact, and those not marked infeasible.
-    pub braking_violations: usize,
-    pub braking_violations_feasible: usize,
-    /// Steps the filter marked infeasible.
-    pub infeasible_steps: usize,
-    /// Steps driven while an unknown beam hiding something near was taken as free.
-    pub driven_blind_steps: usize,
-    /// Steps stopped for a blind sensor.
-    pub blind_steps: usize,
-    /// Steps whose ω differs from the previous step's by more than ω_max.
-    pub steering_flips: usize,
-    /// Time with |v| < 0.02 m/s while the goal was not reached (s).
-    pub stalled_s: f64,
+    /// What the run measured (the world has one robot).
+    #[serde(flatten)]
+    pub figures: RunFigures,
     /// Mean controller compute per step (µs).
     pub mean_step_us: f64,
     /// Compute time of every step (µs), for pooled percentiles.
@@ -96,24 +68,7 @@ impl WorldOutcome {
             path_exists: world.path_exists,
             label: world.label,
             steps: s.steps,
-            collisions: s.collisions,
-            closing_contacts: s.closing_contacts,
-            passive_contacts: s.passive_contacts,
-            min_clearance_m: s.min_clearance_m,
-            reached_goal: s.reached_goal,
-            time_to_goal_s: s.time_to_goal_s,
-            path_length_m: s.path_length_m,
-            max_tracking_error_m: s.max_tracking_error_m,
-            cbf_violations: s.cbf_violations,
-            true_cbf_violations: s.true_cbf_violations,
-            cbf_violations_feasible: s.cbf_violations_feasible,
-            braking_violations: s.braking_violations,
-            braking_violations_feasible: s.braking_violations_feasible,
-            infeasible_steps: s.infeasible_steps.total(),
-            driven_blind_steps: s.driven_blind_steps,
-            blind_steps: s.blind_steps,
-            steering_flips: s.steering_flips,
-            stalled_s: s.stalled_s,
+            figures: s.figures.clone(),
             mean_step_us: s.mean_step_us,
             step_us: result
                 .robots

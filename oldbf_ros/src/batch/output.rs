@@ -48,7 +48,7 @@ pub fn write_outputs(dir: &Path, report: &BatchReport, worlds: &[GeneratedWorld]
                 .per_world
                 .iter()
                 .filter(|o| o.controller == c)
-                .map(|o| o.min_clearance_m)
+                .map(|o| o.figures.min_clearance_m)
                 .collect()
         })
         .collect();

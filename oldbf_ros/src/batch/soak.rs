@@ -14,6 +14,7 @@
 //! its message; the soak goes on.
 
 use super::template::Template;
+use crate::sim::figures::RunFigures;
 use crate::sim::run::{run_scenario, Controller, RunResult};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -147,14 +148,7 @@ struct WorldFigures {
     sim_time_s: f64,
     steps: usize,
     non_finite_commands: usize,
-    collisions: usize,
-    closing_contacts: usize,
-    passive_contacts: usize,
-    driven_blind_steps: usize,
-    cbf_violations: usize,
-    true_cbf_violations: usize,
-    min_clearance_m: f64,
-    reached_goal: bool,
+    figures: RunFigures,
 }
 
 impl WorldFigures {
@@ -169,21 +163,14 @@ impl WorldFigures {
                 .flat_map(|r| &r.rows)
                 .filter(|row| !(row.v_cmd_mps.is_finite() && row.omega_cmd_radps.is_finite()))
                 .count(),
-            collisions: s.collisions,
-            closing_contacts: s.closing_contacts,
-            passive_contacts: s.passive_contacts,
-            driven_blind_steps: s.driven_blind_steps,
-            cbf_violations: s.cbf_violations,
-            true_cbf_violations: s.true_cbf_violations,
-            min_clearance_m: s.min_clearance_m,
-            reached_goal: s.reached_goal,
+            figures: s.figures.clone(),
         }
     }
 }
 
 /// A world's outcome: its figures, a panic message, or a generation error.
 enum Outcome {
-    Ran(WorldFigures),
+    Ran(Box<WorldFigures>),
     Panicked(String),
 }
 
@@ -196,7 +183,7 @@ fn run_one(template: &Template, seed: u64, index: usize) -> anyhow::Result<Outco
         Ok(WorldFigures::of(&result))
     }));
     match caught {
-        Ok(r) => r.map(Outcome::Ran),
+        Ok(r) => r.map(|f| Outcome::Ran(Box::new(f))),
         Err(payload) => Ok(Outcome::Panicked(panic_message(payload.as_ref()))),
     }
 }
@@ -269,16 +256,17 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
                     r.sim_time_s += f.sim_time_s;
                     r.steps += f.steps;
                     r.non_finite_commands += f.non_finite_commands;
-                    r.collisions += f.collisions;
-                    r.worlds_with_collision += usize::from(f.collisions > 0);
-                    r.closing_contacts += f.closing_contacts;
-                    r.passive_contacts += f.passive_contacts;
-                    r.driven_blind_steps += f.driven_blind_steps;
-                    r.cbf_violations += f.cbf_violations;
-                    r.true_cbf_violations += f.true_cbf_violations;
-                    r.worlds_with_violation += usize::from(f.cbf_violations + f.true_cbf_violations > 0);
-                    r.min_clearance_m = r.min_clearance_m.min(f.min_clearance_m);
-                    r.worlds_reached_goal += usize::from(f.reached_goal);
+                    r.collisions += f.figures.collisions;
+                    r.worlds_with_collision += usize::from(f.figures.collisions > 0);
+                    r.closing_contacts += f.figures.closing_contacts;
+                    r.passive_contacts += f.figures.passive_contacts;
+                    r.driven_blind_steps += f.figures.driven_blind_steps;
+                    r.cbf_violations += f.figures.cbf_violations;
+                    r.true_cbf_violations += f.figures.true_cbf_violations;
+                    r.worlds_with_violation +=
+                        usize::from(f.figures.cbf_violations + f.figures.true_cbf_violations > 0);
+                    r.min_clearance_m = r.min_clearance_m.min(f.figures.min_clearance_m);
+                    r.worlds_reached_goal += usize::from(f.figures.reached_goal);
                 }
             }
         }

@@ -125,9 +125,9 @@ impl ControllerStats {
     pub fn from_outcomes(controller: Controller, outcomes: &[&WorldOutcome]) -> ControllerStats {
         let n = outcomes.len();
         let count = |f: fn(&WorldOutcome) -> bool| outcomes.iter().filter(|o| f(o)).count();
-        let clearances: Vec<f64> = outcomes.iter().map(|o| o.min_clearance_m).collect();
-        let worlds_with_collision = count(|o| o.collisions > 0);
-        let worlds_reached = count(|o| o.reached_goal);
+        let clearances: Vec<f64> = outcomes.iter().map(|o| o.figures.min_clearance_m).collect();
+        let worlds_with_collision = count(|o| o.figures.collisions > 0);
+        let worlds_reached = count(|o| o.figures.reached_goal);
         let mut steps_us: Vec<f64> = outcomes
             .iter()
             .flat_map(|o| o.step_us.iter().map(|&t| f64::from(t)))
@@ -139,37 +139,40 @@ impl ControllerStats {
             worlds: n,
             worlds_with_collision,
             collision_rate: rate(worlds_with_collision, n),
-            collisions_total: outcomes.iter().map(|o| o.collisions).sum(),
-            closing_contacts_total: outcomes.iter().map(|o| o.closing_contacts).sum(),
-            worlds_with_closing_contact: count(|o| o.closing_contacts > 0),
-            passive_contacts_total: outcomes.iter().map(|o| o.passive_contacts).sum(),
-            worlds_with_passive_contact: count(|o| o.passive_contacts > 0),
+            collisions_total: outcomes.iter().map(|o| o.figures.collisions).sum(),
+            closing_contacts_total: outcomes.iter().map(|o| o.figures.closing_contacts).sum(),
+            worlds_with_closing_contact: count(|o| o.figures.closing_contacts > 0),
+            passive_contacts_total: outcomes.iter().map(|o| o.figures.passive_contacts).sum(),
+            worlds_with_passive_contact: count(|o| o.figures.passive_contacts > 0),
             min_clearance_min_m: percentile(clearances.iter().copied(), 0.0),
             min_clearance_p5_m: percentile(clearances.iter().copied(), 5.0),
             min_clearance_median_m: percentile(clearances.iter().copied(), 50.0),
             worlds_reached,
             goal_rate: rate(worlds_reached, n),
             worlds_with_path: count(|o| o.path_exists),
-            worlds_reached_with_path: count(|o| o.path_exists && o.reached_goal),
-            goal_rate_with_path: rate(count(|o| o.path_exists && o.reached_goal), count(|o| o.path_exists)),
-            mean_time_to_goal_s: mean(outcomes.iter().filter_map(|o| o.time_to_goal_s)),
-            mean_path_length_m: mean(outcomes.iter().map(|o| o.path_length_m)),
-            mean_max_tracking_error_m: mean(outcomes.iter().filter_map(|o| o.max_tracking_error_m)),
-            cbf_violations_total: outcomes.iter().map(|o| o.cbf_violations).sum(),
-            worlds_with_cbf_violation: count(|o| o.cbf_violations > 0),
-            true_cbf_violations_total: outcomes.iter().map(|o| o.true_cbf_violations).sum(),
-            worlds_with_true_cbf_violation: count(|o| o.true_cbf_violations > 0),
-            cbf_violations_feasible_total: outcomes.iter().map(|o| o.cbf_violations_feasible).sum(),
-            braking_violations_total: outcomes.iter().map(|o| o.braking_violations).sum(),
-            braking_violations_feasible_total: outcomes.iter().map(|o| o.braking_violations_feasible).sum(),
-            infeasible_steps_total: outcomes.iter().map(|o| o.infeasible_steps).sum(),
-            driven_blind_steps_total: outcomes.iter().map(|o| o.driven_blind_steps).sum(),
-            blind_steps_total: outcomes.iter().map(|o| o.blind_steps).sum(),
+            worlds_reached_with_path: count(|o| o.path_exists && o.figures.reached_goal),
+            goal_rate_with_path: rate(
+                count(|o| o.path_exists && o.figures.reached_goal),
+                count(|o| o.path_exists),
+            ),
+            mean_time_to_goal_s: mean(outcomes.iter().filter_map(|o| o.figures.time_to_goal_s)),
+            mean_path_length_m: mean(outcomes.iter().map(|o| o.figures.path_length_m)),
+            mean_max_tracking_error_m: mean(outcomes.iter().filter_map(|o| o.figures.max_tracking_error_m)),
+            cbf_violations_total: outcomes.iter().map(|o| o.figures.cbf_violations).sum(),
+            worlds_with_cbf_violation: count(|o| o.figures.cbf_violations > 0),
+            true_cbf_violations_total: outcomes.iter().map(|o| o.figures.true_cbf_violations).sum(),
+            worlds_with_true_cbf_violation: count(|o| o.figures.true_cbf_violations > 0),
+            cbf_violations_feasible_total: outcomes.iter().map(|o| o.figures.cbf_violations_feasible).sum(),
+            braking_violations_total: outcomes.iter().map(|o| o.figures.braking_violations).sum(),
+            braking_violations_feasible_total: outcomes.iter().map(|o| o.figures.braking_violations_feasible).sum(),
+            infeasible_steps_total: outcomes.iter().map(|o| o.figures.infeasible_steps.total()).sum(),
+            driven_blind_steps_total: outcomes.iter().map(|o| o.figures.driven_blind_steps).sum(),
+            blind_steps_total: outcomes.iter().map(|o| o.figures.blind_steps).sum(),
             steering_flip_rate: rate(
-                outcomes.iter().map(|o| o.steering_flips).sum(),
+                outcomes.iter().map(|o| o.figures.steering_flips).sum(),
                 outcomes.iter().map(|o| o.steps).sum(),
             ),
-            mean_stalled_s: mean(outcomes.iter().map(|o| o.stalled_s)),
+            mean_stalled_s: mean(outcomes.iter().map(|o| o.figures.stalled_s)),
             steps_total: outcomes.iter().map(|o| o.steps).sum(),
             mean_step_us: mean(steps_us.iter().copied()),
             p99_step_us: percentile_of_sorted(&steps_us, 99.0),
@@ -180,6 +183,7 @@ impl ControllerStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::figures::{InfeasibleCounts, RunFigures, StateCounts};
 
     fn close(a: Option<f64>, b: f64) -> bool {
         a.is_some_and(|a| (a - b).abs() < 1e-12)
@@ -225,25 +229,36 @@ mod tests {
             path_exists: world != 3,
             label: "room",
             steps: steps_us.len(),
-            collisions,
-            // World w: its contacts split w closing first (capped), the rest passive.
-            closing_contacts: collisions.min(world),
-            passive_contacts: collisions - collisions.min(world),
-            min_clearance_m: clearance,
-            reached_goal: goal.is_some(),
-            time_to_goal_s: goal,
-            path_length_m: 2.0 * world as f64,
-            max_tracking_error_m: Some(0.1 * world as f64),
-            cbf_violations: world,
-            true_cbf_violations: 0,
-            cbf_violations_feasible: world / 2,
-            braking_violations: 2 * world,
-            braking_violations_feasible: world,
-            infeasible_steps: world + 1,
-            driven_blind_steps: usize::from(world == 3),
-            blind_steps: 0,
-            steering_flips: world % 2,
-            stalled_s: 1.5 * world as f64,
+            figures: RunFigures {
+                collisions,
+                // World w: its contacts split w closing first (capped), the rest passive.
+                closing_contacts: collisions.min(world),
+                passive_contacts: collisions - collisions.min(world),
+                min_clearance_m: clearance,
+                reached_goal: goal.is_some(),
+                time_to_goal_s: goal,
+                path_length_m: 2.0 * world as f64,
+                max_tracking_error_m: Some(0.1 * world as f64),
+                mean_tracking_error_m: Some(0.05 * world as f64),
+                cbf_violations: world,
+                true_cbf_violations: 0,
+                cbf_violations_feasible: world / 2,
+                braking_violations: 2 * world,
+                braking_violations_feasible: world,
+                // world + 1 in all, split over the reasons.
+                infeasible_steps: InfeasibleCounts {
+                    unsafe_set: 1,
+                    approaching: world / 2,
+                    no_passive_command: world - world / 2,
+                },
+                driven_blind_steps: usize::from(world == 3),
+                blind_steps: 0,
+                steering_flips: world % 2,
+                stalled_s: 1.5 * world as f64,
+                filter_changed_steps: 0,
+                steps_by_state: StateCounts::default(),
+                min_h_m: clearance - 0.1,
+            },
             mean_step_us: 0.0,
             step_us: steps_us.to_vec(),
         }

@@ -11,6 +11,7 @@
 //!   and a clock; nearest-obstacle distance and ray casting;
 //! * [`lidar`] — a ray-cast 2-D LiDAR with `LaserScan` conventions, noise
 //!   and dropouts;
+//! * [`figures`] — what a closed-loop run measured, per robot and in total;
 //! * [`robot`] — a unicycle with speed and acceleration limits, presets for
 //!   the TurtleBot3 Burger and the Quanser QBot 2e, collision check.
 //!
@@ -18,6 +19,7 @@
 //! in `_deg`. Every spec type rejects unknown YAML keys and every constructor
 //! returns an error (naming the key) instead of panicking on bad values.
 
+pub mod figures;
 pub mod fleet;
 pub mod lidar;
 pub mod motion;

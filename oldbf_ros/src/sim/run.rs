@@ -17,13 +17,14 @@
 //! simulator's exact geometry after the step: it also sees sensor noise,
 //! actuator lag and obstacle motion that a static one-step prediction cannot.
 
+use super::figures::{InfeasibleCounts, RunFigures, StateCounts};
 use super::fleet::{Contact, Fleet, FleetError, CLOSING_SPEED_MPS};
 use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
 use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
-use crate::algo::record::{Infeasibility, StepRecord, StopCause};
+use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::scan::{classify_range, BeamStatus, RangeKind};
 use crate::algo::tracking::TrackingError;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
@@ -107,57 +108,16 @@ pub struct StepRow {
 pub struct RobotSummary {
     /// Namespace (empty for a single robot).
     pub name: String,
-    /// Distinct contacts between the robot circle and any obstacle (other robots included).
-    pub collisions: usize,
-    /// Of those, contacts the robot drove into (its speed towards the touched
-    /// point above 0.02 m/s at the onset), and the others (at rest, turning
-    /// or moving away: the obstacle came to it).
-    pub closing_contacts: usize,
-    pub passive_contacts: usize,
+    #[serde(flatten)]
+    pub figures: RunFigures,
     /// Every contact at its onset: time (s), robot position (m) and speed
     /// towards the touched point (m/s).
     pub contacts: Vec<Contact>,
-    /// Least distance between the robot's body and any obstacle over the run (m; < 0 = penetration).
-    pub min_clearance_m: f64,
-    /// Steps where the logged DTCBF condition was false for the sent command.
-    pub cbf_violations: usize,
-    /// Steps where the condition failed on the exact geometry after the step.
-    pub true_cbf_violations: usize,
-    /// Logged violations on steps the filter did not mark infeasible (must be 0).
-    pub cbf_violations_feasible: usize,
-    /// Steps whose sent command could not brake to rest without a predicted
-    /// closing contact (§5b), and those of them not marked infeasible.
-    pub braking_violations: usize,
-    pub braking_violations_feasible: usize,
-    /// Steps the filter marked infeasible, by reason.
-    pub infeasible_steps: InfeasibleCounts,
-    /// Steps stopped because the sensor was blind.
-    pub blind_steps: usize,
-    /// Steps driven while an unknown beam whose true range was within
-    /// r + d_act was taken as free.
-    pub driven_blind_steps: usize,
-    /// Steps whose yaw-rate command differs from the previous step's by more
-    /// than ω_max (steering flips).
-    pub steering_flips: usize,
-    /// Time with |v| < 0.02 m/s while the goal was not reached (s).
-    pub stalled_s: f64,
-    pub reached_goal: bool,
-    pub time_to_goal_s: Option<f64>,
-    pub path_length_m: f64,
-    /// Largest distance from the (governed) reference point (m); null without a reference.
-    pub max_tracking_error_m: Option<f64>,
-    pub mean_tracking_error_m: Option<f64>,
-    /// Steps where the DTCBF check changed the DOAA command.
-    pub filter_changed_steps: usize,
-    pub steps_by_state: StateCounts,
-    /// Least h(k) the controller measured (m).
-    pub min_h_m: f64,
     pub final_pose: Pose2,
 }
 
-/// The run's figures; `--json` prints this. The top-level figures are over
-/// all robots (sums of counts, the least clearance, the worst error; the goal
-/// counts as reached when every robot reached its own); `robots` has each.
+/// The run's figures; `--json` prints this. The figures are over all robots
+/// ([`RunFigures::total`]); `robots` has each.
 #[derive(Debug, Clone, Serialize)]
 pub struct RunSummary {
     pub scenario: String,
@@ -165,102 +125,14 @@ pub struct RunSummary {
     pub seed: u64,
     pub steps: usize,
     pub sim_time_s: f64,
-    pub collisions: usize,
-    pub closing_contacts: usize,
-    pub passive_contacts: usize,
-    pub min_clearance_m: f64,
-    pub cbf_violations: usize,
-    pub true_cbf_violations: usize,
-    pub cbf_violations_feasible: usize,
-    pub braking_violations: usize,
-    pub braking_violations_feasible: usize,
-    pub infeasible_steps: InfeasibleCounts,
-    pub blind_steps: usize,
-    pub driven_blind_steps: usize,
-    pub steering_flips: usize,
-    pub stalled_s: f64,
-    pub reached_goal: bool,
-    pub time_to_goal_s: Option<f64>,
-    pub path_length_m: f64,
-    pub max_tracking_error_m: Option<f64>,
-    pub mean_tracking_error_m: Option<f64>,
+    #[serde(flatten)]
+    pub figures: RunFigures,
     /// Mean / largest wall-clock time of the pipeline per step (µs).
     pub mean_step_us: f64,
     pub max_step_us: f64,
-    pub filter_changed_steps: usize,
-    pub steps_by_state: StateCounts,
-    pub min_h_m: f64,
     /// The first robot's final pose.
     pub final_pose: Pose2,
     pub robots: Vec<RobotSummary>,
-}
-
-/// How many steps were spent in each DOAA state.
-#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
-pub struct StateCounts {
-    pub forward: usize,
-    pub avoid: usize,
-    pub both_sides: usize,
-    pub stop: usize,
-    pub escape: usize,
-    pub evade: usize,
-    pub follow: usize,
-}
-
-/// Steps marked infeasible, by reason (`Infeasibility`).
-#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
-pub struct InfeasibleCounts {
-    pub unsafe_set: usize,
-    pub approaching: usize,
-    pub no_passive_command: usize,
-}
-
-impl InfeasibleCounts {
-    fn add(&mut self, r: Infeasibility) {
-        match r {
-            Infeasibility::UnsafeSet => self.unsafe_set += 1,
-            Infeasibility::Approaching => self.approaching += 1,
-            Infeasibility::NoPassiveCommand => self.no_passive_command += 1,
-        }
-    }
-
-    pub fn total(&self) -> usize {
-        self.unsafe_set + self.approaching + self.no_passive_command
-    }
-
-    fn sum(&self, o: &InfeasibleCounts) -> InfeasibleCounts {
-        InfeasibleCounts {
-            unsafe_set: self.unsafe_set + o.unsafe_set,
-            approaching: self.approaching + o.approaching,
-            no_passive_command: self.no_passive_command + o.no_passive_command,
-        }
-    }
-}
-
-impl StateCounts {
-    fn add(&mut self, s: DoaaState) {
-        match s {
-            DoaaState::Forward => self.forward += 1,
-            DoaaState::Avoid => self.avoid += 1,
-            DoaaState::BothSides => self.both_sides += 1,
-            DoaaState::Stop => self.stop += 1,
-            DoaaState::Escape => self.escape += 1,
-            DoaaState::Evade => self.evade += 1,
-            DoaaState::Follow => self.follow += 1,
-        }
-    }
-
-    fn sum(&self, o: &StateCounts) -> StateCounts {
-        StateCounts {
-            forward: self.forward + o.forward,
-            avoid: self.avoid + o.avoid,
-            both_sides: self.both_sides + o.both_sides,
-            stop: self.stop + o.stop,
-            escape: self.escape + o.escape,
-            evade: self.evade + o.evade,
-            follow: self.follow + o.follow,
-        }
-    }
 }
 
 /// One robot's part of a run.
@@ -611,29 +483,31 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 name: a.plan.name.clone(),
                 summary: RobotSummary {
                     name: a.plan.name.clone(),
-                    collisions: sim.collisions,
-                    closing_contacts: sim.contacts.iter().filter(|c| c.closing()).count(),
-                    passive_contacts: sim.contacts.iter().filter(|c| !c.closing()).count(),
+                    figures: RunFigures {
+                        collisions: sim.collisions,
+                        closing_contacts: sim.contacts.iter().filter(|c| c.closing()).count(),
+                        passive_contacts: sim.contacts.iter().filter(|c| !c.closing()).count(),
+                        min_clearance_m: sim.min_clearance_m,
+                        cbf_violations: a.cbf_violations,
+                        true_cbf_violations: a.true_violations,
+                        cbf_violations_feasible: a.cbf_violations_feasible,
+                        braking_violations: a.braking_violations,
+                        braking_violations_feasible: a.braking_violations_feasible,
+                        infeasible_steps: a.infeasible,
+                        blind_steps: a.blind_steps,
+                        driven_blind_steps: a.driven_blind_steps,
+                        steering_flips: a.steering_flips,
+                        stalled_s: a.stalled_steps as f64 * dt,
+                        reached_goal: a.time_to_goal.is_some(),
+                        time_to_goal_s: a.time_to_goal,
+                        path_length_m: sim.path_length_m,
+                        max_tracking_error_m: tracked.then_some(a.max_err),
+                        mean_tracking_error_m: tracked.then(|| a.sum_err / a.tracked_steps as f64),
+                        filter_changed_steps: a.changed_steps,
+                        steps_by_state: a.counts,
+                        min_h_m: a.min_h,
+                    },
                     contacts: sim.contacts.clone(),
-                    min_clearance_m: sim.min_clearance_m,
-                    cbf_violations: a.cbf_violations,
-                    true_cbf_violations: a.true_violations,
-                    cbf_violations_feasible: a.cbf_violations_feasible,
-                    braking_violations: a.braking_violations,
-                    braking_violations_feasible: a.braking_violations_feasible,
-                    infeasible_steps: a.infeasible,
-                    blind_steps: a.blind_steps,
-                    driven_blind_steps: a.driven_blind_steps,
-                    steering_flips: a.steering_flips,
-                    stalled_s: a.stalled_steps as f64 * dt,
-                    reached_goal: a.time_to_goal.is_some(),
-                    time_to_goal_s: a.time_to_goal,
-                    path_length_m: sim.path_length_m,
-                    max_tracking_error_m: tracked.then_some(a.max_err),
-                    mean_tracking_error_m: tracked.then(|| a.sum_err / a.tracked_steps as f64),
-                    filter_changed_steps: a.changed_steps,
-                    steps_by_state: a.counts,
-                    min_h_m: a.min_h,
                     final_pose: sim.robot.pose,
                 },
                 rows: a.rows,
@@ -642,50 +516,20 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             }
         })
         .collect();
-    let each = || robots.iter().map(|r| &r.summary);
-    let max_opt = |f: fn(&RobotSummary) -> Option<f64>| each().filter_map(f).reduce(f64::max);
-    let n = robots.len() as f64;
+    let each: Vec<&RunFigures> = robots.iter().map(|r| &r.summary.figures).collect();
     let summary = RunSummary {
         scenario: spec.name.clone(),
         controller,
         seed,
         steps,
         sim_time_s: steps as f64 * dt,
-        collisions: each().map(|s| s.collisions).sum(),
-        closing_contacts: each().map(|s| s.closing_contacts).sum(),
-        passive_contacts: each().map(|s| s.passive_contacts).sum(),
-        min_clearance_m: each().map(|s| s.min_clearance_m).fold(f64::INFINITY, f64::min),
-        cbf_violations: each().map(|s| s.cbf_violations).sum(),
-        true_cbf_violations: each().map(|s| s.true_cbf_violations).sum(),
-        cbf_violations_feasible: each().map(|s| s.cbf_violations_feasible).sum(),
-        braking_violations: each().map(|s| s.braking_violations).sum(),
-        braking_violations_feasible: each().map(|s| s.braking_violations_feasible).sum(),
-        infeasible_steps: each().fold(InfeasibleCounts::default(), |acc, s| acc.sum(&s.infeasible_steps)),
-        blind_steps: each().map(|s| s.blind_steps).sum(),
-        driven_blind_steps: each().map(|s| s.driven_blind_steps).sum(),
-        steering_flips: each().map(|s| s.steering_flips).sum(),
-        stalled_s: each().map(|s| s.stalled_s).sum(),
-        reached_goal: each().all(|s| s.reached_goal),
-        time_to_goal_s: if each().all(|s| s.reached_goal) {
-            max_opt(|s| s.time_to_goal_s)
-        } else {
-            None
-        },
-        path_length_m: each().map(|s| s.path_length_m).sum(),
-        max_tracking_error_m: max_opt(|s| s.max_tracking_error_m),
-        mean_tracking_error_m: each()
-            .map(|s| s.mean_tracking_error_m)
-            .collect::<Option<Vec<f64>>>()
-            .map(|v| v.iter().sum::<f64>() / n),
+        figures: RunFigures::total(&each),
         mean_step_us: if timed_steps > 0 {
             sum_us / timed_steps as f64
         } else {
             0.0
         },
         max_step_us: max_us,
-        filter_changed_steps: each().map(|s| s.filter_changed_steps).sum(),
-        steps_by_state: each().fold(StateCounts::default(), |acc, s| acc.sum(&s.steps_by_state)),
-        min_h_m: each().map(|s| s.min_h_m).fold(f64::INFINITY, f64::min),
         final_pose: robots[0].summary.final_pose,
         robots: robots.iter().map(|r| r.summary.clone()).collect(),
     };
