@@ -10,7 +10,8 @@
 #
 # Groups
 #   lint  cargo fmt --check (also fuzz/); cargo clippy --all-targets -D warnings (with and without the
-#         ros/socketcan features)
+#         ros/socketcan features, and the ROS-only build); the core and the ROS-only build free of
+#         the evaluation and adapter dependencies (cargo tree)
 #   rust  unit, property, closed-loop scenario, real-data (CARMEN log),
 #         zero-allocation and CLI tests: cargo test --release --workspace
 #   run   the README run command (the paper_line scenario), outputs checked
@@ -68,6 +69,17 @@ group_lint() {
   (cd fuzz && cargo fmt -- --check)
   cargo clippy --workspace --all-targets --locked --release -- -D warnings
   cargo clippy --workspace --all-targets --locked --release --all-features -- -D warnings
+  # The ROS nodes alone, without the evaluation tree (what can_bridge's node links).
+  cargo clippy -p oldbf_ros --lib --bins --locked --release --no-default-features --features ros -- -D warnings
+  # What the compiler must keep out: of the core, anything but the pure math;
+  # of the ROS-only build, the evaluation dependencies.
+  local banned
+  banned=$(cargo tree -p oldbf -e normal --locked --prefix none \
+    | grep -E '^(rosrust|socketcan|plotters|clarabel|dodgy_2d|rayon|clap|indicatif) ' || true)
+  [ -z "$banned" ] || die "the core crate oldbf depends on: $banned"
+  banned=$(cargo tree -p oldbf_ros -e normal --locked --prefix none --no-default-features --features ros \
+    | grep -E '^(plotters|clarabel|dodgy_2d|rayon|clap|indicatif) ' || true)
+  [ -z "$banned" ] || die "oldbf_ros --features ros (no eval) depends on: $banned"
 }
 
 group_rust() {

@@ -19,11 +19,13 @@
 //! in `_deg`. Every spec type rejects unknown YAML keys and every constructor
 //! returns an error (naming the key) instead of panicking on bad values.
 
+#[cfg(feature = "eval")]
 pub mod figures;
 pub mod fleet;
 pub mod lidar;
 pub mod motion;
 pub mod robot;
+#[cfg(feature = "eval")]
 pub mod run;
 pub mod scenario;
 pub mod shapes;
