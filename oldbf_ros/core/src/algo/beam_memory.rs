@@ -46,6 +46,7 @@ impl Default for BeamMemory {
 }
 
 impl BeamMemory {
+    /// Memory for up to `beams` beams, allocated once (the scan path allocates nothing).
     pub fn with_capacity(beams: usize) -> Self {
         Self {
             last: Vec::with_capacity(beams),

@@ -28,6 +28,7 @@ pub struct BlindVerdict {
 }
 
 impl BlindDetector {
+    /// Forgets when the front went unknown (after a stop, reset or clock jump).
     pub fn reset(&mut self) {
         self.since_s = None;
     }

@@ -65,6 +65,7 @@ pub enum DoaaState {
 }
 
 impl DoaaState {
+    /// The state's name as logged and published (`forward`, `avoid`, …).
     pub fn as_str(&self) -> &'static str {
         match self {
             Self::Forward => "forward",
@@ -92,11 +93,14 @@ impl fmt::Display for DoaaState {
 /// Direction of the latched both-sides turn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TurnDirection {
+    /// Counter-clockwise (ω > 0).
     Left,
+    /// Clockwise (ω < 0).
     Right,
 }
 
 impl TurnDirection {
+    /// +1 for left, −1 for right: the sign of ω that turns this way.
     pub fn sign(self) -> f64 {
         match self {
             Self::Left => 1.0,
@@ -119,6 +123,7 @@ pub struct Doaa {
 }
 
 impl Doaa {
+    /// No latched turn, no committed direction.
     pub fn new() -> Self {
         Self::default()
     }
@@ -129,6 +134,7 @@ impl Doaa {
         self.commit = None;
     }
 
+    /// The turn latched while both sides are blocked, if any.
     pub fn latched_turn(&self) -> Option<TurnDirection> {
         self.both_sides
     }

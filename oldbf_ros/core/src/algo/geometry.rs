@@ -57,20 +57,26 @@ fn reduce_distances_squared(points: &[Vec2], c: Vec2, init: f64, pick: impl Fn(f
 /// Pose in the plane: position (m) and heading θ (rad, CCW from +x).
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Pose2 {
+    /// Position x (m).
     pub x: f64,
+    /// Position y (m).
     pub y: f64,
+    /// Heading θ (rad, CCW from +x).
     pub theta: f64,
 }
 
 impl Pose2 {
+    /// The pose at (x, y) m heading θ rad.
     pub const fn new(x: f64, y: f64, theta: f64) -> Self {
         Self { x, y, theta }
     }
 
+    /// The position (m).
     pub fn position(&self) -> Vec2 {
         Vec2::new(self.x, self.y)
     }
 
+    /// The pose as a nalgebra isometry (this frame into the parent).
     pub fn isometry(&self) -> Isometry2<f64> {
         Isometry2::new(self.position(), self.theta)
     }
@@ -105,6 +111,7 @@ impl Pose2 {
         Vec2::new(c * v.x - s * v.y, s * v.x + c * v.y)
     }
 
+    /// No NaN or infinite coordinate.
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
     }
@@ -134,20 +141,25 @@ impl FrameMap {
 /// yaw rate (rad/s). Maps to geometry_msgs/Twist linear.x and angular.z.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Twist {
+    /// Linear speed along the robot's x axis (m/s).
     pub v_mps: f64,
+    /// Yaw rate (rad/s, CCW positive).
     pub omega_radps: f64,
 }
 
 impl Twist {
+    /// At rest.
     pub const ZERO: Twist = Twist {
         v_mps: 0.0,
         omega_radps: 0.0,
     };
 
+    /// Speed v (m/s) and yaw rate ω (rad/s).
     pub const fn new(v_mps: f64, omega_radps: f64) -> Self {
         Self { v_mps, omega_radps }
     }
 
+    /// Neither part NaN or infinite.
     pub fn is_finite(&self) -> bool {
         self.v_mps.is_finite() && self.omega_radps.is_finite()
     }

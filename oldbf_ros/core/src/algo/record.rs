@@ -40,6 +40,7 @@ pub enum Infeasibility {
 }
 
 impl Infeasibility {
+    /// Short machine-readable name (CSV `infeasible` column, `~state`).
     pub fn code(&self) -> &'static str {
         match self {
             Self::UnsafeSet => "unsafe_set",
@@ -73,6 +74,7 @@ impl fmt::Display for StopCause {
 }
 
 impl StopCause {
+    /// Short machine-readable name (diagnostics, `~state`, logs).
     pub fn code(&self) -> &'static str {
         match self {
             Self::Rejected(r) => r.code(),
@@ -97,6 +99,7 @@ pub struct StepRecord {
     pub nominal: Twist,
     /// The DOAA command before the DTCBF check.
     pub doaa_cmd: Twist,
+    /// The DOAA state this step.
     pub state: DoaaState,
     /// h(k) = d_min − d_safe (m).
     pub h_m: f64,
@@ -114,22 +117,32 @@ pub struct StepRecord {
     /// Why no command met the checks, when none did (`cmd` is then the
     /// fallback: a stop, a turn in place, or the evasive command).
     pub infeasibility: Option<Infeasibility>,
+    /// Barrier of the left side, B_l = B_d,l + B_v (dimensionless).
     pub b_left: f64,
+    /// Barrier of the right side, B_r = B_d,r + B_v.
     pub b_right: f64,
+    /// The velocity barrier B_v, shared by both sides.
     pub b_velocity: f64,
-    /// d_l, d_r, d_min, front clearance (m).
+    /// Least clearance on the left, d_l (m).
     pub d_left_m: f64,
+    /// Least clearance on the right, d_r (m).
     pub d_right_m: f64,
+    /// d_min = min(d_l, d_r) (m).
     pub d_min_m: f64,
+    /// Clearance straight ahead (m).
     pub d_front_m: f64,
-    /// Closest points, robot frame (m).
+    /// Closest point on the left, robot frame (m).
     pub closest_left: Option<Vec2>,
+    /// Closest point on the right, robot frame (m).
     pub closest_right: Option<Vec2>,
+    /// Beams in the scan.
     pub beams: usize,
+    /// Beams with a valid range (a point).
     pub valid_beams: usize,
     /// Beams reading unknown (NaN, below range_min), and of those the ones
     /// whose last valid reading is held as a point.
     pub unknown_beams: usize,
+    /// Of the unknown beams, those held at their last valid reading.
     pub held_beams: usize,
     /// Unknown fraction of the front sector watched for blindness.
     pub unknown_front_fraction: f64,
@@ -139,6 +152,7 @@ pub struct StepRecord {
     pub threats: usize,
     /// Least time to collision among them (s); +inf for none.
     pub min_time_to_collision_s: f64,
+    /// Why the pipeline stopped the robot, if it did.
     pub stop_cause: Option<StopCause>,
 }
 

@@ -26,12 +26,16 @@ use super::params::TrackingParams;
 /// Tracking error in the robot frame: along-track, cross-track (m), heading (rad).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrackingError {
+    /// Reference position ahead of the robot, along its heading (m).
     pub e_x_m: f64,
+    /// Reference position to the robot's left (m).
     pub e_y_m: f64,
+    /// Reference heading minus the robot's, wrapped to (−π, π] (rad).
     pub e_theta_rad: f64,
 }
 
 impl TrackingError {
+    /// The error of `robot` against `reference`, in the robot's frame.
     pub fn between(robot: Pose2, reference: Pose2) -> Self {
         let d = robot.inverse_transform_point(reference.position());
         Self {

@@ -139,6 +139,7 @@ pub struct Unstuck {
 }
 
 impl Unstuck {
+    /// Forgets the progress history and any free direction being followed.
     pub fn reset(&mut self) {
         self.best_progress_m = None;
         self.last_gain_s = None;
