@@ -7,98 +7,18 @@
 //! (`Params::validate`). Scenario files override parameters by deep-merging
 //! their `oldbf:` mapping over the defaults before the same checks run.
 
-use crate::algo::params::{ParamError, Params};
-use serde::de::DeserializeOwned;
+use crate::algo::params::Params;
 use serde_yaml::Value;
-use std::fmt;
 use std::path::Path;
+
+/// The shared configuration mechanism (`oldbf::config`), so that both crates
+/// have one error type and one set of loaders.
+pub use oldbf::config::{from_value, join_key, merge, parse_yaml, read_file, ConfigError};
 
 /// The shipped parameter file.
 pub const DEFAULT_PARAMS_YAML: &str = include_str!("../../config/oldbf.yaml");
 /// How the embedded defaults are named in error messages.
 pub const DEFAULT_PARAMS_NAME: &str = "config/oldbf.yaml (built-in)";
-
-/// A configuration problem, always naming the file and, where there is one, the key.
-#[derive(Debug)]
-pub enum ConfigError {
-    /// The file could not be read.
-    Io { file: String, error: std::io::Error },
-    /// Not YAML, a wrong type, an unknown or a missing key.
-    Parse { file: String, key: String, message: String },
-    /// Values outside their allowed ranges; `prefix` is prepended to their
-    /// keys (`oldbf.` for a scenario's overrides).
-    Range {
-        file: String,
-        prefix: String,
-        errors: Vec<ParamError>,
-    },
-}
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { file, error } => write!(f, "{file}: cannot read: {error}"),
-            Self::Parse { file, key, message } if key.is_empty() || key == "." => {
-                write!(f, "{file}: {message}")
-            }
-            Self::Parse { file, key, message } => write!(f, "{file}: key `{key}`: {message}"),
-            Self::Range { file, prefix, errors } => {
-                for (i, e) in errors.iter().enumerate() {
-                    if i > 0 {
-                        writeln!(f)?;
-                    }
-                    write!(
-                        f,
-                        "{file}: key `{prefix}{}` = {} is out of range; allowed: {}",
-                        e.key, e.value, e.allowed
-                    )?;
-                }
-                Ok(())
-            }
-        }
-    }
-}
-
-impl std::error::Error for ConfigError {}
-
-impl ConfigError {
-    /// The keys this error is about (for tests and diagnostics).
-    pub fn keys(&self) -> Vec<String> {
-        match self {
-            Self::Io { .. } => vec![],
-            Self::Parse { key, .. } => vec![key.clone()],
-            Self::Range { prefix, errors, .. } => errors.iter().map(|e| format!("{prefix}{}", e.key)).collect(),
-        }
-    }
-}
-
-/// Parses YAML text into a `Value`, naming the file on syntax errors.
-pub fn parse_yaml(text: &str, file: &str) -> Result<Value, ConfigError> {
-    serde_yaml::from_str(text).map_err(|e| ConfigError::Parse {
-        file: file.to_string(),
-        key: String::new(),
-        message: e.to_string(),
-    })
-}
-
-/// Deserializes `value` strictly, reporting the dotted path of the failing key.
-/// `prefix` is prepended to paths (e.g. `oldbf.` inside a scenario file).
-pub fn from_value<T: DeserializeOwned>(value: Value, file: &str, prefix: &str) -> Result<T, ConfigError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let key = e.path().to_string();
-        let inner = e.into_inner().to_string();
-        let key = if prefix.is_empty() || key == "." {
-            key
-        } else {
-            format!("{prefix}{key}")
-        };
-        ConfigError::Parse {
-            file: file.to_string(),
-            key,
-            message: inner,
-        }
-    })
-}
 
 /// An error from a section's own check (`lidar`, `robot`, `world`) that
 /// carries the dotted key it is about, so that a file error can name the key
@@ -113,40 +33,13 @@ pub trait SectionError: std::error::Error {
 
 /// A section's check error as a file error naming its key.
 pub fn section_error(file: &str, e: &dyn SectionError) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: e.key(),
-        message: e.detail(),
-    }
+    ConfigError::at(file, e.key(), e.detail())
 }
 
-/// Recursively merges `over` into `base`: mappings merge key by key, anything
-/// else replaces.
-pub fn merge(base: &mut Value, over: &Value) {
-    match (base, over) {
-        (Value::Mapping(b), Value::Mapping(o)) => {
-            for (k, v) in o {
-                match b.get_mut(k) {
-                    Some(slot) => merge(slot, v),
-                    None => {
-                        b.insert(k.clone(), v.clone());
-                    }
-                }
-            }
-        }
-        (b, o) => *b = o.clone(),
-    }
-}
-
-/// Validated parameters from a `Value` (after any merging).
-pub fn params_from_value(value: Value, file: &str, prefix: &str) -> Result<Params, ConfigError> {
-    let params: Params = from_value(value, file, prefix)?;
-    params.validate().map_err(|errors| ConfigError::Range {
-        file: file.to_string(),
-        prefix: prefix.to_string(),
-        errors,
-    })?;
-    Ok(params)
+/// Validated parameters from a `Value` (after any merging); keys inside
+/// `section` (`oldbf` for a scenario's overrides, empty for a whole file).
+pub fn params_from_value(value: Value, file: &str, section: &str) -> Result<Params, ConfigError> {
+    oldbf::config::load_value(value, file, section)
 }
 
 /// The built-in defaults (`config/oldbf.yaml` as shipped).
@@ -156,17 +49,12 @@ pub fn default_params() -> Params {
 
 /// Validated parameters from YAML text.
 pub fn load_params_str(text: &str, file: &str) -> Result<Params, ConfigError> {
-    params_from_value(parse_yaml(text, file)?, file, "")
+    oldbf::config::load_str(text, file)
 }
 
 /// Validated parameters from a file.
 pub fn load_params_file(path: &Path) -> Result<Params, ConfigError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-        file: file.clone(),
-        error,
-    })?;
-    load_params_str(&text, &file)
+    oldbf::config::load_file(path)
 }
 
 /// The base parameter document: a file if given, else the built-in defaults,
@@ -175,10 +63,7 @@ pub fn base_params_value(path: Option<&Path>) -> Result<(Value, String), ConfigE
     match path {
         Some(p) => {
             let file = p.display().to_string();
-            let text = std::fs::read_to_string(p).map_err(|error| ConfigError::Io {
-                file: file.clone(),
-                error,
-            })?;
+            let text = read_file(p)?;
             // Check the base file on its own first so its errors name it.
             load_params_str(&text, &file)?;
             Ok((parse_yaml(&text, &file)?, file))
@@ -465,7 +350,7 @@ mod tests {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         let over = parse_yaml("barrier: {d_safe_m: 0.3}\ncontrol: {allow_reverse: true}", "o").unwrap();
         merge(&mut base, &over);
-        let p = params_from_value(base, "o", "oldbf.").unwrap();
+        let p = params_from_value(base, "o", "oldbf").unwrap();
         assert_eq!(p.barrier.d_safe_m, 0.3);
         assert!(p.control.allow_reverse);
         assert_eq!(p.barrier.sigma, 2.0);
@@ -475,11 +360,11 @@ mod tests {
     fn prefixed_paths_for_scenario_overrides() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         merge(&mut base, &parse_yaml("barrier: {d_sfe_m: 0.3}", "o").unwrap());
-        let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
+        let e = params_from_value(base, "scn.yaml", "oldbf").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.barrier.d_sfe_m"], "{e}");
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         merge(&mut base, &parse_yaml("dtcbf: {gamma: 0}", "o").unwrap());
-        let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
+        let e = params_from_value(base, "scn.yaml", "oldbf").unwrap_err();
         assert_eq!(
             e.to_string(),
             "scn.yaml: key `oldbf.dtcbf.gamma` = 0 is out of range; allowed: (0, 1]"

@@ -141,11 +141,7 @@ pub struct Scenario {
 }
 
 fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
+    ConfigError::at(file, key, message)
 }
 
 fn check(file: &str, key: &str, v: f64, lo: f64, hi: f64, allowed: &str) -> Result<(), ConfigError> {
@@ -167,12 +163,8 @@ impl Scenario {
     /// Loads a scenario file over an already merged parameter document (the
     /// ROS node's parameters).
     pub fn load_over(path: &Path, base: Value) -> Result<Scenario, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        Self::from_str_over(&text, &file, base)
+        let text = config::read_file(path)?;
+        Self::from_str_over(&text, &path.display().to_string(), base)
     }
 
     /// As `load`, from text.
@@ -187,7 +179,7 @@ impl Scenario {
         if let Some(over) = &spec.oldbf {
             config::merge(&mut base, over);
         }
-        let params = config::params_from_value(base, file, "oldbf.")?;
+        let params = config::params_from_value(base, file, "oldbf")?;
 
         check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
         check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;

@@ -53,11 +53,7 @@ const WALL_GAP_M: f64 = 0.01;
 const MIN_LOOP_M: f64 = 0.5;
 
 fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
+    ConfigError::at(file, key, message)
 }
 
 /// Range checks that name the file and the key.
@@ -117,12 +113,8 @@ impl Template {
     /// Loads a template over the base parameters (`base_params`: a parameter
     /// file, or None for the built-in `config/oldbf.yaml`).
     pub fn load(path: &Path, base_params: Option<&Path>) -> Result<Template, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        Self::from_str(&text, &file, base_params)
+        let text = config::read_file(path)?;
+        Self::from_str(&text, &path.display().to_string(), base_params)
     }
 
     /// As `load`, from text.
@@ -133,7 +125,7 @@ impl Template {
         if let Some(over) = &spec.oldbf {
             config::merge(&mut merged, over);
         }
-        let params = config::params_from_value(merged, file, "oldbf.")?;
+        let params = config::params_from_value(merged, file, "oldbf")?;
         let t = Template {
             file: file.to_string(),
             spec,
@@ -384,7 +376,7 @@ mod tests {
 
     fn error_keys(text: &str) -> (Vec<String>, String) {
         let e = Template::from_str(text, "t.yaml", None).expect_err("must be rejected");
-        (e.keys(), e.to_string())
+        (e.keys().into_iter().map(String::from).collect(), e.to_string())
     }
 
     /// Is `p` strictly inside the convex outline `edges` (a box's four edges)?
