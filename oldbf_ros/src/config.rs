@@ -20,14 +20,13 @@ pub const DEFAULT_PARAMS_YAML: &str = include_str!("../../config/oldbf.yaml");
 /// How the embedded defaults are named in error messages.
 pub const DEFAULT_PARAMS_NAME: &str = "config/oldbf.yaml (built-in)";
 
-/// An error from a section's own check (`lidar`, `robot`, `world`) that
+/// An error from the world's own check (`world`: geometry, movers) that
 /// carries the dotted key it is about, so that a file error can name the key
 /// like any other without parsing the message.
 pub trait SectionError: std::error::Error {
-    /// The dotted key: `lidar.beams`, `world.walls[2]`,
-    /// `world.moving[1].radius_m`.
+    /// The dotted key: `world.walls[2]`, `world.moving[1].radius_m`.
     fn key(&self) -> String;
-    /// The message without the key: `must be in [1, 16384] (got 0)`.
+    /// The message without the key: `zero length`.
     fn detail(&self) -> String;
 }
 
@@ -148,60 +147,9 @@ mod tests {
     fn section_errors_name_the_key_in_their_message() {
         use crate::sim::motion::{MovingObstacleError as M, PointField};
         use crate::sim::world::WorldItem;
-        use crate::sim::{LidarError, RobotLimitsError, WorldError as W};
+        use crate::sim::WorldError as W;
         let moving = |source: M| W::Moving { index: 1, source };
         let cases: Vec<(Box<dyn SectionError>, &str)> = vec![
-            (
-                Box::new(LidarError::Beams { beams: 0 }),
-                "key `lidar.beams`: must be in [1, 16384] (got 0)",
-            ),
-            (
-                Box::new(LidarError::FovDeg { fov_deg: 361.0 }),
-                "key `lidar.fov_deg`: must be in (0, 360] (got 361)",
-            ),
-            (
-                Box::new(LidarError::RangeMin { range_min_m: -1.0 }),
-                "key `lidar.range_min_m`: must be >= 0 and finite (got -1)",
-            ),
-            (
-                Box::new(LidarError::NoiseStd { noise_std_m: -0.01 }),
-                "key `lidar.noise_std_m`: must be >= 0 and finite (got -0.01)",
-            ),
-            (
-                Box::new(LidarError::DropoutProb { dropout_prob: 1.5 }),
-                "key `lidar.dropout_prob`: must be in [0, 1] (got 1.5)",
-            ),
-            (
-                Box::new(LidarError::Noise {
-                    source: rand_distr::NormalError::BadVariance,
-                }),
-                "key `lidar.noise_std_m`: variation parameter is non-finite in (log)normal distribution",
-            ),
-            (
-                Box::new(LidarError::RateHz { rate_hz: 0.0 }),
-                "key `lidar.rate_hz`: must be in (0, 1000] (got 0)",
-            ),
-            (
-                Box::new(LidarError::RangeMax {
-                    range_max_m: 0.1,
-                    range_min_m: 0.12,
-                }),
-                "key `lidar.range_max_m`: must be finite and > lidar.range_min_m (got 0.1 <= 0.12)",
-            ),
-            (
-                Box::new(RobotLimitsError {
-                    field: "v_max_mps",
-                    value: f64::NAN,
-                }),
-                "key `robot.v_max_mps`: must be > 0 and finite (got NaN)",
-            ),
-            (
-                Box::new(RobotLimitsError {
-                    field: "omega_accel_max_radps2",
-                    value: 0.0,
-                }),
-                "key `robot.omega_accel_max_radps2`: must be > 0 and finite (got 0)",
-            ),
             (
                 Box::new(W::NotFinite {
                     item: WorldItem::Wall(0),

@@ -13,7 +13,7 @@ use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::params::Params;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::config::{self, ConfigError};
-use oldbf::config::{Checker, Interval};
+use oldbf::config::{Checker, Interval, Validate};
 use serde::Deserialize;
 use serde_yaml::Value;
 use std::path::Path;
@@ -198,9 +198,10 @@ impl Scenario {
             spec.goal_tolerance_m,
             Interval::open_closed(0.0, 10.0).unit("m"),
         );
+        spec.lidar.check(&mut c);
+        let robot = spec.robot.limits();
+        robot.check(&mut c);
         finish(c, file)?;
-        spec.lidar.validate().map_err(|e| config::section_error(file, &e))?;
-        let robot = spec.robot.resolve().map_err(|e| config::section_error(file, &e))?;
         World::new(&spec.world).map_err(|e| config::section_error(file, &e))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {

@@ -26,7 +26,7 @@ use crate::sim::motion::{MotionSpec, MovingObstacleSpec};
 use crate::sim::robot::RobotSpec;
 use crate::sim::scenario::Scenario;
 use crate::sim::world::{BoxSpec, CircleSpec, WallSpec, World, WorldSpec};
-use oldbf::config::{Checker, Interval};
+use oldbf::config::{Checker, Interval, Validate};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -156,9 +156,9 @@ impl Template {
             s.start_clearance_m,
             Interval::closed(0.0, 10.0).unit("m"),
         );
+        s.robot.limits().check(&mut c);
+        s.lidar.check(&mut c);
         let mut c = finish(c, file)?;
-        s.robot.resolve().map_err(|e| config::section_error(file, &e))?;
-        s.lidar.validate().map_err(|e| config::section_error(file, &e))?;
 
         // Rules between keys: the ranges above hold.
         let v_max = self.params.control.v_max_mps;
