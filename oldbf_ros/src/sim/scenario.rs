@@ -202,7 +202,7 @@ impl Scenario {
         let robot = spec.robot.limits();
         robot.check(&mut c);
         finish(c, file)?;
-        World::new(&spec.world).map_err(|e| config::section_error(file, &e))?;
+        World::new(&spec.world).map_err(|e| e.in_file(file))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),
