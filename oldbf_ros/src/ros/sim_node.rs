@@ -32,7 +32,7 @@ use super::msg::{
     geometry_msgs, nav_msgs, sensor_msgs, std_msgs, tf2_msgs,
     visualization_msgs::{Marker, MarkerArray},
 };
-use super::params::ParamError;
+use super::params::RosParamError;
 use super::RosError;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::config::ConfigError;
@@ -71,9 +71,9 @@ struct RobotIo {
     _cmd_sub: rosrust::Subscriber,
 }
 
-fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, ParamError> {
-    let p = rosrust::param(name).ok_or_else(|| ParamError::Unresolved { name: name.to_string() })?;
-    let read = |source| ParamError::Read {
+fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, RosParamError> {
+    let p = rosrust::param(name).ok_or_else(|| RosParamError::Unresolved { name: name.to_string() })?;
+    let read = |source| RosParamError::Read {
         name: p.name().to_string(),
         source,
     };
@@ -162,7 +162,7 @@ fn world_markers(fleet: &Fleet, frame: &str, stamp: rosrust::Time) -> MarkerArra
 #[derive(Debug, thiserror::Error)]
 enum SimNodeError {
     #[error(transparent)]
-    Param(#[from] ParamError),
+    Param(#[from] RosParamError),
     #[error("the private parameter ~scenario (a scenario file) is required")]
     NoScenario,
     #[error(transparent)]
