@@ -38,6 +38,7 @@ use crate::algo::geometry::{Pose2, Twist};
 use crate::config::ConfigError;
 use crate::sim::fleet::{Fleet, FleetError};
 use crate::sim::scenario::Scenario;
+use oldbf::config::{Checker, Interval};
 use serde::Serialize;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -167,12 +168,6 @@ enum SimNodeError {
     NoScenario,
     #[error(transparent)]
     Scenario(#[from] ConfigError),
-    #[error("parameter ~motion_source = {value:?}; allowed: cmd_vel, odom")]
-    MotionSource { value: String },
-    #[error("parameter ~odom_rate_hz = {value} is out of range; allowed: (0, 1000] Hz")]
-    OdomRate { value: f64 },
-    #[error("parameter ~cmd_timeout_s = {value} is out of range; allowed: (0, 60] s")]
-    CmdTimeout { value: f64 },
     #[error(transparent)]
     Fleet(#[from] FleetError),
     #[error(transparent)]
@@ -205,21 +200,26 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
     let odom_rate_hz: f64 = param("~odom_rate_hz")?.unwrap_or(50.0);
     let cmd_timeout_s: f64 = param("~cmd_timeout_s")?.unwrap_or(0.5);
     let motion_source: String = param("~motion_source")?.unwrap_or_else(|| "cmd_vel".into());
-    let from_odom = match motion_source.as_str() {
-        "cmd_vel" => false,
-        "odom" => true,
-        other => {
-            return Err(SimNodeError::MotionSource {
-                value: other.to_string(),
-            })
-        }
-    };
-    if !(odom_rate_hz.is_finite() && odom_rate_hz > 0.0 && odom_rate_hz <= 1000.0) {
-        return Err(SimNodeError::OdomRate { value: odom_rate_hz });
-    }
-    if !(cmd_timeout_s.is_finite() && cmd_timeout_s > 0.0 && cmd_timeout_s <= 60.0) {
-        return Err(SimNodeError::CmdTimeout { value: cmd_timeout_s });
-    }
+    let from_odom = motion_source == "odom";
+    let mut c = Checker::new();
+    c.rule(
+        from_odom || motion_source == "cmd_vel",
+        "~motion_source",
+        format_args!("{motion_source:?}"),
+        "cmd_vel or odom",
+    );
+    c.range(
+        "~odom_rate_hz",
+        odom_rate_hz,
+        Interval::open_closed(0.0, 1000.0).unit("Hz"),
+    );
+    c.range(
+        "~cmd_timeout_s",
+        cmd_timeout_s,
+        Interval::open_closed(0.0, 60.0).unit("s"),
+    );
+    c.finish()
+        .map_err(|errors| ConfigError::invalid("private parameters", errors))?;
     let mut fleet = Fleet::new(&scenario, seed)?;
     let n = fleet.agents().len();
     let multi = n > 1;
