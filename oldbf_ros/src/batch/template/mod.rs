@@ -80,7 +80,8 @@ fn check_count(c: &mut Checker, key: &str, n: [usize; 2], most: usize) {
     );
 }
 
-/// Every error so far as one file error; `Ok` when there is none.
+/// Ends a stage of checks: its errors as one error of `file`, else a fresh
+/// checker for the next stage (whose rules assume this stage's values valid).
 fn finish(c: Checker, file: &str) -> Result<Checker, ConfigError> {
     match c.finish() {
         Ok(()) => Ok(Checker::new()),
