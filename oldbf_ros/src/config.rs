@@ -7,146 +7,23 @@
 //! (`Params::validate`). Scenario files override parameters by deep-merging
 //! their `oldbf:` mapping over the defaults before the same checks run.
 
-use crate::algo::params::{ParamError, Params};
-use serde::de::DeserializeOwned;
+use crate::algo::params::Params;
 use serde_yaml::Value;
-use std::fmt;
 use std::path::Path;
+
+/// The shared configuration mechanism (`oldbf::config`), so that both crates
+/// have one error type and one set of loaders.
+pub use oldbf::config::{from_value, join_key, merge, parse_yaml, read_file, ConfigError};
 
 /// The shipped parameter file.
 pub const DEFAULT_PARAMS_YAML: &str = include_str!("../../config/oldbf.yaml");
 /// How the embedded defaults are named in error messages.
 pub const DEFAULT_PARAMS_NAME: &str = "config/oldbf.yaml (built-in)";
 
-/// A configuration problem, always naming the file and, where there is one, the key.
-#[derive(Debug)]
-pub enum ConfigError {
-    /// The file could not be read.
-    Io { file: String, error: std::io::Error },
-    /// Not YAML, a wrong type, an unknown or a missing key.
-    Parse { file: String, key: String, message: String },
-    /// Values outside their allowed ranges; `prefix` is prepended to their
-    /// keys (`oldbf.` for a scenario's overrides).
-    Range {
-        file: String,
-        prefix: String,
-        errors: Vec<ParamError>,
-    },
-}
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Io { file, error } => write!(f, "{file}: cannot read: {error}"),
-            Self::Parse { file, key, message } if key.is_empty() || key == "." => {
-                write!(f, "{file}: {message}")
-            }
-            Self::Parse { file, key, message } => write!(f, "{file}: key `{key}`: {message}"),
-            Self::Range { file, prefix, errors } => {
-                for (i, e) in errors.iter().enumerate() {
-                    if i > 0 {
-                        writeln!(f)?;
-                    }
-                    write!(
-                        f,
-                        "{file}: key `{prefix}{}` = {} is out of range; allowed: {}",
-                        e.key, e.value, e.allowed
-                    )?;
-                }
-                Ok(())
-            }
-        }
-    }
-}
-
-impl std::error::Error for ConfigError {}
-
-impl ConfigError {
-    /// The keys this error is about (for tests and diagnostics).
-    pub fn keys(&self) -> Vec<String> {
-        match self {
-            Self::Io { .. } => vec![],
-            Self::Parse { key, .. } => vec![key.clone()],
-            Self::Range { prefix, errors, .. } => errors.iter().map(|e| format!("{prefix}{}", e.key)).collect(),
-        }
-    }
-}
-
-/// Parses YAML text into a `Value`, naming the file on syntax errors.
-pub fn parse_yaml(text: &str, file: &str) -> Result<Value, ConfigError> {
-    serde_yaml::from_str(text).map_err(|e| ConfigError::Parse {
-        file: file.to_string(),
-        key: String::new(),
-        message: e.to_string(),
-    })
-}
-
-/// Deserializes `value` strictly, reporting the dotted path of the failing key.
-/// `prefix` is prepended to paths (e.g. `oldbf.` inside a scenario file).
-pub fn from_value<T: DeserializeOwned>(value: Value, file: &str, prefix: &str) -> Result<T, ConfigError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let key = e.path().to_string();
-        let inner = e.into_inner().to_string();
-        let key = if prefix.is_empty() || key == "." {
-            key
-        } else {
-            format!("{prefix}{key}")
-        };
-        ConfigError::Parse {
-            file: file.to_string(),
-            key,
-            message: inner,
-        }
-    })
-}
-
-/// An error from a section's own check (`lidar`, `robot`, `world`) that
-/// carries the dotted key it is about, so that a file error can name the key
-/// like any other without parsing the message.
-pub trait SectionError: std::error::Error {
-    /// The dotted key: `lidar.beams`, `world.walls[2]`,
-    /// `world.moving[1].radius_m`.
-    fn key(&self) -> String;
-    /// The message without the key: `must be in [1, 16384] (got 0)`.
-    fn detail(&self) -> String;
-}
-
-/// A section's check error as a file error naming its key.
-pub fn section_error(file: &str, e: &dyn SectionError) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: e.key(),
-        message: e.detail(),
-    }
-}
-
-/// Recursively merges `over` into `base`: mappings merge key by key, anything
-/// else replaces.
-pub fn merge(base: &mut Value, over: &Value) {
-    match (base, over) {
-        (Value::Mapping(b), Value::Mapping(o)) => {
-            for (k, v) in o {
-                match b.get_mut(k) {
-                    Some(slot) => merge(slot, v),
-                    None => {
-                        b.insert(k.clone(), v.clone());
-                    }
-                }
-            }
-        }
-        (b, o) => *b = o.clone(),
-    }
-}
-
-/// Validated parameters from a `Value` (after any merging).
-pub fn params_from_value(value: Value, file: &str, prefix: &str) -> Result<Params, ConfigError> {
-    let params: Params = from_value(value, file, prefix)?;
-    params.validate().map_err(|errors| ConfigError::Range {
-        file: file.to_string(),
-        prefix: prefix.to_string(),
-        errors,
-    })?;
-    Ok(params)
+/// Validated parameters from a `Value` (after any merging); keys inside
+/// `section` (`oldbf` for a scenario's overrides, empty for a whole file).
+pub fn params_from_value(value: Value, file: &str, section: &str) -> Result<Params, ConfigError> {
+    oldbf::config::load_value(value, file, section)
 }
 
 /// The built-in defaults (`config/oldbf.yaml` as shipped).
@@ -156,17 +33,12 @@ pub fn default_params() -> Params {
 
 /// Validated parameters from YAML text.
 pub fn load_params_str(text: &str, file: &str) -> Result<Params, ConfigError> {
-    params_from_value(parse_yaml(text, file)?, file, "")
+    oldbf::config::load_str(text, file)
 }
 
 /// Validated parameters from a file.
 pub fn load_params_file(path: &Path) -> Result<Params, ConfigError> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-        file: file.clone(),
-        error,
-    })?;
-    load_params_str(&text, &file)
+    oldbf::config::load_file(path)
 }
 
 /// The base parameter document: a file if given, else the built-in defaults,
@@ -175,10 +47,7 @@ pub fn base_params_value(path: Option<&Path>) -> Result<(Value, String), ConfigE
     match path {
         Some(p) => {
             let file = p.display().to_string();
-            let text = std::fs::read_to_string(p).map_err(|error| ConfigError::Io {
-                file: file.clone(),
-                error,
-            })?;
+            let text = read_file(p)?;
             // Check the base file on its own first so its errors name it.
             load_params_str(&text, &file)?;
             Ok((parse_yaml(&text, &file)?, file))
@@ -260,212 +129,11 @@ mod tests {
     }
 
     #[test]
-    fn section_errors_name_the_key_in_their_message() {
-        use crate::sim::motion::{MovingObstacleError as M, PointField};
-        use crate::sim::world::WorldItem;
-        use crate::sim::{LidarError, RobotLimitsError, WorldError as W};
-        let moving = |source: M| W::Moving { index: 1, source };
-        let cases: Vec<(Box<dyn SectionError>, &str)> = vec![
-            (
-                Box::new(LidarError::Beams { beams: 0 }),
-                "key `lidar.beams`: must be in [1, 16384] (got 0)",
-            ),
-            (
-                Box::new(LidarError::FovDeg { fov_deg: 361.0 }),
-                "key `lidar.fov_deg`: must be in (0, 360] (got 361)",
-            ),
-            (
-                Box::new(LidarError::RangeMin { range_min_m: -1.0 }),
-                "key `lidar.range_min_m`: must be >= 0 and finite (got -1)",
-            ),
-            (
-                Box::new(LidarError::NoiseStd { noise_std_m: -0.01 }),
-                "key `lidar.noise_std_m`: must be >= 0 and finite (got -0.01)",
-            ),
-            (
-                Box::new(LidarError::DropoutProb { dropout_prob: 1.5 }),
-                "key `lidar.dropout_prob`: must be in [0, 1] (got 1.5)",
-            ),
-            (
-                Box::new(LidarError::Noise {
-                    source: rand_distr::NormalError::BadVariance,
-                }),
-                "key `lidar.noise_std_m`: variation parameter is non-finite in (log)normal distribution",
-            ),
-            (
-                Box::new(LidarError::RateHz { rate_hz: 0.0 }),
-                "key `lidar.rate_hz`: must be in (0, 1000] (got 0)",
-            ),
-            (
-                Box::new(LidarError::RangeMax {
-                    range_max_m: 0.1,
-                    range_min_m: 0.12,
-                }),
-                "key `lidar.range_max_m`: must be finite and > lidar.range_min_m (got 0.1 <= 0.12)",
-            ),
-            (
-                Box::new(RobotLimitsError {
-                    field: "v_max_mps",
-                    value: f64::NAN,
-                }),
-                "key `robot.v_max_mps`: must be > 0 and finite (got NaN)",
-            ),
-            (
-                Box::new(RobotLimitsError {
-                    field: "omega_accel_max_radps2",
-                    value: 0.0,
-                }),
-                "key `robot.omega_accel_max_radps2`: must be > 0 and finite (got 0)",
-            ),
-            (
-                Box::new(W::NotFinite {
-                    item: WorldItem::Wall(0),
-                    value: [f64::NAN, 0.0],
-                }),
-                "key `world.walls[0]`: coordinates must be finite (got [NaN, 0.0])",
-            ),
-            (
-                Box::new(W::NotFinite {
-                    item: WorldItem::Polygon(4),
-                    value: [f64::NAN, 0.0],
-                }),
-                "key `world.polygons[4]`: coordinates must be finite (got [NaN, 0.0])",
-            ),
-            (
-                Box::new(W::NotFinite {
-                    item: WorldItem::Circle(0),
-                    value: [0.0, f64::NAN],
-                }),
-                "key `world.circles[0]`: coordinates must be finite (got [0.0, NaN])",
-            ),
-            (
-                Box::new(moving(M::NotFinite {
-                    field: PointField::Start,
-                    value: [f64::NAN, 0.0],
-                })),
-                "key `world.moving[1].motion.start`: must be finite (got [NaN, 0.0])",
-            ),
-            (
-                Box::new(moving(M::NotFinite {
-                    field: PointField::VelocityMps,
-                    value: [f64::INFINITY, 0.0],
-                })),
-                "key `world.moving[1].motion.velocity_mps`: must be finite (got [inf, 0.0])",
-            ),
-            (
-                Box::new(moving(M::NotFinite {
-                    field: PointField::RegionMin,
-                    value: [f64::NAN, 0.0],
-                })),
-                "key `world.moving[1].motion.region_min`: must be finite (got [NaN, 0.0])",
-            ),
-            (Box::new(W::ZeroLengthWall { index: 2 }), "key `world.walls[2]`: zero length"),
-            (
-                Box::new(W::NotFinite {
-                    item: WorldItem::Box(0),
-                    value: [f64::INFINITY, 0.0],
-                }),
-                "key `world.boxes[0]`: coordinates must be finite (got [inf, 0.0])",
-            ),
-            (
-                Box::new(W::TooFewVertices { index: 0, vertices: 2 }),
-                "key `world.polygons[0]`: needs at least 3 vertices (got 2)",
-            ),
-            (
-                Box::new(W::ZeroLengthEdge {
-                    index: 0,
-                    edge: 2,
-                    next: 0,
-                }),
-                "key `world.polygons[0]`: edge 2 (vertex 2 to vertex 0) has zero length",
-            ),
-            (
-                Box::new(W::BoxSize {
-                    index: 1,
-                    size: [-1.0, 0.3],
-                }),
-                "key `world.boxes[1]`: size must be > 0 and finite (got [-1.0, 0.3])",
-            ),
-            (
-                Box::new(W::BoxYaw {
-                    index: 1,
-                    yaw_deg: f64::NAN,
-                }),
-                "key `world.boxes[1].yaw_deg`: must be finite",
-            ),
-            (
-                Box::new(W::CircleRadius {
-                    index: 3,
-                    radius_m: -0.1,
-                }),
-                "key `world.circles[3].radius_m`: must be > 0 and finite (got -0.1)",
-            ),
-            (
-                Box::new(moving(M::Radius { radius_m: 0.0 })),
-                "key `world.moving[1].radius_m`: must be > 0 and finite (got 0)",
-            ),
-            (
-                Box::new(moving(M::NotFinite {
-                    field: PointField::RegionMax,
-                    value: [0.0, f64::INFINITY],
-                })),
-                "key `world.moving[1].motion.region_max`: must be finite (got [0.0, inf])",
-            ),
-            (
-                Box::new(moving(M::NotFinite {
-                    field: PointField::Waypoint(2),
-                    value: [f64::NAN, 0.0],
-                })),
-                "key `world.moving[1]`: motion.waypoints[2] must be finite (got [NaN, 0.0])",
-            ),
-            (
-                Box::new(moving(M::StartTime {
-                    start_time_s: f64::NAN,
-                })),
-                "key `world.moving[1].motion.start_time_s`: must be finite (got NaN)",
-            ),
-            (
-                Box::new(moving(M::Speed { speed_mps: -0.1 })),
-                "key `world.moving[1].motion.speed_mps`: must be >= 0 and finite (got -0.1)",
-            ),
-            (
-                Box::new(moving(M::Waypoints {
-                    points: 1,
-                    loop_length_m: 0.0,
-                })),
-                "key `world.moving[1]`: motion.waypoints needs at least 2 distinct points (got 1 point(s), loop length 0 m)",
-            ),
-            (
-                Box::new(moving(M::EmptyRegion {
-                    region_min: [0.0, 0.0],
-                    region_max: [1.0, 0.0],
-                })),
-                "key `world.moving[1].motion.region_min`: must be < motion.region_max on both axes (got [0.0, 0.0], [1.0, 0.0])",
-            ),
-            (
-                Box::new(moving(M::StartOutside {
-                    start: [2.0, 0.5],
-                    region_min: [0.0, 0.0],
-                    region_max: [1.0, 1.0],
-                })),
-                "key `world.moving[1]`: motion.start [2.0, 0.5] must lie inside the region [[0.0, 0.0], [1.0, 1.0]]",
-            ),
-        ];
-        for (e, want) in &cases {
-            assert_eq!(
-                section_error("s.yaml", e.as_ref()).to_string(),
-                format!("s.yaml: {want}")
-            );
-            assert_eq!(section_error("s.yaml", e.as_ref()).keys(), [e.key()]);
-        }
-    }
-
-    #[test]
     fn merge_overrides_nested_keys_only() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         let over = parse_yaml("barrier: {d_safe_m: 0.3}\ncontrol: {allow_reverse: true}", "o").unwrap();
         merge(&mut base, &over);
-        let p = params_from_value(base, "o", "oldbf.").unwrap();
+        let p = params_from_value(base, "o", "oldbf").unwrap();
         assert_eq!(p.barrier.d_safe_m, 0.3);
         assert!(p.control.allow_reverse);
         assert_eq!(p.barrier.sigma, 2.0);
@@ -475,11 +143,11 @@ mod tests {
     fn prefixed_paths_for_scenario_overrides() {
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         merge(&mut base, &parse_yaml("barrier: {d_sfe_m: 0.3}", "o").unwrap());
-        let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
+        let e = params_from_value(base, "scn.yaml", "oldbf").unwrap_err();
         assert_eq!(e.keys(), ["oldbf.barrier.d_sfe_m"], "{e}");
         let mut base = parse_yaml(DEFAULT_PARAMS_YAML, "x").unwrap();
         merge(&mut base, &parse_yaml("dtcbf: {gamma: 0}", "o").unwrap());
-        let e = params_from_value(base, "scn.yaml", "oldbf.").unwrap_err();
+        let e = params_from_value(base, "scn.yaml", "oldbf").unwrap_err();
         assert_eq!(
             e.to_string(),
             "scn.yaml: key `oldbf.dtcbf.gamma` = 0 is out of range; allowed: (0, 1]"

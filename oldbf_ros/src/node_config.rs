@@ -13,8 +13,9 @@ use crate::algo::geometry::Twist;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::algo::Params;
 use crate::config::{self, ConfigError};
-use crate::node_core::NodeSettings;
+use crate::node_core::{NodeSettings, NodeSettingsError};
 use crate::sim::scenario::Scenario;
+use oldbf::config::{Interval, ParamError};
 use serde_yaml::Value;
 use std::path::Path;
 
@@ -40,11 +41,11 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         Value::Null => Value::Mapping(Default::default()),
         v @ Value::Mapping(_) => v,
         other => {
-            return Err(ConfigError::Parse {
-                file: source.to_string(),
-                key: String::new(),
-                message: format!("expected a mapping of parameters, got {other:?}"),
-            })
+            return Err(ConfigError::at(
+                source,
+                "",
+                format!("expected a mapping of parameters, got {other:?}"),
+            ))
         }
     };
     let node_over = ns.as_mapping_mut().and_then(|m| m.remove("node"));
@@ -56,13 +57,8 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
     if let Some(over) = &node_over {
         config::merge(&mut settings_value, over);
     }
-    let settings: NodeSettings = config::from_value(settings_value, source, "node.")?;
-    // The message names the key itself (`key `node.x` = v is out of range`).
-    settings.validate().map_err(|e| ConfigError::Parse {
-        file: source.to_string(),
-        key: String::new(),
-        message: e.to_string(),
-    })?;
+    let settings: NodeSettings = config::from_value(settings_value, source, "node")?;
+    settings.validate().map_err(|e| settings_error(source, e))?;
 
     let (mut params_value, _) = config::base_params_value(None)?;
     config::merge(&mut params_value, &ns);
@@ -82,15 +78,17 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         .agents
         .iter()
         .find(|a| a.name == settings.robot)
-        .ok_or_else(|| ConfigError::Parse {
-            file: source.to_string(),
-            key: "node.robot".into(),
-            message: format!(
-                "`{}` is not a robot of {} (robots: {:?})",
-                settings.robot,
-                scenario.file,
-                scenario.agents.iter().map(|a| a.name.as_str()).collect::<Vec<_>>()
-            ),
+        .ok_or_else(|| {
+            ConfigError::at(
+                source,
+                "node.robot",
+                format!(
+                    "`{}` is not a robot of {} (robots: {:?})",
+                    settings.robot,
+                    scenario.file,
+                    scenario.agents.iter().map(|a| a.name.as_str()).collect::<Vec<_>>()
+                ),
+            )
         })?;
     Ok(NodeConfig {
         params: scenario.params.clone(),
@@ -98,6 +96,20 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         constant: agent.constant,
         settings,
     })
+}
+
+/// The range of `node.*_timeout_s` (s), as `NodeSettings::validate` checks it.
+const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
+
+/// A node setting's error as a file error with its key as data (a timeout
+/// as an out-of-range value, like the parameters').
+fn settings_error(source: &str, e: NodeSettingsError) -> ConfigError {
+    match e {
+        NodeSettingsError::Timeout { key, value } => {
+            ConfigError::invalid(source, vec![ParamError::new(key, value, NODE_TIMEOUT_S)])
+        }
+        NodeSettingsError::EmptyBaseFrame => ConfigError::at(source, e.key(), "must not be empty"),
+    }
 }
 
 #[cfg(test)]
@@ -131,7 +143,14 @@ mod tests {
         let e = node_config_from_params(yaml("barrier: {d_saf_m: 0.3}"), "P").unwrap_err();
         assert_eq!(e.keys(), ["barrier.d_saf_m"], "{e}");
         let e = node_config_from_params(yaml("node: {cmd_in_timeout_s: -1.0}"), "P").unwrap_err();
-        assert!(e.to_string().contains("node.cmd_in_timeout_s"), "{e}");
+        assert_eq!(e.keys(), ["node.cmd_in_timeout_s"], "{e}");
+        assert_eq!(
+            e.to_string(),
+            "P: key `node.cmd_in_timeout_s` = -1 is out of range; allowed: (0, 60] s"
+        );
+        let e = node_config_from_params(yaml("node: {base_frame: ''}"), "P").unwrap_err();
+        assert_eq!(e.keys(), ["node.base_frame"], "{e}");
+        assert_eq!(e.to_string(), "P: key `node.base_frame`: must not be empty");
         let e = node_config_from_params(yaml("node: {nominal_source: sometimes}"), "P").unwrap_err();
         assert_eq!(e.keys(), ["node.nominal_source"], "{e}");
     }
@@ -157,7 +176,7 @@ mod tests {
     #[test]
     fn shipped_node_file_matches_the_built_in_settings() {
         let v = config::parse_yaml(DEFAULT_NODE_YAML, "x").unwrap();
-        let s: NodeSettings = config::from_value(v.get("node").unwrap().clone(), "x", "node.").unwrap();
+        let s: NodeSettings = config::from_value(v.get("node").unwrap().clone(), "x", "node").unwrap();
         assert_eq!(s, NodeSettings::default());
     }
 }

@@ -1046,7 +1046,7 @@ mod tests {
         bad.barrier.d_safe_m = 30.0;
         bad.dtcbf.gamma = 0.5;
         let errors = n.set_params(bad).unwrap_err();
-        assert_eq!(errors.iter().map(|e| e.key).collect::<Vec<_>>(), ["barrier.d_safe_m"]);
+        assert_eq!(errors.iter().map(|e| &e.key).collect::<Vec<_>>(), ["barrier.d_safe_m"]);
         assert_eq!((n.params().barrier.d_safe_m, n.params().dtcbf.gamma), (0.4, 0.2));
     }
 

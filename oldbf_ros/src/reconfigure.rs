@@ -5,7 +5,7 @@
 //! while the node runs, each with a description. Everything else comes from
 //! [`Params`] itself: a key's type and default from `Params::default()`, its
 //! range from `Params::validate` (probed once with a value that must fail, the
-//! interval read from the error it names). A change is applied to a copy of
+//! interval taken from the error it returns, as data). A change is applied to a copy of
 //! the running parameters through their YAML form, and the copy replaces them
 //! only if `Params::validate` accepts the whole of it: so the ranges, the
 //! cross-key rules and the error messages are exactly the YAML file's.
@@ -253,16 +253,6 @@ fn kind_of(v: &serde_yaml::Value) -> Option<Kind> {
     }
 }
 
-/// The bounds of the first interval written in `allowed`, e.g. `(0, 1] m` or
-/// `odd, in [3, 201]`.
-fn interval(allowed: &str) -> Option<(f64, f64)> {
-    let open = allowed.find(['(', '['])?;
-    let rest = &allowed[open + 1..];
-    let close = rest.find([')', ']'])?;
-    let (lo, hi) = rest[..close].split_once(',')?;
-    Some((lo.trim().parse().ok()?, hi.trim().parse().ok()?))
-}
-
 /// The allowed interval of `key`, from the error `Params::validate` gives
 /// for a value that no range admits (NaN, or an integer above every bound).
 fn probe_range(key: &'static str, kind: Kind) -> Result<(f64, f64), SpecError> {
@@ -278,7 +268,8 @@ fn probe_range(key: &'static str, kind: Kind) -> Result<(f64, f64), SpecError> {
     errors
         .iter()
         .filter(|e| e.key == key)
-        .find_map(|e| interval(e.allowed))
+        .find_map(|e| e.allowed.interval())
+        .map(|i| (i.lo, i.hi))
         .ok_or(SpecError::NoRange(key))
 }
 
@@ -435,8 +426,6 @@ mod tests {
         assert_eq!((s.min, s.max), (Value::Int(3), Value::Int(201)));
         assert_eq!(spec("barrier.nope", ""), Err(SpecError::NoSuchKey("barrier.nope")));
         assert_eq!(spec("barrier", ""), Err(SpecError::NotScalar("barrier")));
-        assert_eq!(interval("odd, in [3, 201]"), Some((3.0, 201.0)));
-        assert_eq!(interval("at most control.v_max_mps"), None);
     }
 
     #[test]

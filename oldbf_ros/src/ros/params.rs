@@ -2,10 +2,11 @@
 
 use rosrust::error::ResponseError;
 
-/// A parameter that could not be read: its name, and the parameter server's
-/// answer where there is one.
+/// A parameter that could not be read from the ROS parameter server: its
+/// name, and the server's answer where there is one. (A value that was read
+/// but is out of range is an `oldbf::config::ParamError`.)
 #[derive(Debug, Clone, thiserror::Error)]
-pub enum ParamError {
+pub enum RosParamError {
     #[error("cannot resolve the private parameter namespace `~`")]
     NoPrivateNamespace,
     #[error("asking the parameter server for {name}: {source}")]
@@ -33,17 +34,17 @@ pub enum ParamError {
 }
 
 /// Everything under `~` (null when nothing is set there).
-pub fn private_namespace() -> Result<serde_yaml::Value, ParamError> {
+pub fn private_namespace() -> Result<serde_yaml::Value, RosParamError> {
     let Some(p) = rosrust::param("~") else {
-        return Err(ParamError::NoPrivateNamespace);
+        return Err(RosParamError::NoPrivateNamespace);
     };
     match p.exists() {
         Ok(false) => Ok(serde_yaml::Value::Null),
-        Ok(true) => p.get::<serde_yaml::Value>().map_err(|source| ParamError::Namespace {
+        Ok(true) => p.get::<serde_yaml::Value>().map_err(|source| RosParamError::Namespace {
             name: p.name().to_string(),
             source,
         }),
-        Err(source) => Err(ParamError::Exists {
+        Err(source) => Err(RosParamError::Exists {
             name: p.name().to_string(),
             source,
         }),

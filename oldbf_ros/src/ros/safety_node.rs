@@ -32,7 +32,7 @@ use super::msg::{
     std_srvs, visualization_msgs::MarkerArray,
 };
 use super::pacer::Pacer;
-use super::params::{private_namespace, ParamError};
+use super::params::{private_namespace, RosParamError};
 use super::reconfigure as ros_reconfigure;
 use super::RosError;
 use crate::config::ConfigError;
@@ -93,7 +93,7 @@ pub fn stop_reason(tick: &Tick) -> String {
 #[derive(Debug, thiserror::Error)]
 enum LoadConfigError {
     #[error(transparent)]
-    Params(#[from] ParamError),
+    Params(#[from] RosParamError),
     #[error(transparent)]
     Config(#[from] ConfigError),
 }

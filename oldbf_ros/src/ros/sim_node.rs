@@ -32,12 +32,13 @@ use super::msg::{
     geometry_msgs, nav_msgs, sensor_msgs, std_msgs, tf2_msgs,
     visualization_msgs::{Marker, MarkerArray},
 };
-use super::params::ParamError;
+use super::params::RosParamError;
 use super::RosError;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::config::ConfigError;
 use crate::sim::fleet::{Fleet, FleetError};
 use crate::sim::scenario::Scenario;
+use oldbf::config::{Checker, Interval};
 use serde::Serialize;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -71,9 +72,9 @@ struct RobotIo {
     _cmd_sub: rosrust::Subscriber,
 }
 
-fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, ParamError> {
-    let p = rosrust::param(name).ok_or_else(|| ParamError::Unresolved { name: name.to_string() })?;
-    let read = |source| ParamError::Read {
+fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, RosParamError> {
+    let p = rosrust::param(name).ok_or_else(|| RosParamError::Unresolved { name: name.to_string() })?;
+    let read = |source| RosParamError::Read {
         name: p.name().to_string(),
         source,
     };
@@ -162,17 +163,11 @@ fn world_markers(fleet: &Fleet, frame: &str, stamp: rosrust::Time) -> MarkerArra
 #[derive(Debug, thiserror::Error)]
 enum SimNodeError {
     #[error(transparent)]
-    Param(#[from] ParamError),
+    Param(#[from] RosParamError),
     #[error("the private parameter ~scenario (a scenario file) is required")]
     NoScenario,
     #[error(transparent)]
     Scenario(#[from] ConfigError),
-    #[error("parameter ~motion_source = {value:?}; allowed: cmd_vel, odom")]
-    MotionSource { value: String },
-    #[error("parameter ~odom_rate_hz = {value} is out of range; allowed: (0, 1000] Hz")]
-    OdomRate { value: f64 },
-    #[error("parameter ~cmd_timeout_s = {value} is out of range; allowed: (0, 60] s")]
-    CmdTimeout { value: f64 },
     #[error(transparent)]
     Fleet(#[from] FleetError),
     #[error(transparent)]
@@ -205,21 +200,26 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
     let odom_rate_hz: f64 = param("~odom_rate_hz")?.unwrap_or(50.0);
     let cmd_timeout_s: f64 = param("~cmd_timeout_s")?.unwrap_or(0.5);
     let motion_source: String = param("~motion_source")?.unwrap_or_else(|| "cmd_vel".into());
-    let from_odom = match motion_source.as_str() {
-        "cmd_vel" => false,
-        "odom" => true,
-        other => {
-            return Err(SimNodeError::MotionSource {
-                value: other.to_string(),
-            })
-        }
-    };
-    if !(odom_rate_hz.is_finite() && odom_rate_hz > 0.0 && odom_rate_hz <= 1000.0) {
-        return Err(SimNodeError::OdomRate { value: odom_rate_hz });
-    }
-    if !(cmd_timeout_s.is_finite() && cmd_timeout_s > 0.0 && cmd_timeout_s <= 60.0) {
-        return Err(SimNodeError::CmdTimeout { value: cmd_timeout_s });
-    }
+    let from_odom = motion_source == "odom";
+    let mut c = Checker::new();
+    c.rule(
+        from_odom || motion_source == "cmd_vel",
+        "~motion_source",
+        format_args!("{motion_source:?}"),
+        "cmd_vel or odom",
+    );
+    c.range(
+        "~odom_rate_hz",
+        odom_rate_hz,
+        Interval::open_closed(0.0, 1000.0).unit("Hz"),
+    );
+    c.range(
+        "~cmd_timeout_s",
+        cmd_timeout_s,
+        Interval::open_closed(0.0, 60.0).unit("s"),
+    );
+    c.finish()
+        .map_err(|errors| ConfigError::invalid("private parameters", errors))?;
     let mut fleet = Fleet::new(&scenario, seed)?;
     let n = fleet.agents().len();
     let multi = n > 1;

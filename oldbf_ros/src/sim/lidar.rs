@@ -14,7 +14,7 @@
 
 use super::world::{ScanScratch, World};
 use crate::algo::geometry::{Pose2, Vec2};
-use crate::config::SectionError;
+use oldbf::config::{Checker, Interval, ParamError, Validate};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
@@ -75,24 +75,13 @@ impl Default for LidarSpec {
 /// Largest accepted `beams`.
 pub const MAX_BEAMS: usize = 16384;
 
-/// Why a [`LidarSpec`] is rejected, with the offending values as data, so
-/// that a scenario error can name the key without parsing the message.
+/// Why a [`Lidar`] cannot be built: its spec's values (each with its key
+/// as data), or a noise the distribution refuses.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LidarError {
-    #[error("lidar.beams must be in [1, {MAX_BEAMS}] (got {beams})")]
-    Beams { beams: usize },
-    #[error("lidar.fov_deg must be in (0, 360] (got {fov_deg})")]
-    FovDeg { fov_deg: f64 },
-    #[error("lidar.range_min_m must be >= 0 and finite (got {range_min_m})")]
-    RangeMin { range_min_m: f64 },
-    #[error("lidar.range_max_m must be finite and > lidar.range_min_m (got {range_max_m} <= {range_min_m})")]
-    RangeMax { range_max_m: f64, range_min_m: f64 },
-    #[error("lidar.noise_std_m must be >= 0 and finite (got {noise_std_m})")]
-    NoiseStd { noise_std_m: f64 },
-    #[error("lidar.dropout_prob must be in [0, 1] (got {dropout_prob})")]
-    DropoutProb { dropout_prob: f64 },
-    #[error("lidar.rate_hz must be in (0, 1000] (got {rate_hz})")]
-    RateHz { rate_hz: f64 },
+    /// Values outside what their keys allow (`lidar.beams`, ...).
+    #[error("{}", .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    Invalid(Vec<ParamError>),
     /// The noise distribution refused the standard deviation.
     #[error("lidar.noise_std_m: {source}")]
     Noise {
@@ -101,73 +90,45 @@ pub enum LidarError {
     },
 }
 
-impl SectionError for LidarError {
-    fn key(&self) -> String {
-        let key = match self {
-            Self::Beams { .. } => "lidar.beams",
-            Self::FovDeg { .. } => "lidar.fov_deg",
-            Self::RangeMin { .. } => "lidar.range_min_m",
-            Self::RangeMax { .. } => "lidar.range_max_m",
-            Self::NoiseStd { .. } | Self::Noise { .. } => "lidar.noise_std_m",
-            Self::DropoutProb { .. } => "lidar.dropout_prob",
-            Self::RateHz { .. } => "lidar.rate_hz",
-        };
-        key.into()
-    }
+/// Beams per scan.
+const BEAMS: Interval = Interval::closed(1.0, MAX_BEAMS as f64);
 
-    fn detail(&self) -> String {
-        match self {
-            Self::Beams { beams } => format!("must be in [1, {MAX_BEAMS}] (got {beams})"),
-            Self::FovDeg { fov_deg } => format!("must be in (0, 360] (got {fov_deg})"),
-            Self::RangeMin { range_min_m } => format!("must be >= 0 and finite (got {range_min_m})"),
-            Self::RangeMax {
-                range_max_m,
-                range_min_m,
-            } => format!("must be finite and > lidar.range_min_m (got {range_max_m} <= {range_min_m})"),
-            Self::NoiseStd { noise_std_m } => format!("must be >= 0 and finite (got {noise_std_m})"),
-            Self::DropoutProb { dropout_prob } => format!("must be in [0, 1] (got {dropout_prob})"),
-            Self::RateHz { rate_hz } => format!("must be in (0, 1000] (got {rate_hz})"),
-            Self::Noise { source } => source.to_string(),
-        }
+impl Validate for LidarSpec {
+    fn check(&self, c: &mut Checker) {
+        c.range("lidar.beams", self.beams as f64, BEAMS);
+        c.range(
+            "lidar.fov_deg",
+            self.fov_deg,
+            Interval::open_closed(0.0, 360.0).unit("deg"),
+        );
+        c.rule(
+            self.range_min_m.is_finite() && self.range_min_m >= 0.0,
+            "lidar.range_min_m",
+            self.range_min_m,
+            ">= 0 and finite",
+        );
+        c.rule(
+            self.range_max_m.is_finite() && self.range_max_m > self.range_min_m,
+            "lidar.range_max_m",
+            self.range_max_m,
+            format!("finite and above lidar.range_min_m = {}", self.range_min_m),
+        );
+        c.rule(
+            self.noise_std_m.is_finite() && self.noise_std_m >= 0.0,
+            "lidar.noise_std_m",
+            self.noise_std_m,
+            ">= 0 and finite",
+        );
+        c.range("lidar.dropout_prob", self.dropout_prob, Interval::closed(0.0, 1.0));
+        c.range(
+            "lidar.rate_hz",
+            self.rate_hz,
+            Interval::open_closed(0.0, 1000.0).unit("Hz"),
+        );
     }
 }
 
 impl LidarSpec {
-    /// Checks every field; the error names the key.
-    pub fn validate(&self) -> Result<(), LidarError> {
-        if !(1..=MAX_BEAMS).contains(&self.beams) {
-            return Err(LidarError::Beams { beams: self.beams });
-        }
-        if !(self.fov_deg > 0.0 && self.fov_deg <= 360.0) {
-            return Err(LidarError::FovDeg { fov_deg: self.fov_deg });
-        }
-        if !(self.range_min_m.is_finite() && self.range_min_m >= 0.0) {
-            return Err(LidarError::RangeMin {
-                range_min_m: self.range_min_m,
-            });
-        }
-        if !(self.range_max_m.is_finite() && self.range_max_m > self.range_min_m) {
-            return Err(LidarError::RangeMax {
-                range_max_m: self.range_max_m,
-                range_min_m: self.range_min_m,
-            });
-        }
-        if !(self.noise_std_m.is_finite() && self.noise_std_m >= 0.0) {
-            return Err(LidarError::NoiseStd {
-                noise_std_m: self.noise_std_m,
-            });
-        }
-        if !(0.0..=1.0).contains(&self.dropout_prob) {
-            return Err(LidarError::DropoutProb {
-                dropout_prob: self.dropout_prob,
-            });
-        }
-        if !(self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
-            return Err(LidarError::RateHz { rate_hz: self.rate_hz });
-        }
-        Ok(())
-    }
-
     fn fov_rad(&self) -> f64 {
         self.fov_deg.to_radians()
     }
@@ -230,7 +191,7 @@ pub struct Lidar {
 impl Lidar {
     /// Validates `spec` and seeds the noise/dropout generator with `seed`.
     pub fn new(spec: LidarSpec, seed: u64) -> Result<Lidar, LidarError> {
-        spec.validate()?;
+        spec.validate().map_err(LidarError::Invalid)?;
         let noise = if spec.noise_std_m > 0.0 {
             Some(Normal::new(0.0, spec.noise_std_m).map_err(|source| LidarError::Noise { source })?)
         } else {
@@ -369,23 +330,28 @@ mod tests {
         let bad = |f: fn(&mut LidarSpec), key: &str| {
             let mut s = LidarSpec::default();
             f(&mut s);
-            let e = s.validate().unwrap_err().to_string();
+            let e = s.validate().unwrap_err();
+            assert_eq!(e.len(), 1, "{e:?}");
+            let e = e[0].to_string();
             assert!(e.starts_with(key), "{e}");
             assert!(Lidar::new(s, 0).is_err());
         };
-        bad(|s| s.beams = 0, "lidar.beams must be in [1, 16384]");
-        bad(|s| s.beams = 16385, "lidar.beams");
-        bad(|s| s.fov_deg = 0.0, "lidar.fov_deg");
-        bad(|s| s.fov_deg = 361.0, "lidar.fov_deg");
-        bad(|s| s.fov_deg = f64::NAN, "lidar.fov_deg");
-        bad(|s| s.range_min_m = -0.1, "lidar.range_min_m");
-        bad(|s| s.range_max_m = 0.1, "lidar.range_max_m");
-        bad(|s| s.range_max_m = f64::INFINITY, "lidar.range_max_m");
-        bad(|s| s.noise_std_m = -0.01, "lidar.noise_std_m");
-        bad(|s| s.dropout_prob = 1.5, "lidar.dropout_prob");
-        bad(|s| s.dropout_prob = f64::NAN, "lidar.dropout_prob");
-        bad(|s| s.rate_hz = 0.0, "lidar.rate_hz");
-        bad(|s| s.rate_hz = 1001.0, "lidar.rate_hz");
+        bad(
+            |s| s.beams = 0,
+            "key `lidar.beams` = 0 is out of range; allowed: [1, 16384]",
+        );
+        bad(|s| s.beams = 16385, "key `lidar.beams`");
+        bad(|s| s.fov_deg = 0.0, "key `lidar.fov_deg`");
+        bad(|s| s.fov_deg = 361.0, "key `lidar.fov_deg`");
+        bad(|s| s.fov_deg = f64::NAN, "key `lidar.fov_deg`");
+        bad(|s| s.range_min_m = -0.1, "key `lidar.range_min_m`");
+        bad(|s| s.range_max_m = 0.1, "key `lidar.range_max_m`");
+        bad(|s| s.range_max_m = f64::INFINITY, "key `lidar.range_max_m`");
+        bad(|s| s.noise_std_m = -0.01, "key `lidar.noise_std_m`");
+        bad(|s| s.dropout_prob = 1.5, "key `lidar.dropout_prob`");
+        bad(|s| s.dropout_prob = f64::NAN, "key `lidar.dropout_prob`");
+        bad(|s| s.rate_hz = 0.0, "key `lidar.rate_hz`");
+        bad(|s| s.rate_hz = 1001.0, "key `lidar.rate_hz`");
     }
 
     #[test]

@@ -33,6 +33,6 @@ pub mod world;
 
 pub use lidar::{DropoutKind, Lidar, LidarError, LidarSpec};
 pub use motion::{MotionSpec, MovingObstacle, MovingObstacleError, MovingObstacleSpec};
-pub use robot::{RobotLimits, RobotLimitsError, RobotPreset, RobotSpec, SimRobot};
+pub use robot::{RobotLimits, RobotPreset, RobotSpec, SimRobot};
 pub use shapes::{Circle, Segment};
 pub use world::{BoxSpec, CircleSpec, ScanScratch, WallSpec, World, WorldError, WorldSpec};

@@ -12,7 +12,7 @@
 use super::world::World;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::unicycle::arc_step;
-use crate::config::SectionError;
+use oldbf::config::{Checker, ParamError, Validate};
 use serde::{Deserialize, Serialize};
 
 /// Robots with built-in limits (YAML: `turtlebot3_burger`, `quanser_qbot`).
@@ -92,18 +92,24 @@ impl RobotSpec {
         }
     }
 
-    /// The preset's limits with the overrides applied, validated.
-    pub fn resolve(&self) -> Result<RobotLimits, RobotLimitsError> {
+    /// The preset's limits with the overrides applied, validated; every
+    /// invalid value names its key (`robot.<field>`).
+    pub fn resolve(&self) -> Result<RobotLimits, Vec<ParamError>> {
+        let l = self.limits();
+        l.validate()?;
+        Ok(l)
+    }
+
+    /// The preset's limits with the overrides applied, not yet checked.
+    pub fn limits(&self) -> RobotLimits {
         let p = self.preset.limits();
-        let l = RobotLimits {
+        RobotLimits {
             body_radius_m: self.body_radius_m.unwrap_or(p.body_radius_m),
             v_max_mps: self.v_max_mps.unwrap_or(p.v_max_mps),
             omega_max_radps: self.omega_max_radps.unwrap_or(p.omega_max_radps),
             accel_max_mps2: self.accel_max_mps2.unwrap_or(p.accel_max_mps2),
             omega_accel_max_radps2: self.omega_accel_max_radps2.unwrap_or(p.omega_accel_max_radps2),
-        };
-        l.validate()?;
-        Ok(l)
+        }
     }
 }
 
@@ -122,42 +128,18 @@ pub struct RobotLimits {
     pub omega_accel_max_radps2: f64,
 }
 
-/// A robot limit that is not > 0 and finite: the field (`v_max_mps`) and
-/// its value as data, so that a scenario error can name the key.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("robot.{field} must be > 0 and finite (got {value})")]
-pub struct RobotLimitsError {
-    /// The field of [`RobotLimits`].
-    pub field: &'static str,
-    pub value: f64,
-}
-
-impl SectionError for RobotLimitsError {
-    fn key(&self) -> String {
-        format!("robot.{}", self.field)
-    }
-
-    fn detail(&self) -> String {
-        format!("must be > 0 and finite (got {})", self.value)
-    }
-}
-
-impl RobotLimits {
-    /// Checks every value is > 0 and finite; the error names the key
-    /// (`robot.<field>`).
-    pub fn validate(&self) -> Result<(), RobotLimitsError> {
-        for (field, value) in [
-            ("body_radius_m", self.body_radius_m),
-            ("v_max_mps", self.v_max_mps),
-            ("omega_max_radps", self.omega_max_radps),
-            ("accel_max_mps2", self.accel_max_mps2),
-            ("omega_accel_max_radps2", self.omega_accel_max_radps2),
+impl Validate for RobotLimits {
+    /// Every value > 0 and finite; keys `robot.<field>`.
+    fn check(&self, c: &mut Checker) {
+        for (key, value) in [
+            ("robot.body_radius_m", self.body_radius_m),
+            ("robot.v_max_mps", self.v_max_mps),
+            ("robot.omega_max_radps", self.omega_max_radps),
+            ("robot.accel_max_mps2", self.accel_max_mps2),
+            ("robot.omega_accel_max_radps2", self.omega_accel_max_radps2),
         ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(RobotLimitsError { field, value });
-            }
+            c.rule(value.is_finite() && value > 0.0, key, value, "> 0 and finite");
         }
-        Ok(())
     }
 }
 
@@ -262,17 +244,20 @@ mod tests {
 
     #[test]
     fn bad_overrides_name_the_key() {
-        let err = |s: &RobotSpec| s.resolve().unwrap_err().to_string();
+        let err = |s: &RobotSpec| s.resolve().unwrap_err()[0].to_string();
         let mut s = RobotSpec::from_preset(RobotPreset::QuanserQbot);
         s.accel_max_mps2 = Some(-1.0);
         let e = err(&s);
-        assert!(e.starts_with("robot.accel_max_mps2 must be > 0"), "{e}");
+        assert_eq!(
+            e,
+            "key `robot.accel_max_mps2` = -1 is out of range; allowed: > 0 and finite"
+        );
         s.accel_max_mps2 = None;
         s.body_radius_m = Some(f64::NAN);
-        assert!(err(&s).starts_with("robot.body_radius_m"));
+        assert!(err(&s).starts_with("key `robot.body_radius_m` = NaN"));
         s.body_radius_m = None;
         s.omega_accel_max_radps2 = Some(0.0);
-        assert!(err(&s).starts_with("robot.omega_accel_max_radps2"));
+        assert!(err(&s).starts_with("key `robot.omega_accel_max_radps2`"));
     }
 
     #[test]

@@ -13,6 +13,7 @@ use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::params::Params;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::config::{self, ConfigError};
+use oldbf::config::{Checker, Interval, Validate};
 use serde::Deserialize;
 use serde_yaml::Value;
 use std::path::Path;
@@ -141,20 +142,20 @@ pub struct Scenario {
 }
 
 fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
+    ConfigError::at(file, key, message)
 }
 
-fn check(file: &str, key: &str, v: f64, lo: f64, hi: f64, allowed: &str) -> Result<(), ConfigError> {
-    if v.is_finite() && v > lo && v <= hi {
-        Ok(())
-    } else {
-        Err(invalid(file, key, format!("{v} is out of range; allowed: {allowed}")))
-    }
+/// Every error `c` collected as one error of `file`; `Ok` when there is none.
+fn finish(c: Checker, file: &str) -> Result<(), ConfigError> {
+    c.finish().map_err(|errors| ConfigError::invalid(file, errors))
 }
+
+/// A run's or a reference's length (s).
+const DURATION_S: Interval = Interval::open_closed(0.0, 36_000.0).unit("s");
+/// A nominal forward speed (m/s).
+const SPEED: Interval = Interval::open_closed(0.0, 5.0).unit("m/s");
+/// A nominal yaw rate (rad/s).
+const TURN: Interval = Interval::closed(-10.0, 10.0).unit("rad/s");
 
 impl Scenario {
     /// Loads a scenario file over the base parameters (`base_params`: a
@@ -167,12 +168,8 @@ impl Scenario {
     /// Loads a scenario file over an already merged parameter document (the
     /// ROS node's parameters).
     pub fn load_over(path: &Path, base: Value) -> Result<Scenario, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        Self::from_str_over(&text, &file, base)
+        let text = config::read_file(path)?;
+        Self::from_str_over(&text, &path.display().to_string(), base)
     }
 
     /// As `load`, from text.
@@ -187,14 +184,25 @@ impl Scenario {
         if let Some(over) = &spec.oldbf {
             config::merge(&mut base, over);
         }
-        let params = config::params_from_value(base, file, "oldbf.")?;
+        let params = config::params_from_value(base, file, "oldbf")?;
 
-        check(file, "duration_s", spec.duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
-        check(file, "physics_dt_s", spec.physics_dt_s, 0.0, 0.1, "(0, 0.1] s")?;
-        check(file, "goal_tolerance_m", spec.goal_tolerance_m, 0.0, 10.0, "(0, 10] m")?;
-        spec.lidar.validate().map_err(|e| config::section_error(file, &e))?;
-        let robot = spec.robot.resolve().map_err(|e| config::section_error(file, &e))?;
-        World::new(&spec.world).map_err(|e| config::section_error(file, &e))?;
+        let mut c = Checker::new();
+        c.range("duration_s", spec.duration_s, DURATION_S);
+        c.range(
+            "physics_dt_s",
+            spec.physics_dt_s,
+            Interval::open_closed(0.0, 0.1).unit("s"),
+        );
+        c.range(
+            "goal_tolerance_m",
+            spec.goal_tolerance_m,
+            Interval::open_closed(0.0, 10.0).unit("m"),
+        );
+        spec.lidar.check(&mut c);
+        let robot = spec.robot.limits();
+        robot.check(&mut c);
+        finish(c, file)?;
+        World::new(&spec.world).map_err(|e| e.in_file(file))?;
         let agents = Self::agents_of(&spec, file)?;
         Ok(Scenario {
             file: file.to_string(),
@@ -259,23 +267,38 @@ impl Scenario {
         reference_start: Option<StartSpec>,
         nominal: NominalSpec,
     ) -> Result<AgentPlan, ConfigError> {
-        for (k, v) in [
-            ("start.x_m", start.x_m),
-            ("start.y_m", start.y_m),
-            ("start.theta_deg", start.theta_deg),
-        ] {
-            if !v.is_finite() {
-                return Err(invalid(
-                    file,
-                    &format!("{prefix}{k}"),
-                    format!("{v} is not a finite number"),
-                ));
+        let mut c = Checker::new();
+        let poses = std::iter::once(("start", start)).chain(reference_start.map(|r| ("reference_start", r)));
+        for (pose, p) in poses {
+            for (k, v) in [("x_m", p.x_m), ("y_m", p.y_m), ("theta_deg", p.theta_deg)] {
+                c.rule(v.is_finite(), &format!("{prefix}{pose}.{k}"), v, "a finite number");
             }
         }
-        let reference = Self::reference_of(nominal, reference_start.unwrap_or(start), file, prefix)?;
-        let constant = match nominal {
-            NominalSpec::Constant { v_mps, omega_radps } => Some(Twist::new(v_mps, omega_radps)),
-            _ => None,
+        let reference_start = reference_start.unwrap_or(start);
+        Self::check_nominal(&mut c, nominal, prefix);
+        finish(c, file)?;
+        let from = reference_start.pose();
+        let (reference, constant) = match nominal {
+            NominalSpec::Line { v_mps, length_m } => (Some(ReferenceTrajectory::line(from, v_mps, length_m)), None),
+            NominalSpec::Circle {
+                v_mps,
+                omega_radps,
+                laps,
+            } => (Some(ReferenceTrajectory::circle(from, v_mps, omega_radps, laps)), None),
+            NominalSpec::Reference {
+                v_mps,
+                omega_radps,
+                duration_s,
+            } => (
+                Some(ReferenceTrajectory {
+                    start: from,
+                    v_mps,
+                    omega_radps,
+                    duration_s,
+                }),
+                None,
+            ),
+            NominalSpec::Constant { v_mps, omega_radps } => (None, Some(Twist::new(v_mps, omega_radps))),
         };
         Ok(AgentPlan {
             name,
@@ -285,84 +308,48 @@ impl Scenario {
         })
     }
 
-    fn reference_of(
-        nominal: NominalSpec,
-        start: StartSpec,
-        file: &str,
-        prefix: &str,
-    ) -> Result<Option<ReferenceTrajectory>, ConfigError> {
-        let key = |k: &str| format!("{prefix}{k}");
-        let invalid = |k: &str, m: String| invalid(file, &key(k), m);
-        let check = |k: &str, v: f64, lo: f64, hi: f64, allowed: &str| check(file, &key(k), v, lo, hi, allowed);
-        for (k, v) in [
-            ("reference_start.x_m", start.x_m),
-            ("reference_start.y_m", start.y_m),
-            ("reference_start.theta_deg", start.theta_deg),
-        ] {
-            if !v.is_finite() {
-                return Err(invalid(k, format!("{v} is not a finite number")));
-            }
-        }
-        let start = start.pose();
-        let speed = |v: f64| check("nominal.v_mps", v, 0.0, 5.0, "(0, 5] m/s");
-        let turn = |w: f64| {
-            if w.is_finite() && w.abs() <= 10.0 {
-                Ok(())
-            } else {
-                Err(invalid(
-                    "nominal.omega_radps",
-                    format!("{w} is out of range; allowed: [-10, 10] rad/s"),
-                ))
-            }
-        };
-        Ok(match nominal {
+    /// The nominal command's values, keys under `prefix` (`robots[1].`).
+    fn check_nominal(c: &mut Checker, nominal: NominalSpec, prefix: &str) {
+        let key = |k: &str| format!("{prefix}nominal.{k}");
+        match nominal {
             NominalSpec::Line { v_mps, length_m } => {
-                speed(v_mps)?;
-                check("nominal.length_m", length_m, 0.0, 10_000.0, "(0, 10000] m")?;
-                Some(ReferenceTrajectory::line(start, v_mps, length_m))
+                c.range(&key("v_mps"), v_mps, SPEED);
+                c.range(
+                    &key("length_m"),
+                    length_m,
+                    Interval::open_closed(0.0, 10_000.0).unit("m"),
+                );
             }
             NominalSpec::Circle {
                 v_mps,
                 omega_radps,
                 laps,
             } => {
-                speed(v_mps)?;
-                turn(omega_radps)?;
-                if omega_radps == 0.0 {
-                    return Err(invalid(
-                        "nominal.omega_radps",
-                        "a circle needs a non-zero yaw rate".into(),
-                    ));
+                c.range(&key("v_mps"), v_mps, SPEED);
+                if c.range(&key("omega_radps"), omega_radps, TURN) {
+                    c.rule(
+                        omega_radps != 0.0,
+                        &key("omega_radps"),
+                        omega_radps,
+                        "non-zero: a circle needs a yaw rate",
+                    );
                 }
-                check("nominal.laps", laps, 0.0, 1000.0, "(0, 1000]")?;
-                Some(ReferenceTrajectory::circle(start, v_mps, omega_radps, laps))
+                c.range(&key("laps"), laps, Interval::open_closed(0.0, 1000.0));
             }
             NominalSpec::Reference {
                 v_mps,
                 omega_radps,
                 duration_s,
             } => {
-                speed(v_mps)?;
-                turn(omega_radps)?;
-                check("nominal.duration_s", duration_s, 0.0, 36_000.0, "(0, 36000] s")?;
-                Some(ReferenceTrajectory {
-                    start,
-                    v_mps,
-                    omega_radps,
-                    duration_s,
-                })
+                c.range(&key("v_mps"), v_mps, SPEED);
+                c.range(&key("omega_radps"), omega_radps, TURN);
+                c.range(&key("duration_s"), duration_s, DURATION_S);
             }
             NominalSpec::Constant { v_mps, omega_radps } => {
-                if !(v_mps.is_finite() && v_mps.abs() <= 5.0) {
-                    return Err(invalid(
-                        "nominal.v_mps",
-                        format!("{v_mps} is out of range; allowed: [-5, 5] m/s"),
-                    ));
-                }
-                turn(omega_radps)?;
-                None
+                c.range(&key("v_mps"), v_mps, Interval::closed(-5.0, 5.0).unit("m/s"));
+                c.range(&key("omega_radps"), omega_radps, TURN);
             }
-        })
+        }
     }
 }
 
@@ -400,6 +387,23 @@ nominal: {kind: line, v_mps: 0.15, length_m: 1.0}
         let text = format!("{MINIMAL}oldbf: {{dtcbf: {{gama: 0.5}}}}\n");
         let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
         assert_eq!(e.keys(), ["oldbf.dtcbf.gama"], "{e}");
+    }
+
+    #[test]
+    fn nominal_values_are_all_listed_with_their_allowed_range() {
+        let text = MINIMAL.replace("v_mps: 0.15, length_m: 1.0", "v_mps: 0, length_m: 0");
+        let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["nominal.v_mps", "nominal.length_m"], "{e}");
+        assert_eq!(
+            e.to_string().lines().next(),
+            Some("t.yaml: key `nominal.v_mps` = 0 is out of range; allowed: (0, 5] m/s")
+        );
+        let text = MINIMAL.replace(
+            "kind: line, v_mps: 0.15, length_m: 1.0",
+            "kind: circle, v_mps: 0.1, omega_radps: 0, laps: 1",
+        );
+        let e = Scenario::from_str(&text, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["nominal.omega_radps"], "{e}");
     }
 
     #[test]

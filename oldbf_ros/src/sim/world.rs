@@ -22,7 +22,7 @@
 use super::motion::{MovingObstacle, MovingObstacleError, MovingObstacleSpec};
 use super::shapes::{Circle, Segment};
 use crate::algo::geometry::Vec2;
-use crate::config::SectionError;
+use crate::config::ConfigError;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -134,10 +134,10 @@ pub enum WorldError {
     },
 }
 
-/// The key is the item, or its field when the message names one
-/// (`world.circles[0].radius_m`).
-impl SectionError for WorldError {
-    fn key(&self) -> String {
+impl WorldError {
+    /// The dotted key: the item, or its field when the message names one
+    /// (`world.walls[2]`, `world.circles[0].radius_m`).
+    pub fn key(&self) -> String {
         match self {
             Self::NotFinite { item, .. } => item.to_string(),
             Self::ZeroLengthWall { index } => WorldItem::Wall(*index).to_string(),
@@ -154,7 +154,8 @@ impl SectionError for WorldError {
         }
     }
 
-    fn detail(&self) -> String {
+    /// The message without the key: `zero length`.
+    pub fn detail(&self) -> String {
         match self {
             Self::NotFinite { value, .. } => format!("coordinates must be finite (got {value:?})"),
             Self::ZeroLengthWall { .. } => "zero length".into(),
@@ -167,6 +168,11 @@ impl SectionError for WorldError {
             Self::CircleRadius { radius_m, .. } => format!("must be > 0 and finite (got {radius_m})"),
             Self::Moving { source, .. } => source.detail(),
         }
+    }
+
+    /// As an error of the scenario `file`, naming the key.
+    pub fn in_file(&self, file: &str) -> ConfigError {
+        ConfigError::at(file, self.key(), self.detail())
     }
 }
 
@@ -1015,5 +1021,152 @@ mod tests {
         assert!(s.circles.is_empty() && s.moving.is_empty());
         assert!(serde_yaml::from_str::<WorldSpec>("wall: []\n").is_err());
         assert!(serde_yaml::from_str::<WorldSpec>("circles:\n  - {center: [0, 0], radius: 1}\n").is_err());
+    }
+
+    #[test]
+    fn world_errors_name_the_key_in_their_message() {
+        use crate::sim::motion::{MovingObstacleError as M, PointField};
+        use crate::sim::world::WorldItem;
+        use crate::sim::WorldError as W;
+        let moving = |source: M| W::Moving { index: 1, source };
+        let cases: Vec<(W, &str)> = vec![
+            (
+                W::NotFinite {
+                    item: WorldItem::Wall(0),
+                    value: [f64::NAN, 0.0],
+                },
+                "key `world.walls[0]`: coordinates must be finite (got [NaN, 0.0])",
+            ),
+            (
+                W::NotFinite {
+                    item: WorldItem::Polygon(4),
+                    value: [f64::NAN, 0.0],
+                },
+                "key `world.polygons[4]`: coordinates must be finite (got [NaN, 0.0])",
+            ),
+            (
+                W::NotFinite {
+                    item: WorldItem::Circle(0),
+                    value: [0.0, f64::NAN],
+                },
+                "key `world.circles[0]`: coordinates must be finite (got [0.0, NaN])",
+            ),
+            (
+                moving(M::NotFinite {
+                    field: PointField::Start,
+                    value: [f64::NAN, 0.0],
+                }),
+                "key `world.moving[1].motion.start`: must be finite (got [NaN, 0.0])",
+            ),
+            (
+                moving(M::NotFinite {
+                    field: PointField::VelocityMps,
+                    value: [f64::INFINITY, 0.0],
+                }),
+                "key `world.moving[1].motion.velocity_mps`: must be finite (got [inf, 0.0])",
+            ),
+            (
+                moving(M::NotFinite {
+                    field: PointField::RegionMin,
+                    value: [f64::NAN, 0.0],
+                }),
+                "key `world.moving[1].motion.region_min`: must be finite (got [NaN, 0.0])",
+            ),
+            (W::ZeroLengthWall { index: 2 }, "key `world.walls[2]`: zero length"),
+            (
+                W::NotFinite {
+                    item: WorldItem::Box(0),
+                    value: [f64::INFINITY, 0.0],
+                },
+                "key `world.boxes[0]`: coordinates must be finite (got [inf, 0.0])",
+            ),
+            (
+                W::TooFewVertices { index: 0, vertices: 2 },
+                "key `world.polygons[0]`: needs at least 3 vertices (got 2)",
+            ),
+            (
+                W::ZeroLengthEdge {
+                    index: 0,
+                    edge: 2,
+                    next: 0,
+                },
+                "key `world.polygons[0]`: edge 2 (vertex 2 to vertex 0) has zero length",
+            ),
+            (
+                W::BoxSize {
+                    index: 1,
+                    size: [-1.0, 0.3],
+                },
+                "key `world.boxes[1]`: size must be > 0 and finite (got [-1.0, 0.3])",
+            ),
+            (
+                W::BoxYaw {
+                    index: 1,
+                    yaw_deg: f64::NAN,
+                },
+                "key `world.boxes[1].yaw_deg`: must be finite",
+            ),
+            (
+                W::CircleRadius {
+                    index: 3,
+                    radius_m: -0.1,
+                },
+                "key `world.circles[3].radius_m`: must be > 0 and finite (got -0.1)",
+            ),
+            (
+                moving(M::Radius { radius_m: 0.0 }),
+                "key `world.moving[1].radius_m`: must be > 0 and finite (got 0)",
+            ),
+            (
+                moving(M::NotFinite {
+                    field: PointField::RegionMax,
+                    value: [0.0, f64::INFINITY],
+                }),
+                "key `world.moving[1].motion.region_max`: must be finite (got [0.0, inf])",
+            ),
+            (
+                moving(M::NotFinite {
+                    field: PointField::Waypoint(2),
+                    value: [f64::NAN, 0.0],
+                }),
+                "key `world.moving[1]`: motion.waypoints[2] must be finite (got [NaN, 0.0])",
+            ),
+            (
+                moving(M::StartTime {
+                    start_time_s: f64::NAN,
+                }),
+                "key `world.moving[1].motion.start_time_s`: must be finite (got NaN)",
+            ),
+            (
+                moving(M::Speed { speed_mps: -0.1 }),
+                "key `world.moving[1].motion.speed_mps`: must be >= 0 and finite (got -0.1)",
+            ),
+            (
+                moving(M::Waypoints {
+                    points: 1,
+                    loop_length_m: 0.0,
+                }),
+                "key `world.moving[1]`: motion.waypoints needs at least 2 distinct points (got 1 point(s), loop length 0 m)",
+            ),
+            (
+                moving(M::EmptyRegion {
+                    region_min: [0.0, 0.0],
+                    region_max: [1.0, 0.0],
+                }),
+                "key `world.moving[1].motion.region_min`: must be < motion.region_max on both axes (got [0.0, 0.0], [1.0, 0.0])",
+            ),
+            (
+                moving(M::StartOutside {
+                    start: [2.0, 0.5],
+                    region_min: [0.0, 0.0],
+                    region_max: [1.0, 1.0],
+                }),
+                "key `world.moving[1]`: motion.start [2.0, 0.5] must lie inside the region [[0.0, 0.0], [1.0, 1.0]]",
+            ),
+        ];
+        for (e, want) in &cases {
+            assert_eq!(e.in_file("s.yaml").to_string(), format!("s.yaml: {want}"));
+            assert_eq!(e.in_file("s.yaml").keys(), [e.key()]);
+        }
     }
 }

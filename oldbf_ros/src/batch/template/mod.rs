@@ -26,6 +26,7 @@ use crate::sim::motion::{MotionSpec, MovingObstacleSpec};
 use crate::sim::robot::RobotSpec;
 use crate::sim::scenario::Scenario;
 use crate::sim::world::{BoxSpec, CircleSpec, WallSpec, World, WorldSpec};
+use oldbf::config::{Checker, Interval, Validate};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
@@ -53,62 +54,47 @@ const WALL_GAP_M: f64 = 0.01;
 const MIN_LOOP_M: f64 = 0.5;
 
 fn invalid(file: &str, key: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError::Parse {
-        file: file.to_string(),
-        key: key.to_string(),
-        message: message.into(),
+    ConfigError::at(file, key, message)
+}
+
+/// A `[least, most]` pair of `key`: each within `allowed`, least <= most.
+fn check_pair(c: &mut Checker, key: &str, p: [f64; 2], allowed: Interval) {
+    let in_range = c.range(&format!("{key}[0]"), p[0], allowed) & c.range(&format!("{key}[1]"), p[1], allowed);
+    if in_range {
+        c.rule(
+            p[0] <= p[1],
+            key,
+            format_args!("[{}, {}]", p[0], p[1]),
+            "[least, most] with least <= most",
+        );
     }
 }
 
-/// Range checks that name the file and the key.
-struct Checker<'a> {
-    file: &'a str,
+/// A `[least, most]` count of `key`: least <= most <= `most`.
+fn check_count(c: &mut Checker, key: &str, n: [usize; 2], most: usize) {
+    c.rule(
+        n[0] <= n[1] && n[1] <= most,
+        key,
+        format_args!("[{}, {}]", n[0], n[1]),
+        format!("[least, most] with least <= most <= {most}"),
+    );
 }
 
-impl Checker<'_> {
-    /// `v` in (lo, hi] (`open_low`) or [lo, hi].
-    fn value(&self, key: &str, v: f64, lo: f64, hi: f64, open_low: bool, unit: &str) -> Result<(), ConfigError> {
-        let above = if open_low { v > lo } else { v >= lo };
-        if v.is_finite() && above && v <= hi {
-            Ok(())
-        } else {
-            let open = if open_low { "(" } else { "[" };
-            Err(invalid(
-                self.file,
-                key,
-                format!("{v} is out of range; allowed: {open}{lo}, {hi}]{unit}"),
-            ))
-        }
-    }
-
-    /// A `[least, most]` pair: both within the bounds, least ≤ most.
-    fn pair(&self, key: &str, p: [f64; 2], lo: f64, hi: f64, open_low: bool, unit: &str) -> Result<(), ConfigError> {
-        self.value(&format!("{key}[0]"), p[0], lo, hi, open_low, unit)?;
-        self.value(&format!("{key}[1]"), p[1], lo, hi, open_low, unit)?;
-        if p[0] > p[1] {
-            return Err(invalid(
-                self.file,
-                key,
-                format!("[{}, {}]: the least value must not exceed the most", p[0], p[1]),
-            ));
-        }
-        Ok(())
-    }
-
-    fn count(&self, key: &str, c: [usize; 2], most: usize) -> Result<(), ConfigError> {
-        if c[0] > c[1] || c[1] > most {
-            return Err(invalid(
-                self.file,
-                key,
-                format!(
-                    "[{}, {}] is out of range; allowed: [least, most] with least <= most <= {most}",
-                    c[0], c[1]
-                ),
-            ));
-        }
-        Ok(())
+/// Ends a stage of checks: its errors as one error of `file`, else a fresh
+/// checker for the next stage (whose rules assume this stage's values valid).
+fn finish(c: Checker, file: &str) -> Result<Checker, ConfigError> {
+    match c.finish() {
+        Ok(()) => Ok(Checker::new()),
+        Err(errors) => Err(ConfigError::invalid(file, errors)),
     }
 }
+
+/// A run's length (s).
+const DURATION_S: Interval = Interval::open_closed(0.0, 36_000.0).unit("s");
+/// A room side or wall margin (m).
+const ROOM_M: Interval = Interval::open_closed(0.0, 1000.0).unit("m");
+/// An obstacle size: at most a quarter of the room's shorter side (m).
+const SIZE_UNIT: &str = "m (a quarter of the room's shorter side)";
 
 /// Largest obstacle count per kind and world.
 const MAX_COUNT: usize = 1000;
@@ -117,12 +103,8 @@ impl Template {
     /// Loads a template over the base parameters (`base_params`: a parameter
     /// file, or None for the built-in `config/oldbf.yaml`).
     pub fn load(path: &Path, base_params: Option<&Path>) -> Result<Template, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        Self::from_str(&text, &file, base_params)
+        let text = config::read_file(path)?;
+        Self::from_str(&text, &path.display().to_string(), base_params)
     }
 
     /// As `load`, from text.
@@ -133,7 +115,7 @@ impl Template {
         if let Some(over) = &spec.oldbf {
             config::merge(&mut merged, over);
         }
-        let params = config::params_from_value(merged, file, "oldbf.")?;
+        let params = config::params_from_value(merged, file, "oldbf")?;
         let t = Template {
             file: file.to_string(),
             spec,
@@ -154,123 +136,100 @@ impl Template {
 
     fn validate(&self) -> Result<(), ConfigError> {
         let s = &self.spec;
-        let c = Checker { file: &self.file };
-        c.value("duration_s", s.duration_s, 0.0, 36_000.0, true, " s")?;
-        c.value("room.width_m", s.room.width_m, 0.0, 1000.0, true, " m")?;
-        c.value("room.height_m", s.room.height_m, 0.0, 1000.0, true, " m")?;
-        c.value("nominal.v_mps", s.nominal.v_mps, 0.0, 5.0, true, " m/s")?;
-        c.value(
+        let file = &self.file;
+        let mut c = Checker::new();
+        c.range("duration_s", s.duration_s, DURATION_S);
+        c.range("room.width_m", s.room.width_m, ROOM_M);
+        c.range("room.height_m", s.room.height_m, ROOM_M);
+        c.range(
+            "nominal.v_mps",
+            s.nominal.v_mps,
+            Interval::open_closed(0.0, 5.0).unit("m/s"),
+        );
+        c.range("nominal.wall_margin_m", s.nominal.wall_margin_m, ROOM_M);
+        c.range(
+            "goal_tolerance_m",
+            s.goal_tolerance_m,
+            Interval::open_closed(0.0, 10.0).unit("m"),
+        );
+        c.range(
+            "start_clearance_m",
+            s.start_clearance_m,
+            Interval::closed(0.0, 10.0).unit("m"),
+        );
+        s.robot.limits().check(&mut c);
+        s.lidar.check(&mut c);
+        let mut c = finish(c, file)?;
+
+        // Rules between keys: the ranges above hold.
+        let v_max = self.params.control.v_max_mps;
+        c.at_most(
+            "nominal.v_mps",
+            s.nominal.v_mps,
+            v_max,
+            format!("at most the filter's control.v_max_mps = {v_max} m/s"),
+        );
+        let clear = self.start_clearance_radius_m();
+        c.rule(
+            s.nominal.wall_margin_m >= clear,
             "nominal.wall_margin_m",
             s.nominal.wall_margin_m,
-            0.0,
-            1000.0,
-            true,
-            " m",
-        )?;
-        c.value("goal_tolerance_m", s.goal_tolerance_m, 0.0, 10.0, true, " m")?;
-        c.value("start_clearance_m", s.start_clearance_m, 0.0, 10.0, false, " m")?;
-        s.robot.resolve().map_err(|e| config::section_error(&self.file, &e))?;
-        s.lidar.validate().map_err(|e| config::section_error(&self.file, &e))?;
-
-        let v_max = self.params.control.v_max_mps;
-        if s.nominal.v_mps > v_max {
-            return Err(invalid(
-                &self.file,
-                "nominal.v_mps",
-                format!(
-                    "{} exceeds the filter's control.v_max_mps = {v_max} m/s",
-                    s.nominal.v_mps
-                ),
-            ));
-        }
-        let clear = self.start_clearance_radius_m();
-        if s.nominal.wall_margin_m < clear {
-            return Err(invalid(
-                &self.file,
-                "nominal.wall_margin_m",
-                format!(
-                    "{} is too small: the start and goal need {clear:.3} m from the walls \
-                     (r + d_safe + start_clearance_m)",
-                    s.nominal.wall_margin_m
-                ),
-            ));
-        }
+            format!(
+                "at least {clear:.3} m, what the start and goal need from the walls (r + d_safe + start_clearance_m)"
+            ),
+        );
         let short_side = s.room.width_m.min(s.room.height_m);
-        if 2.0 * s.nominal.wall_margin_m >= short_side {
-            return Err(invalid(
-                &self.file,
-                "nominal.wall_margin_m",
-                format!(
-                    "{} leaves no room between the start and the goal: it must be below half the \
-                     room's shorter side ({short_side} m)",
-                    s.nominal.wall_margin_m
-                ),
-            ));
-        }
+        c.rule(
+            2.0 * s.nominal.wall_margin_m < short_side,
+            "nominal.wall_margin_m",
+            s.nominal.wall_margin_m,
+            format!(
+                "below half the room's shorter side ({short_side} m), to leave room between the start and the goal"
+            ),
+        );
         let longest_line_m = s.room.width_m.hypot(s.room.height_m);
         let longest_nominal_s = longest_line_m / s.nominal.v_mps;
-        if s.duration_s < longest_nominal_s {
-            return Err(invalid(
-                &self.file,
-                "duration_s",
-                format!(
-                    "{} s is shorter than the longest line's nominal time ({longest_nominal_s:.1} s at {} m/s)",
-                    s.duration_s, s.nominal.v_mps
-                ),
-            ));
-        }
+        c.rule(
+            s.duration_s >= longest_nominal_s,
+            "duration_s",
+            s.duration_s,
+            format!(
+                "at least the longest line's nominal time ({longest_nominal_s:.1} s at {} m/s)",
+                s.nominal.v_mps
+            ),
+        );
+        let mut c = finish(c, file)?;
 
-        let size_limit = 0.25 * short_side;
+        let size = Interval::open_closed(0.0, 0.25 * short_side).unit(SIZE_UNIT);
         let so = &s.static_obstacles;
-        c.count("static_obstacles.circles.count", so.circles.count, MAX_COUNT)?;
-        c.pair(
-            "static_obstacles.circles.radius_m",
-            so.circles.radius_m,
-            0.0,
-            size_limit,
-            true,
-            " m (a quarter of the room's shorter side)",
-        )?;
-        c.count("static_obstacles.boxes.count", so.boxes.count, MAX_COUNT)?;
-        c.pair(
-            "static_obstacles.boxes.size_m",
-            so.boxes.size_m,
-            0.0,
-            size_limit,
-            true,
-            " m (a quarter of the room's shorter side)",
-        )?;
+        check_count(&mut c, "static_obstacles.circles.count", so.circles.count, MAX_COUNT);
+        check_pair(&mut c, "static_obstacles.circles.radius_m", so.circles.radius_m, size);
+        check_count(&mut c, "static_obstacles.boxes.count", so.boxes.count, MAX_COUNT);
+        check_pair(&mut c, "static_obstacles.boxes.size_m", so.boxes.size_m, size);
         if let Some(d) = &s.doorway {
-            c.pair("doorway.width_m", d.width_m, 0.0, short_side, true, " m")?;
-            c.pair("doorway.along", d.along, 0.1, 0.9, false, " (fraction of the line)")?;
-            c.pair("doorway.offset_m", d.offset_m, -short_side, short_side, false, " m")?;
+            let width = Interval::open_closed(0.0, short_side).unit("m");
+            check_pair(&mut c, "doorway.width_m", d.width_m, width);
+            let along = Interval::closed(0.1, 0.9).unit("(fraction of the line)");
+            check_pair(&mut c, "doorway.along", d.along, along);
+            let offset = Interval::closed(-short_side, short_side).unit("m");
+            check_pair(&mut c, "doorway.offset_m", d.offset_m, offset);
         }
         let m = &s.moving_obstacles;
-        c.count("moving_obstacles.count", m.count, MAX_COUNT)?;
-        c.pair(
+        check_count(&mut c, "moving_obstacles.count", m.count, MAX_COUNT);
+        check_pair(
+            &mut c,
             "moving_obstacles.speed_fraction",
             m.speed_fraction,
-            0.0,
-            20.0,
-            true,
-            " (of nominal.v_mps)",
-        )?;
-        c.pair(
-            "moving_obstacles.radius_m",
-            m.radius_m,
-            0.0,
-            size_limit,
-            true,
-            " m (a quarter of the room's shorter side)",
-        )?;
-        if m.count[1] > 0 && m.kinds.is_empty() {
-            return Err(invalid(
-                &self.file,
-                "moving_obstacles.kinds",
-                "is empty; give at least one of crossing, bounce, waypoint_loop",
-            ));
-        }
-        Ok(())
+            Interval::open_closed(0.0, 20.0).unit("(of nominal.v_mps)"),
+        );
+        check_pair(&mut c, "moving_obstacles.radius_m", m.radius_m, size);
+        c.rule(
+            m.count[1] == 0 || !m.kinds.is_empty(),
+            "moving_obstacles.kinds",
+            "[]",
+            "at least one of crossing, bounce, waypoint_loop",
+        );
+        finish(c, file).map(drop)
     }
 
     /// The RNG seed of world `index` of a batch with seed `seed`.
@@ -384,7 +343,7 @@ mod tests {
 
     fn error_keys(text: &str) -> (Vec<String>, String) {
         let e = Template::from_str(text, "t.yaml", None).expect_err("must be rejected");
-        (e.keys(), e.to_string())
+        (e.keys().into_iter().map(String::from).collect(), e.to_string())
     }
 
     /// Is `p` strictly inside the convex outline `edges` (a box's four edges)?
