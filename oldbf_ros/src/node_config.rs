@@ -13,9 +13,9 @@ use crate::algo::geometry::Twist;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::algo::Params;
 use crate::config::{self, ConfigError};
-use crate::node_core::{NodeSettings, NodeSettingsError};
+use crate::node_core::NodeSettings;
 use crate::sim::scenario::Scenario;
-use oldbf::config::{Interval, ParamError};
+use oldbf::config::Validate;
 use serde_yaml::Value;
 use std::path::Path;
 
@@ -58,7 +58,7 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         config::merge(&mut settings_value, over);
     }
     let settings: NodeSettings = config::from_value(settings_value, source, "node")?;
-    settings.validate().map_err(|e| settings_error(source, e))?;
+    settings.validate().map_err(|e| ConfigError::invalid(source, e))?;
 
     let (mut params_value, _) = config::base_params_value(None)?;
     config::merge(&mut params_value, &ns);
@@ -96,20 +96,6 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
         constant: agent.constant,
         settings,
     })
-}
-
-/// The range of `node.*_timeout_s` (s), as `NodeSettings::validate` checks it.
-const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
-
-/// A node setting's error as a file error with its key as data (a timeout
-/// as an out-of-range value, like the parameters').
-fn settings_error(source: &str, e: NodeSettingsError) -> ConfigError {
-    match e {
-        NodeSettingsError::Timeout { key, value } => {
-            ConfigError::invalid(source, vec![ParamError::new(key, value, NODE_TIMEOUT_S)])
-        }
-        NodeSettingsError::EmptyBaseFrame => ConfigError::at(source, e.key(), "must not be empty"),
-    }
 }
 
 #[cfg(test)]
@@ -150,7 +136,10 @@ mod tests {
         );
         let e = node_config_from_params(yaml("node: {base_frame: ''}"), "P").unwrap_err();
         assert_eq!(e.keys(), ["node.base_frame"], "{e}");
-        assert_eq!(e.to_string(), "P: key `node.base_frame`: must not be empty");
+        assert_eq!(
+            e.to_string(),
+            "P: key `node.base_frame` = \"\" is out of range; allowed: a frame name, not empty"
+        );
         let e = node_config_from_params(yaml("node: {nominal_source: sometimes}"), "P").unwrap_err();
         assert_eq!(e.keys(), ["node.nominal_source"], "{e}");
     }

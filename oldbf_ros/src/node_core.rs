@@ -39,6 +39,7 @@ use crate::algo::scan::{LaserScan, ScanRejection};
 use crate::algo::tracking::track;
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
+use oldbf::config::{Checker, Interval, Validate};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -90,41 +91,20 @@ impl Default for NodeSettings {
     }
 }
 
-/// A node setting that cannot be used, naming its key (under `node.`).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum NodeSettingsError {
-    /// A timeout outside (0, 60] s.
-    #[error("key `{key}` = {value} is out of range; allowed: (0, 60] s")]
-    Timeout { key: &'static str, value: f64 },
-    #[error("key `node.base_frame` must not be empty")]
-    EmptyBaseFrame,
-}
+/// The range of `node.*_timeout_s` (s).
+pub const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
 
-impl NodeSettingsError {
-    /// The dotted key the error is about.
-    pub fn key(&self) -> &'static str {
-        match self {
-            Self::Timeout { key, .. } => key,
-            Self::EmptyBaseFrame => "node.base_frame",
-        }
-    }
-}
-
-impl NodeSettings {
-    /// Range checks, naming the key (under `node.`).
-    pub fn validate(&self) -> Result<(), NodeSettingsError> {
-        for (key, value) in [
-            ("node.cmd_in_timeout_s", self.cmd_in_timeout_s),
-            ("node.odom_timeout_s", self.odom_timeout_s),
-        ] {
-            if !(value.is_finite() && value > 0.0 && value <= 60.0) {
-                return Err(NodeSettingsError::Timeout { key, value });
-            }
-        }
-        if self.base_frame.is_empty() {
-            return Err(NodeSettingsError::EmptyBaseFrame);
-        }
-        Ok(())
+impl Validate for NodeSettings {
+    /// Range checks, keys under `node.`.
+    fn check(&self, c: &mut Checker) {
+        c.range("node.cmd_in_timeout_s", self.cmd_in_timeout_s, NODE_TIMEOUT_S);
+        c.range("node.odom_timeout_s", self.odom_timeout_s, NODE_TIMEOUT_S);
+        c.rule(
+            !self.base_frame.is_empty(),
+            "node.base_frame",
+            format_args!("{:?}", self.base_frame),
+            "a frame name, not empty",
+        );
     }
 }
 
@@ -1075,11 +1055,29 @@ mod tests {
     fn settings_are_range_checked() {
         let s = NodeSettings {
             cmd_in_timeout_s: 0.0,
+            odom_timeout_s: 61.0,
+            base_frame: String::new(),
             ..NodeSettings::default()
         };
         let e = s.validate().unwrap_err();
-        assert_eq!(e.key(), "node.cmd_in_timeout_s");
-        assert!(e.to_string().contains("node.cmd_in_timeout_s"), "{e}");
+        let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            ["node.cmd_in_timeout_s", "node.odom_timeout_s", "node.base_frame"]
+        );
+        assert_eq!(
+            e[0].to_string(),
+            "key `node.cmd_in_timeout_s` = 0 is out of range; allowed: (0, 60] s"
+        );
+        assert_eq!(
+            e[2].to_string(),
+            "key `node.base_frame` = \"\" is out of range; allowed: a frame name, not empty"
+        );
         assert!(NodeSettings::default().validate().is_ok());
+        let s = NodeSettings {
+            odom_timeout_s: 60.0,
+            ..NodeSettings::default()
+        };
+        assert!(s.validate().is_ok(), "60 s is allowed");
     }
 }
