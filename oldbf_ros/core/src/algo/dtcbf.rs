@@ -121,7 +121,7 @@ impl InputBox {
 
 /// Displacement direction u and speed-to-distance factor κ (s = κ v) for ω.
 #[inline]
-fn motion_direction(model: PredictionModel, omega: f64, dt: f64) -> (Vec2, f64) {
+pub(crate) fn motion_direction(model: PredictionModel, omega: f64, dt: f64) -> (Vec2, f64) {
     match model {
         PredictionModel::Euler => (Vec2::new(1.0, 0.0), dt),
         PredictionModel::Arc => {
@@ -246,6 +246,11 @@ impl DtcbfFilter {
     /// same value bit for bit); the box must be the one of that call.
     pub fn h_next(&self, points_next: &[Vec2], cmd: Twist, p: &Params) -> f64 {
         let disp = predicted_displacement(p.dtcbf.prediction, cmd, p.control.dt_s());
+        self.h_next_at(points_next, disp, p)
+    }
+
+    /// [`Self::h_next`] of the command whose predicted displacement is `disp`.
+    pub fn h_next_at(&self, points_next: &[Vec2], disp: Vec2, p: &Params) -> f64 {
         self.near.min_distance(points_next, disp) - p.robot_radius_m() - p.barrier.d_safe_m
     }
 

@@ -188,6 +188,10 @@ struct BeamDirections {
     /// (angle_min bits, angle_increment bits, beams, mount) of `dirs`.
     geometry: Option<(u32, u32, usize, Pose2)>,
     dirs: Vec<Vec2>,
+    /// (cos_front bits, cos_rear bits) and the beams of `dirs` with x ≥ cos_front
+    /// and with x ≤ −cos_rear: the front and rear sector counts, which depend on
+    /// the geometry only.
+    sectors: Option<(u64, u64, usize, usize)>,
 }
 
 impl BeamDirections {
@@ -222,8 +226,24 @@ impl BeamDirections {
                 }
             }
             self.geometry = Some(geometry);
+            self.sectors = None;
         }
         &self.dirs
+    }
+
+    /// The beams of the last [`Self::get`] in the front sector (x ≥ `cos_front`)
+    /// and in the rear one (x ≤ −`cos_rear`), counted once per geometry.
+    fn sector_counts(&mut self, cos_front: f64, cos_rear: f64) -> (usize, usize) {
+        let key = (cos_front.to_bits(), cos_rear.to_bits());
+        match self.sectors {
+            Some((f, r, front, rear)) if (f, r) == key => (front, rear),
+            _ => {
+                let front = self.dirs.iter().filter(|d| d.x >= cos_front).count();
+                let rear = self.dirs.iter().filter(|d| d.x <= -cos_rear).count();
+                self.sectors = Some((key.0, key.1, front, rear));
+                (front, rear)
+            }
+        }
     }
 }
 
@@ -246,6 +266,7 @@ impl ScanPoints {
             directions: BeamDirections {
                 geometry: None,
                 dirs: Vec::with_capacity(beams),
+                sectors: None,
             },
         }
     }
@@ -447,6 +468,139 @@ pub fn fill_points(
         .min(std::f64::consts::PI)
         .cos();
     let (zero_free, hold_s) = (params.zero_is_no_return, params.unknown_hold_s);
+    // The sector sizes depend on the geometry only: counted once per geometry, and
+    // the per-beam sector tests are made for unknown beams only.
+    let (front_beams, rear_beams) = out.directions.sector_counts(cos_front, cos_rear);
+    // Counters in locals and the buffers borrowed apart: the loop then keeps them in
+    // registers instead of storing through `out` at every beam.
+    let ScanPoints {
+        points,
+        beam_index,
+        status,
+        phantoms,
+        directions,
+        ..
+    } = out;
+    let dirs = &directions.dirs;
+    let (mut unknown, mut unknown_front, mut unknown_rear) = (0, 0, 0);
+    let (mut held, mut too_close) = (0, 0);
+    for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
+        let beam_status = match classify_range(p, rmin, rmax, zero_free) {
+            RangeKind::Valid => {
+                memory.remember(i, p);
+                points.push(origin + dir * p as f64);
+                beam_index.push(i as u32);
+                BeamStatus::Valid
+            }
+            RangeKind::TooClose => {
+                memory.remember(i, rmin);
+                too_close += 1;
+                points.push(origin + dir * rmin as f64);
+                beam_index.push(i as u32);
+                BeamStatus::TooClose
+            }
+            RangeKind::Free => {
+                memory.forget(i);
+                BeamStatus::Free
+            }
+            RangeKind::Unknown => {
+                unknown += 1;
+                unknown_front += (dir.x >= cos_front) as usize;
+                unknown_rear += (dir.x <= -cos_rear) as usize;
+                // A positive reading below range_min is no measurement, but it says
+                // something is that close (REP 117: too close to measure): the braking
+                // check keeps off this beam there, not where the beam last saw
+                // something (a person who stepped inside range_min).
+                let too_close = (p > 0.0).then(|| origin + dir * (p as f64).max(TOO_CLOSE_FLOOR * rmin as f64));
+                match memory.held_point(i, hold_s, |r| origin + dir * r as f64) {
+                    Some(q) => {
+                        held += 1;
+                        points.push(q);
+                        beam_index.push(i as u32);
+                        // Where it was: it may have come closer since.
+                        phantoms.push(too_close.unwrap_or(q));
+                        BeamStatus::Held
+                    }
+                    None => {
+                        phantoms.extend(too_close);
+                        BeamStatus::Unknown
+                    }
+                }
+            }
+        };
+        status.push(beam_status);
+    }
+    (out.front_beams, out.rear_beams, out.unknown) = (front_beams, rear_beams, unknown);
+    (out.unknown_front, out.unknown_rear) = (unknown_front, unknown_rear);
+    (out.held, out.too_close) = (held, too_close);
+    // Runs of unknown beams with nothing held: something may be right there.
+    // (Every unknown beam held: there are none, and no pass over the beams.)
+    if unknown == held {
+        return;
+    }
+    let mut run_start = None;
+    for i in 0..=out.status.len() {
+        let unknown = out.status.get(i) == Some(&BeamStatus::Unknown);
+        match (unknown, run_start) {
+            (true, None) => run_start = Some(i),
+            (false, Some(start)) => {
+                if i - start >= MIN_UNKNOWN_RUN {
+                    out.phantoms
+                        .extend(dirs[start..i].iter().map(|d| origin + d * rmin as f64));
+                }
+                run_start = None;
+            }
+            _ => {}
+        }
+    }
+}
+
+/// A reading below range_min puts its phantom at least this fraction of
+/// range_min out: the reading itself may be any garbage down to 0, and a
+/// phantom at the laser's origin would give no direction to keep off.
+pub const TOO_CLOSE_FLOOR: f64 = 0.5;
+
+/// Unknown beams in a row, with nothing held, that may hide something; fewer
+/// are taken for dropouts (at 1 % dropouts, three in a row happen once in a
+/// million beams).
+pub const MIN_UNKNOWN_RUN: usize = 3;
+
+/// [`fill_points`] as it was before the sector counts were cached: the
+/// plain reference its property test compares it with.
+#[cfg(test)]
+pub(crate) fn reference_fill_points(
+    scan: &LaserScan<'_>,
+    params: &LaserParams,
+    mount: &LaserMount,
+    out: &mut ScanPoints,
+    memory: &mut BeamMemory,
+    rear_half_rad: f64,
+) {
+    out.clear();
+    out.beams = scan.ranges_m.len();
+    // Grows only when a scan has more beams than any before: no allocation in steady state.
+    out.reserve(out.beams);
+    let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
+    let origin = mount.pose.position();
+    let cos_rear = rear_half_rad.cos();
+    let dirs = out.directions.get(scan, mount);
+    if params.range_semantics == RangeSemantics::AllInvalidFree {
+        for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
+            out.rear_beams += (dir.x <= -cos_rear) as usize;
+            if is_valid_range(p, rmin, rmax) {
+                out.points.push(origin + dir * p as f64);
+                out.beam_index.push(i as u32);
+                out.status.push(BeamStatus::Valid);
+            } else {
+                out.status.push(BeamStatus::Free);
+            }
+        }
+        return;
+    }
+    let cos_front = (params.blind_sector_deg.to_radians() / 2.0)
+        .min(std::f64::consts::PI)
+        .cos();
+    let (zero_free, hold_s) = (params.zero_is_no_return, params.unknown_hold_s);
     // Counters in locals and the buffers borrowed apart: the loop then keeps them in
     // registers instead of storing through `out` at every beam.
     let ScanPoints {
@@ -532,16 +686,6 @@ pub fn fill_points(
         }
     }
 }
-
-/// A reading below range_min puts its phantom at least this fraction of
-/// range_min out: the reading itself may be any garbage down to 0, and a
-/// phantom at the laser's origin would give no direction to keep off.
-pub const TOO_CLOSE_FLOOR: f64 = 0.5;
-
-/// Unknown beams in a row, with nothing held, that may hide something; fewer
-/// are taken for dropouts (at 1 % dropouts, three in a row happen once in a
-/// million beams).
-pub const MIN_UNKNOWN_RUN: usize = 3;
 
 #[cfg(test)]
 mod tests {
@@ -831,5 +975,126 @@ mod tests {
         assert!(matches!(check_scan(&s, 10.6, &p), Err(ScanRejection::Stale { .. })));
         assert!(matches!(check_scan(&s, 9.4, &p), Err(ScanRejection::FromFuture { .. })));
         assert_eq!(check_scan(&s, f64::NAN, &p), Err(ScanRejection::BadStamp));
+    }
+}
+
+/// The fast paths of this module against their plain references, bit for bit.
+#[cfg(test)]
+mod fast_path_properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Every kind of reading: NaN, ±inf, ±0, negative, around range_min (0.1) and range_max (5).
+    fn range() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            prop::sample::select(vec![
+                f32::NAN,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                0.0,
+                -0.0,
+                -1.0,
+                0.05,
+                0.1,
+                0.099_999,
+                4.999_999,
+                5.0,
+                7.0,
+            ]),
+            0.0f32..6.0,
+            any::<f32>(),
+        ]
+    }
+
+    fn scan_of(ranges: &[f32], angle_min: f32, inc: f32, stamp_s: f64) -> LaserScan<'_> {
+        LaserScan {
+            stamp_s,
+            angle_min_rad: angle_min,
+            angle_increment_rad: inc,
+            range_min_m: 0.1,
+            range_max_m: 5.0,
+            ranges_m: ranges,
+            intensities: &[],
+        }
+    }
+
+    fn bits(v: &[Vec2]) -> Vec<(u64, u64)> {
+        v.iter().map(|p| (p.x.to_bits(), p.y.to_bits())).collect()
+    }
+
+    fn counts(s: &ScanPoints) -> [usize; 8] {
+        [
+            s.beams,
+            s.unknown,
+            s.held,
+            s.too_close,
+            s.unknown_front,
+            s.front_beams,
+            s.rear_beams,
+            s.unknown_rear,
+        ]
+    }
+
+    /// A sequence of scans: (ranges, robot pose, seconds since the last scan,
+    /// blind sector (deg)), sometimes with a new beam count or geometry.
+    #[allow(clippy::type_complexity)]
+    fn scans() -> impl Strategy<Value = Vec<(Vec<f32>, (f64, f64, f64), f64, f64)>> {
+        (1usize..300).prop_flat_map(|n| {
+            prop::collection::vec(
+                (
+                    prop_oneof![
+                        4 => prop::collection::vec(range(), n),
+                        1 => prop::collection::vec(range(), 1..300),
+                    ],
+                    (-0.3f64..0.3, -0.3f64..0.3, -0.5f64..0.5),
+                    prop_oneof![Just(0.1), 0.0f64..3.0],
+                    prop::sample::select(vec![180.0, 90.0, 400.0, 0.0]),
+                ),
+                1..6,
+            )
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        #[test]
+        fn fill_points_matches_its_reference(
+            seq in scans(),
+            angle_min in -3.2f32..3.2,
+            inc in prop_oneof![0.0005f32..0.03, -0.03f32..-0.0005, Just(std::f32::consts::TAU / 360.0)],
+            mount in (-0.2f64..0.2, -0.2f64..0.2, -3.2f64..3.2),
+            zero_free in any::<bool>(),
+            hold_s in 0.0f64..2.5,
+            paper in prop::sample::select(vec![false, false, false, true]),
+            rear_half in prop::sample::select(vec![std::f64::consts::FRAC_PI_4, 0.3, std::f64::consts::PI]),
+        ) {
+            let mount = LaserMount { pose: Pose2::new(mount.0, mount.1, mount.2) };
+            let (mut fast, mut reference) = (ScanPoints::default(), ScanPoints::default());
+            let (mut mem_fast, mut mem_ref) = (BeamMemory::default(), BeamMemory::default());
+            let mut stamp = 10.0;
+            for (ranges, pose, gap_s, blind_deg) in &seq {
+                stamp += gap_s;
+                let params = LaserParams {
+                    zero_is_no_return: zero_free,
+                    unknown_hold_s: hold_s,
+                    blind_sector_deg: *blind_deg,
+                    range_semantics: if paper { RangeSemantics::AllInvalidFree } else { RangeSemantics::Rep117 },
+                    ..LaserParams::default()
+                };
+                let scan = scan_of(ranges, angle_min, inc, stamp);
+                let pose = Pose2::new(pose.0, pose.1, pose.2);
+                mem_fast.begin_scan(ranges.len(), pose, stamp);
+                mem_ref.begin_scan(ranges.len(), pose, stamp);
+                fill_points(&scan, &params, &mount, &mut fast, &mut mem_fast, rear_half);
+                reference_fill_points(&scan, &params, &mount, &mut reference, &mut mem_ref, rear_half);
+                prop_assert_eq!(bits(&fast.points), bits(&reference.points));
+                prop_assert_eq!(&fast.beam_index, &reference.beam_index);
+                prop_assert_eq!(&fast.status, &reference.status);
+                prop_assert_eq!(bits(&fast.phantoms), bits(&reference.phantoms));
+                prop_assert_eq!(counts(&fast), counts(&reference));
+                prop_assert_eq!(format!("{mem_fast:?}"), format!("{mem_ref:?}"));
+            }
+        }
     }
 }

@@ -4,8 +4,8 @@
 //! state (points, movers, last command) as the rest of a step does.
 
 use super::SafetyPipeline;
-use crate::algo::dtcbf::{DtcbfOutcome, InputBox};
-use crate::algo::geometry::Twist;
+use crate::algo::dtcbf::{motion_direction, DtcbfOutcome, InputBox};
+use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
 use crate::algo::passive::{EvasionScore, PassiveSafety};
 use crate::algo::record::Infeasibility;
@@ -23,6 +23,8 @@ pub(super) const EVASION_MIN_GAP_GAIN_M: f64 = 0.02;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Lazy {
     cmd: Twist,
+    /// Its predicted displacement over one step (m), for h(k+1).
+    disp: Vec2,
     /// Distance from the DOAA command (m²).
     cost: f64,
     h_next_m: f64,
@@ -75,6 +77,14 @@ impl SafetyPipeline {
         (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
     }
 
+    /// [`Self::condition`] of the command whose one-step displacement is `disp`
+    /// (`predicted_displacement` of it), bit for bit.
+    fn condition_at(&self, disp: Vec2, h: f64) -> (f64, bool) {
+        let p = &self.params;
+        let h_next = self.filter.h_next_at(&self.points_next, disp, p);
+        (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
+    }
+
     /// The command closest to the DOAA's `desired` that meets both checks,
     /// over the DTCBF's ω grid and a grid of speeds; else the passively safe
     /// one keeping h(k+1) highest (ties: the closest); else `own` if it is
@@ -90,8 +100,11 @@ impl SafetyPipeline {
         let omegas = [out.cmd.omega_radps, desired.omega_radps]
             .into_iter()
             .chain((0..n).map(|k| grid(-bx.omega_max, bx.omega_max, k, n)));
+        let (model, dt) = (self.params.dtcbf.prediction, self.params.control.dt_s());
         for omega in omegas {
             let omega = omega.clamp(-bx.omega_max, bx.omega_max);
+            // One direction per yaw rate, shared by its speeds (as `predicted_displacement`).
+            let direction = motion_direction(model, omega, dt);
             for j in 0..=PASSIVE_SPEEDS + 1 {
                 let v = if j == 0 {
                     0.0
@@ -101,6 +114,7 @@ impl SafetyPipeline {
                 let cmd = Twist::new(v, omega);
                 self.candidates.push(Lazy {
                     cmd,
+                    disp: displacement(direction, v),
                     cost: cost(cmd),
                     h_next_m: f64::NAN,
                     condition: false,
@@ -109,14 +123,10 @@ impl SafetyPipeline {
             }
         }
         // Closest first; among equals the first generated (as `min_by` would).
-        let by_cost = |a: &(u32, f64), b: &(u32, f64)| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0));
-        self.order.clear();
-        self.order
-            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.cost)));
-        self.order.sort_unstable_by(by_cost);
+        order_by_cost(&self.candidates, &mut self.order);
         for k in 0..self.order.len() {
-            let i = self.order[k].0 as usize;
-            let (h_next_m, condition) = self.condition(self.candidates[i].cmd, h);
+            let i = self.order[k] as u32 as usize;
+            let (h_next_m, condition) = self.condition_at(self.candidates[i].disp, h);
             let c = &mut self.candidates[i];
             (c.h_next_m, c.condition) = (h_next_m, condition);
             if condition && self.passive_of(i) {
@@ -128,19 +138,9 @@ impl SafetyPipeline {
             return own;
         }
         // Highest h(k+1), then closest; among equals the last generated (as `max_by` would).
-        self.order.clear();
-        self.order
-            .extend(self.candidates.iter().enumerate().map(|(i, c)| (i as u32, c.h_next_m)));
-        let candidates = &self.candidates;
-        self.order.sort_unstable_by(|a, b| {
-            let (ca, cb) = (&candidates[a.0 as usize], &candidates[b.0 as usize]);
-            cb.h_next_m
-                .total_cmp(&ca.h_next_m)
-                .then(ca.cost.total_cmp(&cb.cost))
-                .then(b.0.cmp(&a.0))
-        });
-        for k in 0..self.order.len() {
-            let i = self.order[k].0 as usize;
+        order_by_h_next(&self.candidates, &mut self.order_h);
+        for k in 0..self.order_h.len() {
+            let i = (u32::MAX - self.order_h[k].2) as usize;
             if self.passive_of(i) {
                 return self.candidates[i].weighed();
             }
@@ -294,6 +294,51 @@ impl SafetyPipeline {
     }
 }
 
+/// The one-step displacement at speed `v` (m/s) along `motion_direction`'s
+/// (u, κ) of the yaw rate: `predicted_displacement` of (v, ω), bit for bit.
+#[inline]
+fn displacement((u, kappa): (Vec2, f64), v: f64) -> Vec2 {
+    u * (kappa * v)
+}
+
+/// `x` as an unsigned integer in the order of `f64::total_cmp` (the same bit
+/// flips `total_cmp` makes, then the sign bit flipped so signed order becomes
+/// unsigned order): sorting by it sorts as `total_cmp` does, with integer
+/// comparisons instead of a comparison closure.
+#[inline]
+fn total_key(x: f64) -> u64 {
+    let b = x.to_bits() as i64;
+    let t = b ^ ((((b >> 63) as u64) >> 1) as i64);
+    (t as u64) ^ (1 << 63)
+}
+
+/// The candidates' indices by cost (`f64::total_cmp`), ties in index order,
+/// each in the low 32 bits of its key: the unique order of
+/// `sort_unstable_by(|a, b| a.cost.total_cmp(&b.cost).then(a.index.cmp(&b.index)))`.
+fn order_by_cost(candidates: &[Lazy], order: &mut Vec<u128>) {
+    order.clear();
+    order.extend(
+        candidates
+            .iter()
+            .enumerate()
+            .map(|(i, c)| ((total_key(c.cost) as u128) << 32) | i as u128),
+    );
+    order.sort_unstable();
+}
+
+/// The candidates by highest h(k+1), then lowest cost, then highest index
+/// (all by `f64::total_cmp`), as keys whose third part is `u32::MAX − index`.
+fn order_by_h_next(candidates: &[Lazy], order: &mut Vec<(u64, u64, u32)>) {
+    order.clear();
+    order.extend(
+        candidates
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (!total_key(c.h_next_m), total_key(c.cost), u32::MAX - i as u32)),
+    );
+    order.sort_unstable();
+}
+
 /// Point k of n evenly spaced over [lo, hi] (n ≥ 2).
 fn grid(lo: f64, hi: f64, k: usize, n: usize) -> f64 {
     lo + (hi - lo) * k as f64 / (n - 1) as f64
@@ -306,5 +351,107 @@ fn better(a: &EvasionScore, b: &EvasionScore) -> bool {
         dt > 0.0
     } else {
         a.mover_gap_m > b.mover_gap_m + 1e-9
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::dtcbf::predicted_displacement;
+    use crate::algo::params::PredictionModel;
+    use proptest::prelude::*;
+
+    /// The orderings as they were first written: comparison closures over (index, key).
+    fn reference_by_cost(candidates: &[Lazy]) -> Vec<u32> {
+        let mut order: Vec<(u32, f64)> = candidates.iter().enumerate().map(|(i, c)| (i as u32, c.cost)).collect();
+        order.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        order.into_iter().map(|(i, _)| i).collect()
+    }
+
+    fn reference_by_h_next(candidates: &[Lazy]) -> Vec<u32> {
+        let mut order: Vec<(u32, f64)> = candidates
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (i as u32, c.h_next_m))
+            .collect();
+        order.sort_unstable_by(|a, b| {
+            let (ca, cb) = (&candidates[a.0 as usize], &candidates[b.0 as usize]);
+            cb.h_next_m
+                .total_cmp(&ca.h_next_m)
+                .then(ca.cost.total_cmp(&cb.cost))
+                .then(b.0.cmp(&a.0))
+        });
+        order.into_iter().map(|(i, _)| i).collect()
+    }
+
+    /// Values with many ties and every special case `total_cmp` orders.
+    fn key() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            prop::sample::select(vec![
+                0.0,
+                -0.0,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NAN,
+                -f64::NAN,
+                f64::MIN_POSITIVE,
+                -f64::MIN_POSITIVE,
+                5e-324,
+                -5e-324,
+                f64::MAX,
+                f64::MIN,
+                1.0,
+                -1.0,
+            ]),
+            (-4i32..4).prop_map(|k| k as f64 * 0.25),
+            any::<f64>(),
+        ]
+    }
+
+    fn lazy(cost: f64, h_next_m: f64) -> Lazy {
+        Lazy {
+            cmd: Twist::ZERO,
+            disp: Vec2::zeros(),
+            cost,
+            h_next_m,
+            condition: false,
+            passive: None,
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        #[test]
+        fn integer_keys_order_the_candidates_as_the_comparison_closures(
+            keys in prop::collection::vec((key(), key()), 0..300)
+        ) {
+            let candidates: Vec<Lazy> = keys.iter().map(|&(c, h)| lazy(c, h)).collect();
+            let mut order = Vec::new();
+            order_by_cost(&candidates, &mut order);
+            let got: Vec<u32> = order.iter().map(|&k| k as u32).collect();
+            prop_assert_eq!(got, reference_by_cost(&candidates));
+            let mut order_h = Vec::new();
+            order_by_h_next(&candidates, &mut order_h);
+            let got: Vec<u32> = order_h.iter().map(|k| u32::MAX - k.2).collect();
+            prop_assert_eq!(got, reference_by_h_next(&candidates));
+        }
+
+        #[test]
+        fn one_direction_per_yaw_rate_gives_each_speed_its_displacement_bit_for_bit(
+            v in prop_oneof![Just(0.0), Just(-0.0), -2.0f64..2.0, any::<f64>()],
+            omega in prop_oneof![Just(0.0), -1e-5f64..1e-5, -4.0f64..4.0],
+            dt in 0.01f64..0.5,
+            arc in any::<bool>(),
+        ) {
+            let model = if arc { PredictionModel::Arc } else { PredictionModel::Euler };
+            let fast = displacement(motion_direction(model, omega, dt), v);
+            // As `predicted_displacement` was written, and as it is.
+            let (u, kappa) = motion_direction(model, omega, dt);
+            for reference in [u * (kappa * v), predicted_displacement(model, Twist::new(v, omega), dt)] {
+                prop_assert_eq!(fast.x.to_bits(), reference.x.to_bits());
+                prop_assert_eq!(fast.y.to_bits(), reference.y.to_bits());
+            }
+        }
     }
 }

@@ -88,8 +88,9 @@ pub struct SafetyPipeline {
     filter: DtcbfFilter,
     passive: PassiveSafety,
     candidates: Vec<Lazy>,
-    /// Candidate indices with their sort key.
-    order: Vec<(u32, f64)>,
+    /// Candidate indices in their sort keys (low 32 bits: by cost; third: by h(k+1)).
+    order: Vec<u128>,
+    order_h: Vec<(u64, u64, u32)>,
     last_cmd: Twist,
     last_clearances: Clearances,
     last_box: InputBox,
@@ -134,6 +135,7 @@ impl SafetyPipeline {
             passive: PassiveSafety::with_capacity(max_tracks, cap),
             candidates: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
             order: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
+            order_h: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
             last_cmd: Twist::ZERO,
             last_clearances: Clearances::OPEN,
             last_box,
