@@ -57,23 +57,57 @@ pub enum ScanRejection {
     /// No beams at all.
     Empty,
     /// More beams than `laser.max_beams`.
-    TooManyBeams { beams: usize, max: usize },
+    TooManyBeams {
+        /// Beams in the scan.
+        beams: usize,
+        /// `laser.max_beams`.
+        max: usize,
+    },
     /// Intensities present but not one per beam.
-    IntensityLengthMismatch { ranges: usize, intensities: usize },
+    IntensityLengthMismatch {
+        /// Ranges in the scan.
+        ranges: usize,
+        /// Intensities in the scan.
+        intensities: usize,
+    },
     /// angle_increment is 0 or not finite.
-    BadIncrement { increment_rad: f32 },
+    BadIncrement {
+        /// The scan's angle_increment (rad).
+        increment_rad: f32,
+    },
     /// angle_min is not finite.
-    BadAngleMin { angle_min_rad: f32 },
+    BadAngleMin {
+        /// The scan's angle_min (rad).
+        angle_min_rad: f32,
+    },
     /// range_min/range_max not finite, negative, or range_max ≤ range_min.
-    BadRangeLimits { range_min_m: f32, range_max_m: f32 },
+    BadRangeLimits {
+        /// The scan's range_min (m).
+        range_min_m: f32,
+        /// The scan's range_max (m).
+        range_max_m: f32,
+    },
     /// The beams span more than one full turn.
-    SpanTooWide { span_rad: f64 },
+    SpanTooWide {
+        /// |angle_increment| × beams (rad).
+        span_rad: f64,
+    },
     /// The stamp is not a finite number.
     BadStamp,
     /// Older than `laser.scan_timeout_s`.
-    Stale { age_s: f64, timeout_s: f64 },
+    Stale {
+        /// How old the scan is (s).
+        age_s: f64,
+        /// `laser.scan_timeout_s`.
+        timeout_s: f64,
+    },
     /// Stamped in the future by more than `laser.scan_timeout_s` (a clock jump).
-    FromFuture { ahead_s: f64, timeout_s: f64 },
+    FromFuture {
+        /// How far ahead of the clock it is stamped (s).
+        ahead_s: f64,
+        /// `laser.scan_timeout_s`.
+        timeout_s: f64,
+    },
 }
 
 impl fmt::Display for ScanRejection {
@@ -141,10 +175,12 @@ const SPAN_TOLERANCE_RAD: f64 = 0.05;
 /// The laser's mount pose in the robot frame, with its trigonometry cached.
 #[derive(Debug, Clone, Copy)]
 pub struct LaserMount {
+    /// The laser frame in the robot frame (m, rad).
     pub pose: Pose2,
 }
 
 impl LaserMount {
+    /// The mount of `laser.mount_x_m`, `mount_y_m`, `mount_yaw_deg`.
     pub fn from_params(p: &LaserParams) -> Self {
         Self {
             pose: Pose2::new(p.mount_x_m, p.mount_y_m, p.mount_yaw_deg.to_radians()),
@@ -167,13 +203,17 @@ pub struct ScanPoints {
     /// Of those: unknown (held or not), held, and unknown inside the front
     /// sector watched for blindness, out of `front_beams` there.
     pub unknown: usize,
+    /// Unknown beams held at their last valid reading.
     pub held: usize,
     /// Beams that read −inf.
     pub too_close: usize,
+    /// Unknown beams in the front sector watched for blindness.
     pub unknown_front: usize,
+    /// Beams in that sector.
     pub front_beams: usize,
     /// Beams of the rear sector a reversing robot must see, and unknown ones there.
     pub rear_beams: usize,
+    /// Unknown beams in the rear sector.
     pub unknown_rear: usize,
     /// Where something may be that no beam shows now (robot frame, m): every
     /// held point (a mover last seen there may have come closer), and
@@ -257,6 +297,7 @@ impl BeamDirections {
 }
 
 impl ScanPoints {
+    /// Buffers for `beams` beams (no allocation per scan up to that).
     pub fn with_capacity(beams: usize) -> Self {
         Self {
             points: Vec::with_capacity(beams),
@@ -280,6 +321,7 @@ impl ScanPoints {
         }
     }
 
+    /// Empties every buffer, keeping its capacity.
     pub fn clear(&mut self) {
         self.points.clear();
         self.beam_index.clear();

@@ -106,10 +106,15 @@ pub struct SafetyPipeline {
 /// A tracked obstacle on a collision course this step (robot frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Threat {
+    /// The track's id ([`Track::id`](super::obstacle_tracker::Track)).
     pub track_id: u32,
+    /// Centre, robot frame (m).
     pub position: Vec2,
+    /// Velocity, robot frame (m/s).
     pub velocity: Vec2,
+    /// Radius of its circle (m).
     pub radius_m: f64,
+    /// When it would touch the robot's disc on their present motions (s).
     pub time_to_collision_s: f64,
     /// Half-angle of its collision cone (rad).
     pub cone_half_angle_rad: f64,
@@ -173,6 +178,7 @@ impl SafetyPipeline {
         self.passive.movers()
     }
 
+    /// The parameters in use.
     pub fn params(&self) -> &Params {
         &self.params
     }
@@ -193,6 +199,7 @@ impl SafetyPipeline {
         &self.last_clearances
     }
 
+    /// The command of the last step (zero before the first).
     pub fn last_command(&self) -> Twist {
         self.last_cmd
     }
