@@ -164,7 +164,11 @@ fn interface_down_and_up() {
     log_init();
     let _restore = RestoreVcan;
     let clock = clock();
-    let c = bridge_config(ProtocolKind::Generic);
+    let mut c = bridge_config(ProtocolKind::Generic);
+    // The interface is down for about 0.3 s, which silences the drive's
+    // heartbeats as well; a slow guest latched a heartbeat loss at the 0.5 s
+    // default (this test is about the bus error and its recovery).
+    c.timing.heartbeat_timeout_s = 1.5;
     let _drive = DriveThread::start(drive_config(&c), clock);
     let mut b = bridge(c, &clock);
     wait_ready(&mut b, &clock);

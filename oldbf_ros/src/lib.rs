@@ -38,6 +38,7 @@ pub mod reconfigure;
 pub mod replay;
 #[cfg(feature = "eval")]
 pub mod report;
+pub mod resubscribe;
 #[cfg(feature = "ros")]
 pub mod ros;
 pub mod sim;

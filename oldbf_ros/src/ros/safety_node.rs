@@ -3,7 +3,10 @@
 //! Topics (relative names, so `__ns:=` and remapping work):
 //! * subscribes `scan` (sensor_msgs/LaserScan), `odom` (nav_msgs/Odometry,
 //!   optional), `cmd_vel_in` (geometry_msgs/Twist, optional), `e_stop`
-//!   (std_msgs/Bool; true latches a stop);
+//!   (std_msgs/Bool; true latches a stop); `scan` and `odom` are subscribed
+//!   again when quiet for 3 s (then 6, 12, … up to 30 s apart): rosrust does
+//!   not retry a connection to a publisher that failed
+//!   ([`crate::resubscribe`]);
 //! * publishes `cmd_vel` (geometry_msgs/Twist) on every scan and every
 //!   upstream command as it arrives, and from a watchdog whenever nothing
 //!   went out for a control period (so a stale scan still turns into a stop),
@@ -39,6 +42,7 @@ use crate::config::ConfigError;
 use crate::node_config::{node_config_from_params, NodeConfig};
 use crate::node_core::{NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
 use crate::reconfigure;
+use crate::resubscribe::Resubscribe;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -150,6 +154,8 @@ struct Node {
     last_status: Option<Option<&'static str>>,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
+    /// When the last scan arrived (s), for [`Resubscribe`].
+    last_scan_rx_s: Option<f64>,
 }
 
 impl Node {
@@ -198,6 +204,11 @@ impl Node {
     }
 }
 
+/// A subscription that carried nothing for this long is made again (s);
+/// while it stays quiet the wait doubles up to the second figure.
+const RESUBSCRIBE_QUIET_S: f64 = 3.0;
+const RESUBSCRIBE_MAX_QUIET_S: f64 = 30.0;
+
 /// The node's lock. A panic elsewhere while holding it leaves consistent
 /// data (each step is one call): carry on rather than take the node down.
 fn lock(n: &Mutex<Node>) -> std::sync::MutexGuard<'_, Node> {
@@ -226,24 +237,36 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         last_diag: f64::NEG_INFINITY,
         last_status: None,
         stopping: false,
+        last_scan_rx_s: None,
     }));
 
     // A scan is filtered, and its command published, as it arrives.
-    let n = node.clone();
-    let _scan_sub = rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
-        let now = now_s();
-        let mut node = lock(&n);
-        node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
-        node.activity.scan_arrived(now);
-        node.tick(now);
-    })
-    .map_err(RosError::doing("subscribing to scan"))?;
-    let n = node.clone();
-    let _odom_sub = rosrust::subscribe("odom", 1, move |m: nav_msgs::Odometry| {
-        let (pose, twist) = odom_from_msg(&m);
-        lock(&n).core.on_odom(pose, twist, now_s());
-    })
-    .map_err(RosError::doing("subscribing to odom"))?;
+    let subscribe_scan = || {
+        let n = node.clone();
+        rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
+            let now = now_s();
+            let mut node = lock(&n);
+            node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
+            node.activity.scan_arrived(now);
+            node.last_scan_rx_s = Some(now);
+            node.tick(now);
+        })
+        .map_err(RosError::doing("subscribing to scan"))
+    };
+    let subscribe_odom = || {
+        let n = node.clone();
+        rosrust::subscribe("odom", 1, move |m: nav_msgs::Odometry| {
+            let (pose, twist) = odom_from_msg(&m);
+            lock(&n).core.on_odom(pose, twist, now_s());
+        })
+        .map_err(RosError::doing("subscribing to odom"))
+    };
+    let mut scan_sub = subscribe_scan()?;
+    let mut odom_sub = subscribe_odom()?;
+    // rosrust does not retry a failed connection: quiet subscriptions are made again.
+    let started_s = now_s();
+    let mut scan_retry = Resubscribe::new(started_s, RESUBSCRIBE_QUIET_S, RESUBSCRIBE_MAX_QUIET_S);
+    let mut odom_retry = Resubscribe::new(started_s, RESUBSCRIBE_QUIET_S, RESUBSCRIBE_MAX_QUIET_S);
     // So is a new upstream command, against the latest scan.
     let n = node.clone();
     let _cmd_in_sub = rosrust::subscribe("cmd_vel_in", 1, move |m: geometry_msgs::Twist| {
@@ -331,7 +354,18 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         if node.core.watchdog_due(now) {
             node.tick(now);
         }
+        let (last_scan_s, last_odom_s) = (node.last_scan_rx_s, node.core.odom().map(|o| o.received_s));
         drop(node);
+        if scan_retry.due(now, last_scan_s) {
+            log::warn!("{name}: no scan for a while: subscribing to scan again");
+            drop(scan_sub);
+            scan_sub = subscribe_scan()?;
+        }
+        if odom_retry.due(now, last_odom_s) {
+            log::debug!("{name}: no odometry for a while: subscribing to odom again");
+            drop(odom_sub);
+            odom_sub = subscribe_odom()?;
+        }
         pacer.sleep();
     }
     // Leave the robot stopped: a last zero command, sent a few times, and
