@@ -13,7 +13,7 @@ use crate::scan_pipeline::check_command;
 use can_bridge::config::Validate;
 use can_bridge::fake_bus::FakeBus;
 use oldbf_ros::algo::dtcbf::InputBox;
-use oldbf_ros::algo::{LaserScan, Params, SafetyPipeline, Twist};
+use oldbf_ros::algo::{LaserScan, Params, SafetyPipeline, ScanHeader, Twist};
 use oldbf_ros::batch::template::Template;
 use oldbf_ros::sim::scenario::Scenario;
 use serde_yaml::Value;
@@ -89,11 +89,13 @@ fn usable(p: &Params) {
         .map(|i| if i < n / 8 || i > 7 * n / 8 { 1.0 } else { 5.0 })
         .collect();
     let scan = LaserScan {
-        stamp_s: 10.0,
-        angle_min_rad: -std::f32::consts::PI,
-        angle_increment_rad: std::f32::consts::TAU / n as f32,
-        range_min_m: 0.05,
-        range_max_m: 10.0,
+        header: ScanHeader {
+            stamp_s: 10.0,
+            angle_min_rad: -std::f32::consts::PI,
+            angle_increment_rad: std::f32::consts::TAU / n as f32,
+            range_min_m: 0.05,
+            range_max_m: 10.0,
+        },
         ranges_m: &ranges,
         intensities: &[],
     };

@@ -11,7 +11,7 @@ use crate::input::{f32_of, f64_of};
 use arbitrary::{Result, Unstructured};
 use oldbf_ros::algo::dtcbf::InputBox;
 use oldbf_ros::algo::scan::check_scan;
-use oldbf_ros::algo::{LaserScan, Params, Pose2, SafetyPipeline, StopCause, Twist};
+use oldbf_ros::algo::{LaserScan, Params, Pose2, SafetyPipeline, ScanHeader, StopCause, Twist};
 
 /// Most scans per input.
 const MAX_SCANS: usize = 8;
@@ -148,11 +148,13 @@ fn drive(u: &mut Unstructured<'_>) -> Result<()> {
             None
         };
         let scan = LaserScan {
-            stamp_s,
-            angle_min_rad,
-            angle_increment_rad,
-            range_min_m,
-            range_max_m,
+            header: ScanHeader {
+                stamp_s,
+                angle_min_rad,
+                angle_increment_rad,
+                range_min_m,
+                range_max_m,
+            },
             ranges_m: &rs,
             intensities: &intensities,
         };

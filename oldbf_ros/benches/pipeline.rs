@@ -19,7 +19,7 @@ mod common;
 
 use common::{robot_speed_mps, ScanCycle, FRAMES, SCAN_PERIOD_S};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use oldbf_ros::algo::{DoaaState, LaserScan, Params, SafetyPipeline, Twist};
+use oldbf_ros::algo::{DoaaState, LaserScan, Params, SafetyPipeline, ScanHeader, Twist};
 use oldbf_ros::baselines::{vo_command, DcbfFilter, VoScene};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -52,11 +52,13 @@ const VARIANTS: [Variant; 2] = [
 fn scan<'a>(cycle: &'a ScanCycle, k: usize) -> (LaserScan<'a>, f64) {
     let t = k as f64 * SCAN_PERIOD_S;
     let scan = LaserScan {
-        stamp_s: t,
-        angle_min_rad: cycle.spec.angle_min_rad(),
-        angle_increment_rad: cycle.spec.angle_increment_rad(),
-        range_min_m: cycle.spec.range_min_m as f32,
-        range_max_m: cycle.spec.range_max_m as f32,
+        header: ScanHeader {
+            stamp_s: t,
+            angle_min_rad: cycle.spec.angle_min_rad(),
+            angle_increment_rad: cycle.spec.angle_increment_rad(),
+            range_min_m: cycle.spec.range_min_m as f32,
+            range_max_m: cycle.spec.range_max_m as f32,
+        },
         ranges_m: &cycle.ranges[k % FRAMES],
         intensities: &[],
     };

@@ -9,7 +9,7 @@
 //! rule "valid iff range_min ≤ p < range_max" drops them.
 
 use crate::algo::geometry::Pose2;
-use crate::algo::scan::LaserScan;
+use crate::algo::scan::{LaserScan, ScanHeader};
 use std::f64::consts::PI;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -48,11 +48,13 @@ impl CarmenScan {
     /// The scan as the pipeline sees it.
     pub fn as_laser_scan(&self) -> LaserScan<'_> {
         LaserScan {
-            stamp_s: self.timestamp_s,
-            angle_min_rad: self.angle_min_rad(),
-            angle_increment_rad: self.angle_increment_rad(),
-            range_min_m: 0.0,
-            range_max_m: CARMEN_NO_RETURN_M,
+            header: ScanHeader {
+                stamp_s: self.timestamp_s,
+                angle_min_rad: self.angle_min_rad(),
+                angle_increment_rad: self.angle_increment_rad(),
+                range_min_m: 0.0,
+                range_max_m: CARMEN_NO_RETURN_M,
+            },
             ranges_m: &self.ranges_m,
             intensities: &[],
         }
@@ -178,7 +180,8 @@ mod tests {
         assert!((s.angle_increment_rad() as f64 - PI / 2.0).abs() < 1e-6);
         let scan = s.as_laser_scan();
         assert!(
-            scan.range_max_m == CARMEN_NO_RETURN_M && !crate::algo::scan::is_valid_range(81.83, 0.0, scan.range_max_m)
+            scan.header.range_max_m == CARMEN_NO_RETURN_M
+                && !crate::algo::scan::is_valid_range(81.83, 0.0, scan.header.range_max_m)
         );
     }
 

@@ -35,7 +35,7 @@ use crate::algo::params::ParamError;
 use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
-use crate::algo::scan::{LaserScan, ScanRejection};
+use crate::algo::scan::{LaserScan, ScanHeader, ScanRejection};
 use crate::algo::tracking::track;
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
@@ -120,23 +120,10 @@ pub struct OdomSample {
 /// The latest scan, owned (buffers reused: no allocation in steady state).
 #[derive(Debug, Clone, Default)]
 struct OwnedScan {
-    stamp_s: f64,
-    angle_min_rad: f32,
-    angle_increment_rad: f32,
-    range_min_m: f32,
-    range_max_m: f32,
+    /// `None` until a scan is taken, and again after the clock jumped back.
+    header: Option<ScanHeader>,
     ranges_m: Vec<f32>,
     intensities: Vec<f32>,
-}
-
-/// Header fields of an incoming scan (the ranges are passed separately).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ScanMeta {
-    pub stamp_s: f64,
-    pub angle_min_rad: f32,
-    pub angle_increment_rad: f32,
-    pub range_min_m: f32,
-    pub range_max_m: f32,
 }
 
 /// Why the node stops on a scan that the pipeline alone would accept: the
@@ -231,7 +218,6 @@ pub struct NodeCore {
     pipeline: SafetyPipeline,
     settings: NodeSettings,
     scan: OwnedScan,
-    have_scan: bool,
     odom: Option<OdomSample>,
     cmd_in: Option<(Twist, f64)>,
     upstream_seen: bool,
@@ -266,7 +252,6 @@ impl NodeCore {
             pipeline: SafetyPipeline::new(params),
             settings,
             scan: OwnedScan::default(),
-            have_scan: false,
             odom: None,
             cmd_in: None,
             upstream_seen: false,
@@ -369,7 +354,7 @@ impl NodeCore {
     /// newer than the newest taken: then the scan in hand stays, and the
     /// next tick stops with a [`ScanFault`]. A non-finite stamp is stored
     /// for the pipeline to reject.
-    pub fn on_scan(&mut self, meta: ScanMeta, ranges_m: &[f32], intensities: &[f32]) {
+    pub fn on_scan(&mut self, meta: ScanHeader, ranges_m: &[f32], intensities: &[f32]) {
         if let Some(newest_s) = self.newest_stamp_s.filter(|_| meta.stamp_s.is_finite()) {
             if meta.stamp_s <= newest_s {
                 let fault = match self.scan_fault {
@@ -400,16 +385,11 @@ impl NodeCore {
             self.newest_stamp_s = Some(meta.stamp_s);
         }
         let s = &mut self.scan;
-        s.stamp_s = meta.stamp_s;
-        s.angle_min_rad = meta.angle_min_rad;
-        s.angle_increment_rad = meta.angle_increment_rad;
-        s.range_min_m = meta.range_min_m;
-        s.range_max_m = meta.range_max_m;
+        s.header = Some(meta);
         s.ranges_m.clear();
         s.ranges_m.extend_from_slice(ranges_m);
         s.intensities.clear();
         s.intensities.extend_from_slice(intensities);
-        self.have_scan = true;
     }
 
     /// The clock went back: nothing stamped before the jump can be aged
@@ -419,7 +399,7 @@ impl NodeCore {
         log::warn!("{fault}");
         self.scan_fault = Some(fault);
         self.newest_stamp_s = None;
-        self.have_scan = false;
+        self.scan.header = None;
         self.pipeline.reset();
         // Their receive times are on the old clock too: they would look fresh for too long.
         self.odom = None;
@@ -572,29 +552,27 @@ impl NodeCore {
             Some((_, by_s)) => Some(ScanFault::ClockJumpedBack { by_s }),
             None => self.scan_fault,
         };
-        let record = if !self.have_scan || settling.is_some() {
-            self.pipeline.stop(now_s, nominal, StopCause::NoScan)
-        } else if let Some(newest_s) = self.newest_stamp_s.filter(|_| scan_fault.is_some()) {
-            let stale = ScanRejection::Stale {
-                age_s: now_s - newest_s,
-                timeout_s: tolerance_s,
-            };
-            self.pipeline.stop(now_s, nominal, StopCause::Rejected(stale))
-        } else {
-            let s = &self.scan;
-            let scan = LaserScan {
-                stamp_s: s.stamp_s,
-                angle_min_rad: s.angle_min_rad,
-                angle_increment_rad: s.angle_increment_rad,
-                range_min_m: s.range_min_m,
-                range_max_m: s.range_max_m,
-                ranges_m: &s.ranges_m,
-                intensities: &s.intensities,
-            };
-            self.pipeline
-                .step_with_pose(&scan, now_s, nominal, v_now, odom.map(|o| o.pose))
+        let stale_since_s = self.newest_stamp_s.filter(|_| scan_fault.is_some());
+        let record = match (self.scan.header.filter(|_| settling.is_none()), stale_since_s) {
+            (None, _) => self.pipeline.stop(now_s, nominal, StopCause::NoScan),
+            (Some(_), Some(newest_s)) => {
+                let stale = ScanRejection::Stale {
+                    age_s: now_s - newest_s,
+                    timeout_s: tolerance_s,
+                };
+                self.pipeline.stop(now_s, nominal, StopCause::Rejected(stale))
+            }
+            (Some(header), None) => {
+                let scan = LaserScan {
+                    header,
+                    ranges_m: &self.scan.ranges_m,
+                    intensities: &self.scan.intensities,
+                };
+                self.pipeline
+                    .step_with_pose(&scan, now_s, nominal, v_now, odom.map(|o| o.pose))
+            }
         };
-        let scan_stamp_s = if self.have_scan { self.scan.stamp_s } else { f64::NAN };
+        let scan_stamp_s = self.scan.header.map_or(f64::NAN, |h| h.stamp_s);
 
         let (cmd, record) = if self.e_stop_latched {
             (
@@ -630,8 +608,8 @@ mod tests {
     use crate::algo::doaa::DoaaState;
     use std::f32::consts::PI;
 
-    fn meta(stamp: f64) -> ScanMeta {
-        ScanMeta {
+    fn meta(stamp: f64) -> ScanHeader {
+        ScanHeader {
             stamp_s: stamp,
             angle_min_rad: -PI,
             angle_increment_rad: 2.0 * PI / 360.0,

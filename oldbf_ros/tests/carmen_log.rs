@@ -55,18 +55,18 @@ fn corrupted_real_scans_are_rejected_with_reasons() {
         let now = match k / 50 % 5 {
             0 => {
                 scan.ranges_m = &truncated;
-                scan.stamp_s
+                scan.header.stamp_s
             }
             1 => {
-                scan.angle_increment_rad = 0.0;
-                scan.stamp_s
+                scan.header.angle_increment_rad = 0.0;
+                scan.header.stamp_s
             }
             2 => {
                 scan.intensities = &two;
-                scan.stamp_s
+                scan.header.stamp_s
             }
-            3 => scan.stamp_s + 2.0, // 2 s old: stale
-            _ => scan.stamp_s - 2.0, // clock jumped backwards
+            3 => scan.header.stamp_s + 2.0, // 2 s old: stale
+            _ => scan.header.stamp_s - 2.0, // clock jumped backwards
         };
         let rec = pipe.step(&scan, now, nominal, 0.0);
         assert_eq!(rec.cmd, Twist::ZERO, "scan {k}: {rec:?}");

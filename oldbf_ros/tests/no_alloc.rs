@@ -6,7 +6,7 @@
 // everywhere else.
 #![allow(unsafe_code)]
 
-use oldbf_ros::algo::{LaserScan, Params, Pose2, SafetyPipeline, Twist};
+use oldbf_ros::algo::{LaserScan, Params, Pose2, SafetyPipeline, ScanHeader, Twist};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -82,11 +82,13 @@ fn run(pipe: &mut SafetyPipeline, scans: &[Vec<f32>], rounds: usize) {
         for (j, ranges) in scans.iter().enumerate() {
             let t = (k * scans.len() + j) as f64 * 0.1;
             let scan = LaserScan {
-                stamp_s: if j == 4 && k % 2 == 0 { t - 10.0 } else { t },
-                angle_min_rad: -std::f32::consts::PI,
-                angle_increment_rad: inc,
-                range_min_m: 0.12,
-                range_max_m: 3.5,
+                header: ScanHeader {
+                    stamp_s: if j == 4 && k % 2 == 0 { t - 10.0 } else { t },
+                    angle_min_rad: -std::f32::consts::PI,
+                    angle_increment_rad: inc,
+                    range_min_m: 0.12,
+                    range_max_m: 3.5,
+                },
                 ranges_m: ranges,
                 intensities: &[],
             };
@@ -164,11 +166,13 @@ fn steady_state_steps_with_ten_tracked_obstacles_do_not_allocate() {
             let t = k as f64 * 0.1;
             ten_movers(&mut ranges, t);
             let scan = LaserScan {
-                stamp_s: t,
-                angle_min_rad: -std::f32::consts::PI,
-                angle_increment_rad: 2.0 * std::f32::consts::PI / beams as f32,
-                range_min_m: 0.12,
-                range_max_m: 3.5,
+                header: ScanHeader {
+                    stamp_s: t,
+                    angle_min_rad: -std::f32::consts::PI,
+                    angle_increment_rad: 2.0 * std::f32::consts::PI / beams as f32,
+                    range_min_m: 0.12,
+                    range_max_m: 3.5,
+                },
                 ranges_m: &ranges,
                 intensities: &[],
             };

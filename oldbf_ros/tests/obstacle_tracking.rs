@@ -7,7 +7,7 @@
 
 mod common;
 
-use oldbf_ros::algo::{LaserScan, SafetyPipeline, Twist, Vec2};
+use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist, Vec2};
 use oldbf_ros::sim::fleet::Fleet;
 use oldbf_ros::sim::scenario::Scenario;
 use std::collections::HashMap;
@@ -23,11 +23,13 @@ fn drive(s: &Scenario, seconds: f64, nominal: Twist, mut check: impl FnMut(f64, 
         let t = k as f64 * dt;
         fleet.scan(0, &mut ranges);
         let scan = LaserScan {
-            stamp_s: t,
-            angle_min_rad: lidar.angle_min_rad(),
-            angle_increment_rad: lidar.angle_increment_rad(),
-            range_min_m: lidar.range_min_m as f32,
-            range_max_m: lidar.range_max_m as f32,
+            header: ScanHeader {
+                stamp_s: t,
+                angle_min_rad: lidar.angle_min_rad(),
+                angle_increment_rad: lidar.angle_increment_rad(),
+                range_min_m: lidar.range_min_m as f32,
+                range_max_m: lidar.range_max_m as f32,
+            },
             ranges_m: &ranges,
             intensities: &[],
         };

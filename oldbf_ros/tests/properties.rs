@@ -7,7 +7,7 @@
 use oldbf_ros::algo::barrier::distance_barrier;
 use oldbf_ros::algo::dtcbf::InputBox;
 use oldbf_ros::algo::params::{BarrierParams, Params};
-use oldbf_ros::algo::{LaserScan, SafetyPipeline, Twist};
+use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 
@@ -48,11 +48,13 @@ fn valid_scan_ranges() -> impl Strategy<Value = Vec<f32>> {
 
 fn scan_of(ranges: &[f32], angle_min: f32, inc: f32) -> LaserScan<'_> {
     LaserScan {
-        stamp_s: 5.0,
-        angle_min_rad: angle_min,
-        angle_increment_rad: inc,
-        range_min_m: 0.12,
-        range_max_m: 3.5,
+        header: ScanHeader {
+            stamp_s: 5.0,
+            angle_min_rad: angle_min,
+            angle_increment_rad: inc,
+            range_min_m: 0.12,
+            range_max_m: 3.5,
+        },
         ranges_m: ranges,
         intensities: &[],
     }
@@ -100,15 +102,7 @@ proptest! {
         allow_reverse in any::<bool>(),
     ) {
         let intensities = vec![1.0f32; if intensities_len == 0 { 0 } else { intensities_len }];
-        let scan = LaserScan {
-            stamp_s: stamp,
-            angle_min_rad: angle_min,
-            angle_increment_rad: inc,
-            range_min_m: range_min,
-            range_max_m: range_max,
-            ranges_m: &ranges,
-            intensities: &intensities,
-        };
+        let scan = LaserScan { header: ScanHeader { stamp_s: stamp, angle_min_rad: angle_min, angle_increment_rad: inc, range_min_m: range_min, range_max_m: range_max }, ranges_m: &ranges, intensities: &intensities };
         let mut p = Params::default();
         p.control.allow_reverse = allow_reverse;
         let bx = InputBox::from_params(&p);

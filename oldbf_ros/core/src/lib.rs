@@ -17,8 +17,5 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-// The algorithm's items are documented where they are defined; not every
-// field of every record has its own doc line yet.
-#[allow(missing_docs)]
 pub mod algo;
 pub mod config;

@@ -37,12 +37,12 @@ pub fn play(log: &CarmenLog, topic: &str, frame: &str, rate_hz: f64) -> Result<P
         let scan = s.as_laser_scan();
         let n = s.ranges_m.len();
         let mut m = LaserScan {
-            angle_min: scan.angle_min_rad,
-            angle_increment: scan.angle_increment_rad,
-            angle_max: scan.angle_min_rad + scan.angle_increment_rad * n.saturating_sub(1) as f32,
+            angle_min: scan.header.angle_min_rad,
+            angle_increment: scan.header.angle_increment_rad,
+            angle_max: scan.header.angle_min_rad + scan.header.angle_increment_rad * n.saturating_sub(1) as f32,
             scan_time: (1.0 / rate_hz) as f32,
-            range_min: scan.range_min_m,
-            range_max: scan.range_max_m,
+            range_min: scan.header.range_min_m,
+            range_max: scan.header.range_max_m,
             ranges: s.ranges_m.clone(),
             ..Default::default()
         };

@@ -2,7 +2,7 @@
 
 use super::msg::{geometry_msgs, nav_msgs, sensor_msgs};
 use crate::algo::geometry::{Pose2, Twist};
-use crate::node_core::ScanMeta;
+use crate::algo::scan::ScanHeader;
 
 pub fn twist_from_msg(t: &geometry_msgs::Twist) -> Twist {
     Twist::new(t.linear.x, t.angular.z)
@@ -28,8 +28,9 @@ pub fn time_from_s(s: f64) -> rosrust::Time {
     }
 }
 
-pub fn scan_meta(m: &sensor_msgs::LaserScan) -> ScanMeta {
-    ScanMeta {
+/// The header of a ROS scan, for the node logic (the ranges are passed as they are).
+pub fn scan_header(m: &sensor_msgs::LaserScan) -> ScanHeader {
+    ScanHeader {
         stamp_s: time_to_s(m.header.stamp),
         angle_min_rad: m.angle_min,
         angle_increment_rad: m.angle_increment,

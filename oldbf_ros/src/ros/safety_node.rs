@@ -23,7 +23,7 @@
 //! rosrust cannot register again. The watchdog is paced on the monotonic
 //! clock (see [`super::pacer`]), so a wall-clock step cannot silence it.
 
-use super::convert::{odom_from_msg, scan_meta, time_from_s, twist_from_msg, twist_to_msg};
+use super::convert::{odom_from_msg, scan_header, time_from_s, twist_from_msg, twist_to_msg};
 use super::diagnostics::{diagnostics, Activity};
 use super::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use super::markers::markers;
@@ -233,7 +233,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     let _scan_sub = rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
         let now = now_s();
         let mut node = lock(&n);
-        node.core.on_scan(scan_meta(&m), &m.ranges, &m.intensities);
+        node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
         node.activity.scan_arrived(now);
         node.tick(now);
     })

@@ -25,10 +25,11 @@ use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 use crate::algo::record::{StepRecord, StopCause};
+use crate::algo::scan::ScanHeader;
 use crate::algo::scan::{classify_range, BeamStatus, RangeKind};
 use crate::algo::tracking::TrackingError;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
-use crate::node_core::{NodeCore, NodeSettings, ScanMeta};
+use crate::node_core::{NodeCore, NodeSettings};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -281,7 +282,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 a.truth.clear();
                 a.truth.extend_from_slice(fleet.scan_truth(i));
                 a.node.on_scan(
-                    ScanMeta {
+                    ScanHeader {
                         stamp_s: t,
                         angle_min_rad: angle_min,
                         angle_increment_rad: angle_inc,

@@ -71,12 +71,15 @@ pub struct Clearances {
     pub d_min_m: f64,
     /// Least clearance in the front sector (m); +inf if empty.
     pub d_front_m: f64,
-    /// Closest left / right / overall point, robot frame (m).
+    /// Closest point in the left sector, robot frame (m).
     pub closest_left: Option<Vec2>,
+    /// Closest point in the right sector, robot frame (m).
     pub closest_right: Option<Vec2>,
+    /// Closest point overall, robot frame (m).
     pub closest: Option<Vec2>,
-    /// Σ 1/‖P‖ over each hemisphere sector (1/m): how cluttered a side is; breaks ties.
+    /// Σ 1/‖P‖ over the left hemisphere sector (1/m): how cluttered a side is; breaks ties.
     pub crowding_left: f64,
+    /// The same over the right hemisphere sector (1/m).
     pub crowding_right: f64,
 }
 

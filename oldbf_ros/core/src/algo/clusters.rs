@@ -14,7 +14,9 @@ use super::geometry::{max_distance_squared, Vec2};
 /// `start..len` followed by `0..end`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cluster {
+    /// Index of its first point.
     pub start: usize,
+    /// One past its last point (wraps: see above).
     pub end: usize,
     /// Number of points.
     pub len: usize,
@@ -50,14 +52,17 @@ impl Clusters {
         }
     }
 
+    /// The clusters of the last scan, in beam order.
     pub fn as_slice(&self) -> &[Cluster] {
         &self.clusters
     }
 
+    /// How many clusters the last scan had.
     pub fn len(&self) -> usize {
         self.clusters.len()
     }
 
+    /// The last scan had no cluster (no valid point).
     pub fn is_empty(&self) -> bool {
         self.clusters.is_empty()
     }

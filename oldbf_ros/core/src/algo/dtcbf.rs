@@ -74,8 +74,11 @@ pub struct DtcbfOutcome {
 /// The input box: v ∈ [v_lo, v_hi] (m/s), ω ∈ [−ω_max, ω_max] (rad/s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InputBox {
+    /// Least speed (m/s): −v_max with reverse allowed, else 0.
     pub v_lo: f64,
+    /// Greatest speed (m/s).
     pub v_hi: f64,
+    /// Greatest |ω| (rad/s).
     pub omega_max: f64,
 }
 
@@ -219,10 +222,12 @@ pub struct DtcbfFilter {
 }
 
 impl DtcbfFilter {
+    /// A filter whose buffers grow on first use.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// A filter with buffers for `points` points (no allocation per scan up to that).
     pub fn with_capacity(points: usize) -> Self {
         Self {
             forbidden: ForbiddenSpeeds {

@@ -83,20 +83,26 @@ impl CvFilter {
 /// Where a track is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TrackStatus {
+    /// Seen, not yet often enough to be trusted.
     Tentative,
+    /// Associated with a cluster on enough consecutive scans.
     Confirmed,
+    /// Confirmed, missed lately: predicted forward until it is dropped.
     Coasting,
 }
 
 /// One tracked obstacle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Track {
+    /// Unique while the tracker lives (markers, logs).
     pub id: u32,
+    /// Where the track is in its life.
     pub status: TrackStatus,
     /// Radius of the obstacle's circle (m), smoothed over its clusters.
     pub radius_m: f64,
     /// Consecutive associations so far / consecutive misses.
     pub hits: u32,
+    /// Consecutive scans without an association.
     pub misses: u32,
     /// Where it was first seen, tracking frame (m).
     pub born_at: Vec2,
@@ -118,6 +124,7 @@ impl Track {
         Vec2::new(self.fx.v, self.fy.v)
     }
 
+    /// Confirmed or coasting: trusted enough to predict.
     pub fn is_confirmed(&self) -> bool {
         self.status != TrackStatus::Tentative
     }
@@ -166,6 +173,7 @@ impl ObstacleTracker {
         }
     }
 
+    /// Every live track, tentative ones included.
     pub fn tracks(&self) -> &[Track] {
         &self.tracks
     }

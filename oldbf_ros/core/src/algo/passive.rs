@@ -226,6 +226,7 @@ impl<T: Copy> Memo<T> {
 }
 
 impl PassiveSafety {
+    /// Buffers for up to `max_movers` movers and `points` scan points (no allocation per scan).
     pub fn with_capacity(max_movers: usize, points: usize) -> Self {
         Self {
             movers: Vec::with_capacity(max_movers),
@@ -252,6 +253,7 @@ impl PassiveSafety {
         self.evasion_memo.clear();
     }
 
+    /// This step's movers.
     pub fn movers(&self) -> &[Mover] {
         &self.movers
     }

@@ -21,11 +21,12 @@ use super::geometry::{Pose2, Vec2};
 use super::params::{LaserParams, RangeSemantics};
 use std::fmt;
 
-/// A borrowed view of a LaserScan (sensor_msgs/LaserScan fields, SI units).
-/// Borrowing lets the ROS adapter and the simulator hand over their buffers
-/// without copying.
-#[derive(Debug, Clone, Copy)]
-pub struct LaserScan<'a> {
+/// What a scan says about itself besides its readings (sensor_msgs/LaserScan
+/// fields, SI units). One type from the ROS message to the pipeline: the ROS
+/// adapter fills it, the node logic keeps it with its copy of the ranges, the
+/// simulator and the log replay make it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanHeader {
     /// Acquisition time of the first beam (s, same clock as `now_s` given to the pipeline).
     pub stamp_s: f64,
     /// Angle of beam 0 in the laser frame (rad).
@@ -36,6 +37,14 @@ pub struct LaserScan<'a> {
     pub range_min_m: f32,
     /// Ranges at or beyond this are "no return" (m).
     pub range_max_m: f32,
+}
+
+/// A borrowed view of a scan: its header and its readings. Borrowing lets
+/// the ROS adapter and the simulator hand over their buffers without copying.
+#[derive(Debug, Clone, Copy)]
+pub struct LaserScan<'a> {
+    /// When, which angles, which range limits.
+    pub header: ScanHeader,
     /// One range per beam (m).
     pub ranges_m: &'a [f32],
     /// Empty, or one intensity per beam.
@@ -48,23 +57,57 @@ pub enum ScanRejection {
     /// No beams at all.
     Empty,
     /// More beams than `laser.max_beams`.
-    TooManyBeams { beams: usize, max: usize },
+    TooManyBeams {
+        /// Beams in the scan.
+        beams: usize,
+        /// `laser.max_beams`.
+        max: usize,
+    },
     /// Intensities present but not one per beam.
-    IntensityLengthMismatch { ranges: usize, intensities: usize },
+    IntensityLengthMismatch {
+        /// Ranges in the scan.
+        ranges: usize,
+        /// Intensities in the scan.
+        intensities: usize,
+    },
     /// angle_increment is 0 or not finite.
-    BadIncrement { increment_rad: f32 },
+    BadIncrement {
+        /// The scan's angle_increment (rad).
+        increment_rad: f32,
+    },
     /// angle_min is not finite.
-    BadAngleMin { angle_min_rad: f32 },
+    BadAngleMin {
+        /// The scan's angle_min (rad).
+        angle_min_rad: f32,
+    },
     /// range_min/range_max not finite, negative, or range_max ≤ range_min.
-    BadRangeLimits { range_min_m: f32, range_max_m: f32 },
+    BadRangeLimits {
+        /// The scan's range_min (m).
+        range_min_m: f32,
+        /// The scan's range_max (m).
+        range_max_m: f32,
+    },
     /// The beams span more than one full turn.
-    SpanTooWide { span_rad: f64 },
+    SpanTooWide {
+        /// |angle_increment| × beams (rad).
+        span_rad: f64,
+    },
     /// The stamp is not a finite number.
     BadStamp,
     /// Older than `laser.scan_timeout_s`.
-    Stale { age_s: f64, timeout_s: f64 },
+    Stale {
+        /// How old the scan is (s).
+        age_s: f64,
+        /// `laser.scan_timeout_s`.
+        timeout_s: f64,
+    },
     /// Stamped in the future by more than `laser.scan_timeout_s` (a clock jump).
-    FromFuture { ahead_s: f64, timeout_s: f64 },
+    FromFuture {
+        /// How far ahead of the clock it is stamped (s).
+        ahead_s: f64,
+        /// `laser.scan_timeout_s`.
+        timeout_s: f64,
+    },
 }
 
 impl fmt::Display for ScanRejection {
@@ -132,10 +175,12 @@ const SPAN_TOLERANCE_RAD: f64 = 0.05;
 /// The laser's mount pose in the robot frame, with its trigonometry cached.
 #[derive(Debug, Clone, Copy)]
 pub struct LaserMount {
+    /// The laser frame in the robot frame (m, rad).
     pub pose: Pose2,
 }
 
 impl LaserMount {
+    /// The mount of `laser.mount_x_m`, `mount_y_m`, `mount_yaw_deg`.
     pub fn from_params(p: &LaserParams) -> Self {
         Self {
             pose: Pose2::new(p.mount_x_m, p.mount_y_m, p.mount_yaw_deg.to_radians()),
@@ -158,13 +203,17 @@ pub struct ScanPoints {
     /// Of those: unknown (held or not), held, and unknown inside the front
     /// sector watched for blindness, out of `front_beams` there.
     pub unknown: usize,
+    /// Unknown beams held at their last valid reading.
     pub held: usize,
     /// Beams that read −inf.
     pub too_close: usize,
+    /// Unknown beams in the front sector watched for blindness.
     pub unknown_front: usize,
+    /// Beams in that sector.
     pub front_beams: usize,
     /// Beams of the rear sector a reversing robot must see, and unknown ones there.
     pub rear_beams: usize,
+    /// Unknown beams in the rear sector.
     pub unknown_rear: usize,
     /// Where something may be that no beam shows now (robot frame, m): every
     /// held point (a mover last seen there may have come closer), and
@@ -200,8 +249,8 @@ impl BeamDirections {
     fn get(&mut self, scan: &LaserScan<'_>, mount: &LaserMount) -> &[Vec2] {
         let n = scan.ranges_m.len();
         let geometry = (
-            scan.angle_min_rad.to_bits(),
-            scan.angle_increment_rad.to_bits(),
+            scan.header.angle_min_rad.to_bits(),
+            scan.header.angle_increment_rad.to_bits(),
             n,
             mount.pose,
         );
@@ -210,9 +259,9 @@ impl BeamDirections {
             self.dirs.reserve(n);
             // Beam angles by rotating a unit vector by the increment: one sin/cos
             // per geometry instead of per beam; renormalised to stop drift.
-            let a0 = scan.angle_min_rad as f64 + mount.pose.theta;
+            let a0 = scan.header.angle_min_rad as f64 + mount.pose.theta;
             let (s0, c0) = a0.sin_cos();
-            let (si, ci) = (scan.angle_increment_rad as f64).sin_cos();
+            let (si, ci) = (scan.header.angle_increment_rad as f64).sin_cos();
             let (mut dx, mut dy) = (c0, s0);
             for i in 0..n {
                 self.dirs.push(Vec2::new(dx, dy));
@@ -248,6 +297,7 @@ impl BeamDirections {
 }
 
 impl ScanPoints {
+    /// Buffers for `beams` beams (no allocation per scan up to that).
     pub fn with_capacity(beams: usize) -> Self {
         Self {
             points: Vec::with_capacity(beams),
@@ -271,6 +321,7 @@ impl ScanPoints {
         }
     }
 
+    /// Empties every buffer, keeping its capacity.
     pub fn clear(&mut self) {
         self.points.clear();
         self.beam_index.clear();
@@ -372,31 +423,31 @@ pub fn check_scan(scan: &LaserScan<'_>, now_s: f64, params: &LaserParams) -> Res
             intensities: scan.intensities.len(),
         });
     }
-    if !scan.angle_increment_rad.is_finite() || scan.angle_increment_rad == 0.0 {
+    if !scan.header.angle_increment_rad.is_finite() || scan.header.angle_increment_rad == 0.0 {
         return Err(ScanRejection::BadIncrement {
-            increment_rad: scan.angle_increment_rad,
+            increment_rad: scan.header.angle_increment_rad,
         });
     }
-    if !scan.angle_min_rad.is_finite() {
+    if !scan.header.angle_min_rad.is_finite() {
         return Err(ScanRejection::BadAngleMin {
-            angle_min_rad: scan.angle_min_rad,
+            angle_min_rad: scan.header.angle_min_rad,
         });
     }
-    let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
+    let (rmin, rmax) = (scan.header.range_min_m, scan.header.range_max_m);
     if !rmin.is_finite() || !rmax.is_finite() || rmin < 0.0 || rmax <= rmin {
         return Err(ScanRejection::BadRangeLimits {
             range_min_m: rmin,
             range_max_m: rmax,
         });
     }
-    let span_rad = (scan.angle_increment_rad as f64).abs() * (n - 1) as f64;
+    let span_rad = (scan.header.angle_increment_rad as f64).abs() * (n - 1) as f64;
     if span_rad > 2.0 * std::f64::consts::PI + SPAN_TOLERANCE_RAD {
         return Err(ScanRejection::SpanTooWide { span_rad });
     }
-    if !scan.stamp_s.is_finite() || !now_s.is_finite() {
+    if !scan.header.stamp_s.is_finite() || !now_s.is_finite() {
         return Err(ScanRejection::BadStamp);
     }
-    let age_s = now_s - scan.stamp_s;
+    let age_s = now_s - scan.header.stamp_s;
     if age_s > params.scan_timeout_s {
         return Err(ScanRejection::Stale {
             age_s,
@@ -447,7 +498,7 @@ pub fn fill_points(
     out.beams = scan.ranges_m.len();
     // Grows only when a scan has more beams than any before: no allocation in steady state.
     out.reserve(out.beams);
-    let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
+    let (rmin, rmax) = (scan.header.range_min_m, scan.header.range_max_m);
     let origin = mount.pose.position();
     let cos_rear = rear_half_rad.cos();
     let dirs = out.directions.get(scan, mount);
@@ -580,7 +631,7 @@ pub(crate) fn reference_fill_points(
     out.beams = scan.ranges_m.len();
     // Grows only when a scan has more beams than any before: no allocation in steady state.
     out.reserve(out.beams);
-    let (rmin, rmax) = (scan.range_min_m, scan.range_max_m);
+    let (rmin, rmax) = (scan.header.range_min_m, scan.header.range_max_m);
     let origin = mount.pose.position();
     let cos_rear = rear_half_rad.cos();
     let dirs = out.directions.get(scan, mount);
@@ -694,11 +745,13 @@ mod tests {
 
     fn scan<'a>(ranges: &'a [f32], angle_min: f32, inc: f32) -> LaserScan<'a> {
         LaserScan {
-            stamp_s: 10.0,
-            angle_min_rad: angle_min,
-            angle_increment_rad: inc,
-            range_min_m: 0.1,
-            range_max_m: 5.0,
+            header: ScanHeader {
+                stamp_s: 10.0,
+                angle_min_rad: angle_min,
+                angle_increment_rad: inc,
+                range_min_m: 0.1,
+                range_max_m: 5.0,
+            },
             ranges_m: ranges,
             intensities: &[],
         }
@@ -707,7 +760,7 @@ mod tests {
     fn run_with(s: &LaserScan<'_>, mount: Pose2, p: &LaserParams) -> Result<ScanPoints, ScanRejection> {
         let mut out = ScanPoints::default();
         let mut memory = BeamMemory::with_capacity(s.ranges_m.len());
-        memory.begin_scan(s.ranges_m.len(), Pose2::default(), s.stamp_s);
+        memory.begin_scan(s.ranges_m.len(), Pose2::default(), s.header.stamp_s);
         sanitize_scan(s, 10.0, p, &LaserMount { pose: mount }, &mut out, &mut memory).map(|_| out)
     }
 
@@ -732,10 +785,8 @@ mod tests {
         // beams 5-7 valid.
         let ranges = [f32::NAN, 1.0, 0.06, 1.0, 0.01, 1.0, 1.0, 1.0];
         memory.begin_scan(8, Pose2::default(), 10.1);
-        let s2 = LaserScan {
-            stamp_s: 10.1,
-            ..scan(&ranges, 0.0, inc)
-        };
+        let mut s2 = scan(&ranges, 0.0, inc);
+        s2.header.stamp_s = 10.1;
         sanitize_scan(&s2, 10.1, &params, &mount, &mut out, &mut memory).unwrap();
         let at = |beam: f64, r: f64| {
             Vec2::new(
@@ -858,7 +909,7 @@ mod tests {
         // obstacle ahead is now 0.4 m ahead, the one behind 0.7 m behind.
         let second = [f32::NAN, 0.01];
         s.ranges_m = &second;
-        s.stamp_s = 10.1;
+        s.header.stamp_s = 10.1;
         memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.1);
         sanitize_scan(&s, 10.1, &p, &mount, &mut out, &mut memory).unwrap();
         assert_eq!(out.status, [BeamStatus::Held, BeamStatus::Held]);
@@ -871,12 +922,12 @@ mod tests {
         // +inf on beam 0: it sees through now, and forgets.
         let third = [f32::INFINITY, f32::NAN];
         s.ranges_m = &third;
-        s.stamp_s = 10.2;
+        s.header.stamp_s = 10.2;
         memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.2);
         sanitize_scan(&s, 10.2, &p, &mount, &mut out, &mut memory).unwrap();
         let fourth = [f32::NAN, f32::NAN];
         s.ranges_m = &fourth;
-        s.stamp_s = 10.3;
+        s.header.stamp_s = 10.3;
         memory.begin_scan(2, Pose2::new(0.1, 0.0, 0.0), 10.3);
         sanitize_scan(&s, 10.3, &p, &mount, &mut out, &mut memory).unwrap();
         assert_eq!(out.status, [BeamStatus::Unknown, BeamStatus::Held]);
@@ -953,13 +1004,13 @@ mod tests {
             }
         );
         let mut s = scan(&ok, 0.0, 0.1);
-        s.range_max_m = 0.05;
+        s.header.range_max_m = 0.05;
         assert!(matches!(
             run(&s, Pose2::default()),
             Err(ScanRejection::BadRangeLimits { .. })
         ));
         let mut s = scan(&ok, 0.0, 0.1);
-        s.range_min_m = f32::NAN;
+        s.header.range_min_m = f32::NAN;
         assert!(matches!(
             run(&s, Pose2::default()),
             Err(ScanRejection::BadRangeLimits { .. })
@@ -1008,11 +1059,13 @@ mod fast_path_properties {
 
     fn scan_of(ranges: &[f32], angle_min: f32, inc: f32, stamp_s: f64) -> LaserScan<'_> {
         LaserScan {
-            stamp_s,
-            angle_min_rad: angle_min,
-            angle_increment_rad: inc,
-            range_min_m: 0.1,
-            range_max_m: 5.0,
+            header: ScanHeader {
+                stamp_s,
+                angle_min_rad: angle_min,
+                angle_increment_rad: inc,
+                range_min_m: 0.1,
+                range_max_m: 5.0,
+            },
             ranges_m: ranges,
             intensities: &[],
         }

@@ -2,10 +2,13 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The `baselines` section: the controllers the paper compares against.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct BaselineParams {
+    /// `baselines.dcbf`: the DCBF-QP filter.
     pub dcbf: DcbfParams,
+    /// `baselines.vo`: ORCA velocity obstacles.
     pub vo: VoParams,
 }
 

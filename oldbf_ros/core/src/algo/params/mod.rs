@@ -28,16 +28,27 @@ pub use robot::*;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
+    /// Control period and input limits.
     pub control: ControlParams,
+    /// The robot's size.
     pub footprint: FootprintParams,
+    /// Range semantics, hold, blindness, mount.
     pub laser: LaserParams,
+    /// The barrier functions B_l, B_r (§3).
     pub barrier: BarrierParams,
+    /// DOAA steering (§4).
     pub doaa: DoaaParams,
+    /// The exact discrete-time CBF check (§5).
     pub dtcbf: DtcbfParams,
+    /// Reference tracking (§7).
     pub tracking: TrackingParams,
+    /// Obstacle tracking and collision cones (§6).
     pub obstacles: ObstacleParams,
+    /// Passive motion safety and evasion (§5b).
     pub passive: PassiveParams,
+    /// Liveness: unstuck (§4b).
     pub unstuck: UnstuckParams,
+    /// The baselines the paper compares against (§8).
     pub baselines: BaselineParams,
 }
 

@@ -106,10 +106,15 @@ pub struct SafetyPipeline {
 /// A tracked obstacle on a collision course this step (robot frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Threat {
+    /// The track's id ([`Track::id`](super::obstacle_tracker::Track)).
     pub track_id: u32,
+    /// Centre, robot frame (m).
     pub position: Vec2,
+    /// Velocity, robot frame (m/s).
     pub velocity: Vec2,
+    /// Radius of its circle (m).
     pub radius_m: f64,
+    /// When it would touch the robot's disc on their present motions (s).
     pub time_to_collision_s: f64,
     /// Half-angle of its collision cone (rad).
     pub cone_half_angle_rad: f64,
@@ -173,6 +178,7 @@ impl SafetyPipeline {
         self.passive.movers()
     }
 
+    /// The parameters in use.
     pub fn params(&self) -> &Params {
         &self.params
     }
@@ -193,6 +199,7 @@ impl SafetyPipeline {
         &self.last_clearances
     }
 
+    /// The command of the last step (zero before the first).
     pub fn last_command(&self) -> Twist {
         self.last_cmd
     }
@@ -375,7 +382,7 @@ impl SafetyPipeline {
     /// covered by beams and not mostly unknown.
     fn rear_seen(&self, scan: &LaserScan<'_>) -> bool {
         let pts = &self.points;
-        let expected = ((2.0 * REAR_HALF_ANGLE_RAD / (scan.angle_increment_rad as f64).abs()).floor() as usize)
+        let expected = ((2.0 * REAR_HALF_ANGLE_RAD / (scan.header.angle_increment_rad as f64).abs()).floor() as usize)
             .saturating_sub(1)
             .max(1);
         pts.rear_beams >= expected && 2 * pts.unknown_rear <= pts.rear_beams
@@ -404,8 +411,8 @@ impl SafetyPipeline {
             self.points.clear();
             return self.stop(now_s, nominal, StopCause::Rejected(reason));
         }
-        let pose = self.ego_pose(scan.stamp_s, odom_pose);
-        self.memory.begin_scan(scan.ranges_m.len(), pose, scan.stamp_s);
+        let pose = self.ego_pose(scan.header.stamp_s, odom_pose);
+        self.memory.begin_scan(scan.ranges_m.len(), pose, scan.header.stamp_s);
         fill_points(
             scan,
             &self.params.laser,
@@ -418,7 +425,7 @@ impl SafetyPipeline {
             let verdict = self.blind.update(
                 self.points.unknown_front,
                 self.points.front_beams,
-                scan.stamp_s,
+                scan.header.stamp_s,
                 &self.params.laser,
             );
             if verdict.blind {
@@ -444,9 +451,9 @@ impl SafetyPipeline {
         } else {
             self.last_cmd.v_mps
         };
-        let span = (scan.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
+        let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
-        self.predict_obstacles(&mut c, v_now, scan.stamp_s, pose, full_circle);
+        self.predict_obstacles(&mut c, v_now, scan.header.stamp_s, pose, full_circle);
         self.passive.set_phantoms(&self.points.phantoms);
         self.passive.prepare(&self.points_next, &self.params);
         self.last_clearances = c;
@@ -589,6 +596,7 @@ impl SafetyPipeline {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::algo::scan::ScanHeader;
     use std::f32::consts::PI;
 
     /// 360 beams over a full turn starting at −π, all at `far` m, with
@@ -603,11 +611,13 @@ mod tests {
 
     fn scan(ranges: &[f32]) -> LaserScan<'_> {
         LaserScan {
-            stamp_s: 1.0,
-            angle_min_rad: -PI,
-            angle_increment_rad: 2.0 * PI / 360.0,
-            range_min_m: 0.12,
-            range_max_m: 3.5,
+            header: ScanHeader {
+                stamp_s: 1.0,
+                angle_min_rad: -PI,
+                angle_increment_rad: 2.0 * PI / 360.0,
+                range_min_m: 0.12,
+                range_max_m: 3.5,
+            },
             ranges_m: ranges,
             intensities: &[],
         }
@@ -641,7 +651,7 @@ mod tests {
         let ranges = ring(1.0, &[]);
         let mut pipe = SafetyPipeline::new(Params::default());
         let mut s = scan(&ranges);
-        s.stamp_s = 0.0; // 1 s old, timeout 0.5 s
+        s.header.stamp_s = 0.0; // 1 s old, timeout 0.5 s
         let rec = pipe.step(&s, 1.0, Twist::new(0.15, 0.0), 0.0);
         assert_eq!(rec.cmd, Twist::ZERO);
         assert_eq!(rec.state, DoaaState::Stop);
