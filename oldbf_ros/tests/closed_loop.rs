@@ -198,3 +198,46 @@ fn unknown_is_not_free_a_wall_inside_range_min_stops_the_robot() {
     let r = run(&s, Controller::OldbfPaper, 1);
     assert!(r.figures.closing_contacts >= 1, "{r:?}");
 }
+
+/// A person walking down a corridor straight at the robot, slower than it
+/// can back off (0.1 m/s): backing straight off and stepping aside both keep
+/// clear of the person's predicted disc, and backing off once won on cost
+/// alone, so the robot was pushed 1.7 m back. Stepping out of the person's
+/// line (ALGORITHM.md §5b, sidestep) lets it give way by less than half that.
+const HEAD_ON_PERSON: &str = "
+name: head_on_person
+duration_s: 90
+robot: {preset: turtlebot3_burger}
+start: {x_m: 0, y_m: 0, theta_deg: 0}
+lidar: {beams: 360, noise_std_m: 0.01}
+nominal: {kind: line, v_mps: 0.15, length_m: 6.0}
+world:
+  walls:
+    - {from: [-2, -2], to: [8, -2]}
+    - {from: [-2, 2], to: [8, 2]}
+  moving:
+    - {radius_m: 0.2, motion: {kind: constant_velocity, start: [5.0, 0.0], velocity_mps: [-0.1, 0.0]}}
+";
+
+#[test]
+fn a_person_walking_head_on_is_sidestepped_not_backed_away_from() {
+    let s = Scenario::from_str(HEAD_ON_PERSON, "head_on_person.yaml", None).unwrap();
+    for seed in [1, 2, 3] {
+        let r = run_scenario(&s, Controller::Oldbf, seed).unwrap();
+        let sum = &r.summary;
+        assert_eq!(sum.figures.collisions, 0, "seed {seed}: {sum:?}");
+        assert!(sum.figures.reached_goal, "seed {seed}: {sum:?}");
+        // The most the robot gave way along the corridor (m).
+        let mut furthest_m = f64::NEG_INFINITY;
+        let mut back_off_m: f64 = 0.0;
+        for row in &r.robots[0].rows {
+            furthest_m = furthest_m.max(row.x_m);
+            back_off_m = back_off_m.max(furthest_m - row.x_m);
+        }
+        println!(
+            "seed {seed}: backed off {back_off_m:.2} m, goal at {:?} s",
+            sum.figures.time_to_goal_s
+        );
+        assert!(back_off_m < 1.2, "seed {seed}: backed off {back_off_m:.2} m");
+    }
+}

@@ -40,6 +40,8 @@ const MAX_STEP_SAMPLES: usize = 16;
 const MAX_BRAKE_SAMPLES: usize = 48;
 /// Time between samples of an evasion path (s).
 const EVASION_SAMPLE_S: f64 = 0.2;
+/// Movers slower than this have no line to step out of (m/s).
+const LINE_MIN_SPEED_MPS: f64 = 0.05;
 
 /// A unicycle on a constant (v, ω) from the origin, walked in equal time
 /// steps: each step is the exact arc (its chord along the mid-step heading),
@@ -140,6 +142,9 @@ pub struct EvasionScore {
     /// radius, no margin): when contact cannot be put off, the command that
     /// keeps the movers furthest off for longest. +inf without movers.
     pub mover_gap_m: f64,
+    /// At the horizon's end, how much nearer than r + r_o + margin the robot is
+    /// to the predicted line of the mover coming towards it (m; ≤ 0: beside all).
+    pub line_deficit_m: f64,
 }
 
 /// Room to a mover beyond this counts no more in [`EvasionScore::mover_gap_m`] (m).
@@ -470,7 +475,32 @@ impl PassiveSafety {
                 }
             }
         }
+        // Sidestep (§5b): how far inside the swept line of a mover coming head-on
+        // (within 45° of straight at the robot, and able to reach it within the
+        // look-ahead) the robot still is at the horizon's end.
+        let mut line_deficit_m: f64 = 0.0;
+        for m in &self.movers {
+            let speed = m.velocity.norm();
+            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
+            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
+                continue;
+            }
+            let need = r + m.radius_m + p.passive.mover_margin_m;
+            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
+                continue;
+            }
+            let lateral_of = |q: Vec2| {
+                let d = q - m.position;
+                (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
+            };
+            // Already beside its line: nothing to step out of.
+            if lateral_of(Vec2::zeros()) >= need {
+                continue;
+            }
+            line_deficit_m = line_deficit_m.max(need - lateral_of(walk.pos));
+        }
         EvasionScore {
+            line_deficit_m,
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
                 f64::INFINITY
@@ -639,5 +669,45 @@ mod tests {
         let b = ps.evasion_score(Twist::new(0.2, 0.1), &p);
         assert_eq!(a.time_to_contact_s, 4.0);
         assert!(!a.beats(&b, 0.2, 0.02) && !b.beats(&a, 0.2, 0.02));
+    }
+
+    #[test]
+    fn line_deficit_measures_how_far_a_command_leaves_a_head_on_movers_line() {
+        let p = params();
+        let mut ps = PassiveSafety::default();
+        let one = |ps: &mut PassiveSafety, position: Vec2, velocity: Vec2| {
+            ps.set_movers(std::iter::once(Mover {
+                position,
+                velocity,
+                radius_m: 0.2,
+            }));
+            ps.select_reach(&[], &p);
+        };
+        // A person 1 m ahead walking at the robot at 0.1 m/s: reaches it within the
+        // look-ahead (1 − 0.428 = 0.572 ≤ (0.1 + 0.22)·2 = 0.64 m). Room needed beside
+        // its line: r + r_o + margin = 0.178 + 0.2 + 0.05 = 0.428 m.
+        one(&mut ps, Vec2::new(1.0, 0.0), Vec2::new(-0.1, 0.0));
+        let stay = ps.evasion_score(Twist::ZERO, &p);
+        let back = ps.evasion_score(Twist::new(-0.1, 0.0), &p);
+        // Backing on an arc, v = −0.1, ω = 0.3 for 4 s: y = (v/ω)(1 − cos 1.2)
+        // = −0.2126 m off the line, so 0.428 − 0.2126 = 0.2155 m still inside it.
+        let arc = ps.evasion_score(Twist::new(-0.1, 0.3), &p);
+        assert!((stay.line_deficit_m - 0.428).abs() < 1e-9, "{stay:?}");
+        assert!((back.line_deficit_m - 0.428).abs() < 1e-9, "{back:?}");
+        let y = (-0.1 / 0.3) * (1.0 - 1.2f64.cos());
+        assert!((arc.line_deficit_m - (0.428 + y)).abs() < 1e-9, "{arc:?}");
+        assert!((arc.line_deficit_m - 0.2155).abs() < 1e-3, "{arc:?}");
+        // No line to leave: the robot already beside it (0.5 ≥ 0.428 m), the mover
+        // walking away, crossing (90° off head-on), or too far to arrive within the look-ahead.
+        for (pos, vel) in [
+            (Vec2::new(1.0, 0.5), Vec2::new(-0.1, 0.0)),
+            (Vec2::new(1.0, 0.0), Vec2::new(0.1, 0.0)),
+            (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1)),
+            (Vec2::new(1.2, 0.0), Vec2::new(-0.1, 0.0)),
+        ] {
+            one(&mut ps, pos, vel);
+            let s = ps.evasion_score(Twist::ZERO, &p);
+            assert_eq!(s.line_deficit_m, 0.0, "{pos:?} {vel:?} {s:?}");
+        }
     }
 }

@@ -14,6 +14,8 @@ use crate::algo::record::Infeasibility;
 pub(super) const TOL_M: f64 = 1e-9;
 /// Linear speeds tried per yaw rate by the passive-safety search (plus 0).
 pub(super) const PASSIVE_SPEEDS: usize = 10;
+/// Evasion candidates ending within this of each other's line deficit tie (m).
+const LINE_TIE_M: f64 = 0.01;
 /// Yaw rates tried by evasion.
 pub(super) const EVASION_OMEGAS: usize = 5;
 /// Evasion must also gain this much least gap (m) when it cannot gain time.
@@ -243,7 +245,14 @@ impl SafetyPipeline {
                     let score = self.passive.evasion_score(c.cmd, &self.params);
                     let ahead = |b: &Candidate, b_score: &EvasionScore| {
                         if score.time_to_contact_s >= horizon && b_score.time_to_contact_s >= horizon {
-                            cost(c.cmd) < cost(b.cmd)
+                            // Both keep clear: the one ending further out of a head-on
+                            // mover's line (by 1 cm), then the closest to the DOAA command.
+                            let (da, db) = (score.line_deficit_m.max(0.0), b_score.line_deficit_m.max(0.0));
+                            if (da - db).abs() > LINE_TIE_M {
+                                da < db
+                            } else {
+                                cost(c.cmd) < cost(b.cmd)
+                            }
                         } else {
                             better(&score, b_score)
                         }
