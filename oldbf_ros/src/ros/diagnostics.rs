@@ -31,6 +31,12 @@ impl Activity {
         }
     }
 
+    /// When the last scan arrived (s); kept however long ago (the window
+    /// drops old arrivals only when a new one comes).
+    pub fn last_scan_s(&self) -> Option<f64> {
+        self.scans.back().copied()
+    }
+
     /// Scans per second over the window.
     pub fn scan_rate_hz(&self, now_s: f64) -> f64 {
         self.scans.iter().filter(|&&t| now_s - t <= WINDOW_S).count() as f64 / WINDOW_S

@@ -154,8 +154,6 @@ struct Node {
     last_status: Option<Option<&'static str>>,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
-    /// When the last scan arrived (s), for [`Resubscribe`].
-    last_scan_rx_s: Option<f64>,
 }
 
 impl Node {
@@ -237,7 +235,6 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         last_diag: f64::NEG_INFINITY,
         last_status: None,
         stopping: false,
-        last_scan_rx_s: None,
     }));
 
     // A scan is filtered, and its command published, as it arrives.
@@ -248,7 +245,6 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             let mut node = lock(&n);
             node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
             node.activity.scan_arrived(now);
-            node.last_scan_rx_s = Some(now);
             node.tick(now);
         })
         .map_err(RosError::doing("subscribing to scan"))
@@ -354,7 +350,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         if node.core.watchdog_due(now) {
             node.tick(now);
         }
-        let (last_scan_s, last_odom_s) = (node.last_scan_rx_s, node.core.odom().map(|o| o.received_s));
+        let (last_scan_s, last_odom_s) = (node.activity.last_scan_s(), node.core.odom().map(|o| o.received_s));
         drop(node);
         if scan_retry.due(now, last_scan_s) {
             log::warn!("{name}: no scan for a while: subscribing to scan again");

@@ -264,8 +264,6 @@ pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sect
 /// [`compute_clearances_faded`] as it was before the penalties were taken a
 /// batch at a time: the plain reference its property test compares it with.
 #[cfg(test)]
-/// Computes every clearance in one pass over the points; with `fade`, the
-/// side clearances fade by bearing (see the module docs).
 pub(crate) fn reference_clearances_faded(
     points: &[Vec2],
     robot_radius_m: f64,
