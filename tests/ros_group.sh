@@ -255,6 +255,12 @@ t_multi() {
     [ "$run" -gt 1 ] || topics=$(rostopic list)
     s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 230) || { stop_pid "$l"; say "  run $run: no summary: $s"; return 1; }
     stop_pid "$l"
+    # The stopped nodes left the master clean (ros/leave_master.rs): a dead node's
+    # address left there is called by the master and by subscribers, and a rosrust
+    # publisher that later listens on its port stops accepting subscribers.
+    local left
+    left=$(rosnode list 2>/dev/null | grep -E '^/(robot1|robot2)/oldbf_node$|^/oldbf_sim_node$' || true)
+    check "$([ -z "$left" ] && echo true)" "multi-robot run $run: still registered after the stop: $left" || return 1
     figure "multi run $run/5: $(json "'; '.join('%s goal %s at %.1f s, %d collisions' % (r['name'], r['reached_goal'], r['time_to_goal_s'] or -1, r['collisions']) for r in d['robots'])" <<< "$s")"
     if [ "$run" -eq 1 ]; then
       for t in /robot1/scan /robot1/cmd_vel /robot1/oldbf_node/state /robot2/scan /robot2/cmd_vel /robot2/oldbf_node/state; do
@@ -263,6 +269,10 @@ t_multi() {
     fi
     check "$(json "str(d['reached_goal'] and d['collisions'] == 0 and len(d['robots']) == 2).lower()" <<< "$s")" "multi-robot run $run: $s" || return 1
   done
+  local unsub
+  unsub=$(grep -c -- '-CACHEDPARAM \[/\] by /robot[12]/oldbf_node' "$ROS_HOME"/log/latest/master.log || true)
+  figure "multi: parameter subscriptions withdrawn by the stopped filters: $unsub of 10"
+  check "$([ "$unsub" -ge 10 ] && echo true)" "the filters left $(( 10 - unsub )) parameter subscriptions behind" || return 1
 }
 
 t_carmen() {

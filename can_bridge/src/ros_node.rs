@@ -31,6 +31,7 @@ use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
 use oldbf::config::{load_value, merge, Checker, ConfigError, Interval, Validate};
 use oldbf_ros::ros::convert::{quaternion_from_yaw, time_from_s};
+use oldbf_ros::ros::leave_master::leave_master;
 use oldbf_ros::ros::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use oldbf_ros::ros::msg::{
     diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue},
@@ -207,6 +208,7 @@ pub fn run() -> i32 {
         log::error!("{e}");
         log::error!("{}: invalid parameters, exiting", rosrust::name());
         std::thread::sleep(Duration::from_millis(200)); // let rosout carry the message
+        leave_master();
         rosrust::shutdown();
         2
     };
@@ -224,6 +226,7 @@ pub fn run() -> i32 {
         Err(e) => {
             log::error!("{}: {e}", rosrust::name());
             std::thread::sleep(Duration::from_millis(200));
+            leave_master();
             rosrust::shutdown();
             1
         }
@@ -366,8 +369,12 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     } else {
         log::error!("{node}: shut down: {failed} frame(s) of zero setpoint and drive disable could not be sent");
     }
+    let restarted = watch.health() == MasterHealth::Restarted;
+    if !restarted {
+        leave_master();
+    }
     rosrust::shutdown();
-    Ok(watch.health() != MasterHealth::Restarted)
+    Ok(!restarted)
 }
 
 #[cfg(test)]

@@ -9,6 +9,11 @@
 //! when a planner sends cmd_vel_in) costs the master one registration every
 //! half minute, not one a second. Pure timing, so it is tested without ROS.
 
+/// The nodes' first wait: a topic quiet this long is subscribed again (s).
+pub const QUIET_S: f64 = 3.0;
+/// The nodes' longest wait between two resubscriptions of a quiet topic (s).
+pub const MAX_QUIET_S: f64 = 30.0;
+
 /// The resubscription schedule of one topic. Times in s on the node's clock.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Resubscribe {
@@ -29,6 +34,11 @@ impl Resubscribe {
             wait_s: quiet_s,
             subscribed_s: now_s,
         }
+    }
+
+    /// The schedule the nodes use ([`QUIET_S`], [`MAX_QUIET_S`]).
+    pub fn standard(now_s: f64) -> Self {
+        Self::new(now_s, QUIET_S, MAX_QUIET_S)
     }
 
     /// Whether to subscribe again at `now_s`, the last message having arrived

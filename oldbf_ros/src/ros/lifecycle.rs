@@ -85,7 +85,7 @@ pub enum MasterHealth {
 pub const MASTER_PROBE_TIMEOUT: Duration = Duration::from_millis(700);
 
 /// `host:port` of an `http://host:port/` master URI.
-fn master_addr(uri: &str) -> Option<String> {
+pub fn master_addr(uri: &str) -> Option<String> {
     let rest = uri.trim().strip_prefix("http://")?;
     let hostport = rest.split('/').next()?;
     if hostport.is_empty() {
@@ -121,25 +121,7 @@ fn parse_pid(body: &str) -> Option<u32> {
 /// Asks the master at `uri` for its PID with a direct XML-RPC `getPid`
 /// (std sockets, [`MASTER_PROBE_TIMEOUT`]): `None` if it does not answer.
 pub fn probe_master_pid(uri: &str, caller: &str) -> Option<u32> {
-    use std::io::{Read, Write};
-    use std::net::ToSocketAddrs;
-    let addr = master_addr(uri)?;
-    let sock = addr.to_socket_addrs().ok()?.next()?;
-    let mut stream = std::net::TcpStream::connect_timeout(&sock, MASTER_PROBE_TIMEOUT).ok()?;
-    stream.set_read_timeout(Some(MASTER_PROBE_TIMEOUT)).ok()?;
-    stream.set_write_timeout(Some(MASTER_PROBE_TIMEOUT)).ok()?;
-    let body = format!(
-        "<?xml version=\"1.0\"?><methodCall><methodName>getPid</methodName><params><param><value><string>{caller}</string></value></param></params></methodCall>"
-    );
-    let req = format!(
-        "POST / HTTP/1.0\r\nHost: {addr}\r\nContent-Type: text/xml\r\nContent-Length: {}\r\n\r\n{body}",
-        body.len()
-    );
-    stream.write_all(req.as_bytes()).ok()?;
-    let mut resp = Vec::new();
-    // HTTP/1.0: the master closes the connection after the answer.
-    let _ = stream.take(64 * 1024).read_to_end(&mut resp);
-    parse_pid(&String::from_utf8_lossy(&resp))
+    parse_pid(&super::leave_master::xmlrpc_call(uri, "getPid", &[caller])?)
 }
 
 /// Watches the master once a second from a thread of its own, with a direct

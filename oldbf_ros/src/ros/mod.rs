@@ -5,6 +5,7 @@
 pub mod carmen_play;
 pub mod convert;
 pub mod diagnostics;
+pub mod leave_master;
 pub mod lifecycle;
 pub mod logging;
 pub mod markers;
@@ -38,4 +39,14 @@ impl RosError {
             source: Box::new(source),
         }
     }
+}
+
+/// Drops `old` (a second subscription to the same topic would share its dead
+/// connection), then subscribes again; a failure is logged, not fatal.
+pub fn resubscribe(
+    old: Option<rosrust::Subscriber>,
+    subscribe: &dyn Fn() -> Result<rosrust::Subscriber, RosError>,
+) -> Option<rosrust::Subscriber> {
+    drop(old);
+    subscribe().inspect_err(|e| log::warn!("{e}; trying again later")).ok()
 }

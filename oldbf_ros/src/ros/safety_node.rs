@@ -122,6 +122,7 @@ pub fn run() -> i32 {
             log::error!("{e}");
             log::error!("{}: invalid parameters, exiting", rosrust::name());
             std::thread::sleep(Duration::from_millis(200)); // let rosout carry the message
+            super::leave_master::leave_master();
             rosrust::shutdown();
             return 2;
         }
@@ -131,6 +132,7 @@ pub fn run() -> i32 {
         Ok(false) => 1,
         Err(e) => {
             log::error!("{}: {e}", rosrust::name());
+            super::leave_master::leave_master();
             rosrust::shutdown();
             1
         }
@@ -202,11 +204,6 @@ impl Node {
     }
 }
 
-/// A subscription that carried nothing for this long is made again (s);
-/// while it stays quiet the wait doubles up to the second figure.
-const RESUBSCRIBE_QUIET_S: f64 = 3.0;
-const RESUBSCRIBE_MAX_QUIET_S: f64 = 30.0;
-
 /// The node's lock. A panic elsewhere while holding it leaves consistent
 /// data (each step is one call): carry on rather than take the node down.
 fn lock(n: &Mutex<Node>) -> std::sync::MutexGuard<'_, Node> {
@@ -257,12 +254,12 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         })
         .map_err(RosError::doing("subscribing to odom"))
     };
-    let mut scan_sub = subscribe_scan()?;
-    let mut odom_sub = subscribe_odom()?;
+    let mut scan_sub = Some(subscribe_scan()?);
+    let mut odom_sub = Some(subscribe_odom()?);
     // rosrust does not retry a failed connection: quiet subscriptions are made again.
     let started_s = now_s();
-    let mut scan_retry = Resubscribe::new(started_s, RESUBSCRIBE_QUIET_S, RESUBSCRIBE_MAX_QUIET_S);
-    let mut odom_retry = Resubscribe::new(started_s, RESUBSCRIBE_QUIET_S, RESUBSCRIBE_MAX_QUIET_S);
+    let mut scan_retry = Resubscribe::standard(started_s);
+    let mut odom_retry = Resubscribe::standard(started_s);
     // So is a new upstream command, against the latest scan.
     let n = node.clone();
     let _cmd_in_sub = rosrust::subscribe("cmd_vel_in", 1, move |m: geometry_msgs::Twist| {
@@ -352,15 +349,17 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         }
         let (last_scan_s, last_odom_s) = (node.activity.last_scan_s(), node.core.odom().map(|o| o.received_s));
         drop(node);
-        if scan_retry.due(now, last_scan_s) {
-            log::warn!("{name}: no scan for a while: subscribing to scan again");
-            drop(scan_sub);
-            scan_sub = subscribe_scan()?;
-        }
-        if odom_retry.due(now, last_odom_s) {
-            log::debug!("{name}: no odometry for a while: subscribing to odom again");
-            drop(odom_sub);
-            odom_sub = subscribe_odom()?;
+        // Only with the master up: rosrust's calls fail or block while it is away, and
+        // a subscription that could not be made again is tried again at the next due time.
+        if watch.health() == MasterHealth::Up {
+            if scan_retry.due(now, last_scan_s) {
+                log::warn!("{name}: no scan for a while: subscribing to scan again");
+                scan_sub = super::resubscribe(scan_sub, &subscribe_scan);
+            }
+            if odom_retry.due(now, last_odom_s) {
+                log::debug!("{name}: no odometry for a while: subscribing to odom again");
+                odom_sub = super::resubscribe(odom_sub, &subscribe_odom);
+            }
         }
         pacer.sleep();
     }
@@ -372,6 +371,10 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         let _ = cmd_pub.send(twist_to_msg(crate::algo::Twist::ZERO));
         std::thread::sleep(Duration::from_millis(30));
     }
+    let restarted = watch.health() == MasterHealth::Restarted;
+    if !restarted {
+        super::leave_master::leave_master();
+    }
     rosrust::shutdown();
-    Ok(watch.health() != MasterHealth::Restarted)
+    Ok(!restarted)
 }

@@ -36,6 +36,7 @@ use super::params::RosParamError;
 use super::RosError;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::config::ConfigError;
+use crate::resubscribe::Resubscribe;
 use crate::sim::fleet::{Fleet, FleetError};
 use crate::sim::scenario::Scenario;
 use oldbf::config::{Checker, Interval};
@@ -69,7 +70,36 @@ struct RobotIo {
     scan: rosrust::Publisher<sensor_msgs::LaserScan>,
     /// None when the odometry comes from elsewhere (motion_source odom).
     odom: Option<rosrust::Publisher<nav_msgs::Odometry>>,
-    _cmd_sub: rosrust::Subscriber,
+    /// `cmd_vel`, or `odom` with motion_source odom.
+    motion_topic: String,
+    _motion_sub: Option<rosrust::Subscriber>,
+    /// rosrust does not retry a failed connection: in about one multi-robot
+    /// launch in five a link stayed dead and its robot never moved, so a
+    /// motion source quiet for a while is subscribed again.
+    motion_retry: Resubscribe,
+}
+
+/// Robot `i`'s motion source: each message's twist and arrival time into `cmds[i]`.
+fn subscribe_motion(
+    topic: &str,
+    from_odom: bool,
+    i: usize,
+    cmds: &Arc<Mutex<Vec<(Twist, f64)>>>,
+) -> Result<rosrust::Subscriber, RosError> {
+    let c = cmds.clone();
+    if from_odom {
+        rosrust::subscribe(topic, 1, move |m: nav_msgs::Odometry| {
+            let t = Twist::new(m.twist.twist.linear.x, m.twist.twist.angular.z);
+            c.lock().expect("cmd lock")[i] = (t, now_s());
+        })
+    } else {
+        rosrust::subscribe(topic, 1, move |m: geometry_msgs::Twist| {
+            c.lock().expect("cmd lock")[i] = (twist_from_msg(&m), now_s());
+        })
+    }
+    .map_err(RosError::doing(format!(
+        "subscribing to the motion source of robot {i}"
+    )))
 }
 
 fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, RosParamError> {
@@ -187,6 +217,7 @@ pub fn run() -> i32 {
         Err(e) => {
             log::error!("{}: {e}", rosrust::name());
             std::thread::sleep(Duration::from_millis(200));
+            super::leave_master::leave_master();
             rosrust::shutdown();
             2
         }
@@ -227,6 +258,7 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
 
     let cmds: Arc<Mutex<Vec<(Twist, f64)>>> = Arc::new(Mutex::new(vec![(Twist::ZERO, f64::NEG_INFINITY); n]));
     let mut io = Vec::with_capacity(n);
+    let started_s = now_s();
     for (i, agent) in fleet.agents().iter().enumerate() {
         let topic = |t: &str| {
             if agent.name.is_empty() {
@@ -235,20 +267,7 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
                 format!("{}/{t}", agent.name)
             }
         };
-        let c = cmds.clone();
-        let cmd_sub = if from_odom {
-            rosrust::subscribe(&topic("odom"), 1, move |m: nav_msgs::Odometry| {
-                let t = Twist::new(m.twist.twist.linear.x, m.twist.twist.angular.z);
-                c.lock().expect("cmd lock")[i] = (t, now_s());
-            })
-        } else {
-            rosrust::subscribe(&topic("cmd_vel"), 1, move |m: geometry_msgs::Twist| {
-                c.lock().expect("cmd lock")[i] = (twist_from_msg(&m), now_s());
-            })
-        }
-        .map_err(RosError::doing(format!(
-            "subscribing to the motion source of robot {i}"
-        )))?;
+        let motion_topic = topic(if from_odom { "odom" } else { "cmd_vel" });
         let odom = if from_odom {
             None
         } else {
@@ -258,7 +277,9 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
             frame_prefix: agent.name.clone(),
             scan: rosrust::publish(&topic("scan"), 5).map_err(RosError::doing("advertising scan"))?,
             odom,
-            _cmd_sub: cmd_sub,
+            _motion_sub: Some(subscribe_motion(&motion_topic, from_odom, i, &cmds)?),
+            motion_retry: Resubscribe::standard(started_s),
+            motion_topic,
         });
     }
     let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(RosError::doing("advertising /tf"))?;
@@ -302,6 +323,15 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
                 } else {
                     fleet.set_cmd(i, twist);
                 }
+            }
+        }
+        for (i, robot) in io.iter_mut().enumerate() {
+            let at = cmds.lock().expect("cmd lock")[i].1;
+            if robot.motion_retry.due(now, at.is_finite().then_some(at)) {
+                log::warn!("no message on {} for a while: subscribing again", robot.motion_topic);
+                robot._motion_sub = super::resubscribe(robot._motion_sub.take(), &|| {
+                    subscribe_motion(&robot.motion_topic, from_odom, i, &cmds)
+                });
             }
         }
         fleet.step(physics_dt);
@@ -461,6 +491,7 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
         }
         rate.sleep();
     }
+    super::leave_master::leave_master();
     rosrust::shutdown();
     Ok(())
 }
