@@ -684,7 +684,7 @@ mod tests {
             ps.select_reach(&[], &p);
         };
         // A person 1 m ahead walking at the robot at 0.1 m/s: reaches it within the
-        // look-ahead (1 − 0.428 = 0.572 ≤ (0.1 + 0.22)·2 = 0.64 m). Room needed beside
+        // 6 s look-ahead (1 − 0.428 = 0.572 ≤ (0.1 + 0.22)·6 = 1.92 m). Room needed beside
         // its line: r + r_o + margin = 0.178 + 0.2 + 0.05 = 0.428 m.
         one(&mut ps, Vec2::new(1.0, 0.0), Vec2::new(-0.1, 0.0));
         let stay = ps.evasion_score(Twist::ZERO, &p);
@@ -703,7 +703,7 @@ mod tests {
             (Vec2::new(1.0, 0.5), Vec2::new(-0.1, 0.0)),
             (Vec2::new(1.0, 0.0), Vec2::new(0.1, 0.0)),
             (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1)),
-            (Vec2::new(1.2, 0.0), Vec2::new(-0.1, 0.0)),
+            (Vec2::new(2.4, 0.0), Vec2::new(-0.1, 0.0)), // 2.4 − 0.428 > 1.92 m
         ] {
             one(&mut ps, pos, vel);
             let s = ps.evasion_score(Twist::ZERO, &p);

@@ -63,8 +63,9 @@ impl Params {
     /// free space: no hold, no blindness check), `barrier.side_fade_deg: 0` (hard
     /// side sectors), `doaa.commit_turns: false`, `doaa.max_omega_change_radps:
     /// 0` (no yaw-rate step limit), `unstuck.enabled: false`, `passive.enabled:
-    /// false` (no braking check or evasion) and `control.allow_reverse: false`.
-    /// Everything else, obstacle tracking included, is left as given. This is the
+    /// false` (no braking check or evasion), `control.allow_reverse: false` and
+    /// `obstacles.lookahead_s: 2` (the look-ahead it had). Everything else,
+    /// obstacle tracking included, is left as given. This is the
     /// filter as it was before REP 117 semantics, passive motion safety and the
     /// liveness additions. It is the `oldbf-paper` controller (`oldbf batch
     /// --controllers oldbf-paper`, also `oldbf compare` and `oldbf sim
@@ -78,6 +79,7 @@ impl Params {
         self.unstuck.enabled = false;
         self.passive.enabled = false;
         self.control.allow_reverse = false;
+        self.obstacles.lookahead_s = obstacles::PAPER_LOOKAHEAD_S;
         self
     }
 

@@ -29,10 +29,16 @@ pub struct ObstacleParams {
     /// …once it has been this far from where it was first seen (m; kept when it turns round).
     pub min_travel_m: f64,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
+    /// 6 s: a robot turning at 0.3 rad/s needs 8-9 s to step 0.6 m off a person's line
+    /// (ALGORITHM.md §6); the paper method keeps [`PAPER_LOOKAHEAD_S`].
     pub lookahead_s: f64,
     /// At most this many tracks (bounds memory and time).
     pub max_tracks: usize,
 }
+
+/// The look-ahead the filter had before passive motion safety (s): the paper
+/// method's ([`super::Params::paper_method`]).
+pub const PAPER_LOOKAHEAD_S: f64 = 2.0;
 
 impl Default for ObstacleParams {
     fn default() -> Self {
@@ -48,7 +54,7 @@ impl Default for ObstacleParams {
             measurement_noise_m: 0.05,
             moving_speed_mps: 0.02,
             min_travel_m: 0.3,
-            lookahead_s: 2.0,
+            lookahead_s: 6.0,
             max_tracks: 32,
         }
     }
