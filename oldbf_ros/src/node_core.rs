@@ -281,6 +281,13 @@ impl NodeCore {
         self
     }
 
+    /// Has the pipeline build clusters even with tracking off, for a baseline
+    /// that reads them ([`SafetyPipeline::keep_clusters`]).
+    pub fn keep_clusters(mut self, keep: bool) -> Self {
+        self.pipeline.keep_clusters(keep);
+        self
+    }
+
     /// The pipeline, read-only: what it perceived at the last tick (points,
     /// prediction, clusters, tracks), for monitors and the baselines.
     pub fn pipeline(&self) -> &SafetyPipeline {

@@ -228,7 +228,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             // No reference: the scenario's constant command (none: stand still).
             node: NodeCore::new(params.clone(), NodeSettings::default(), plan.reference)
                 .with_constant(plan.constant.unwrap_or(Twist::ZERO))
-                .with_fixed_period(),
+                .with_fixed_period()
+                .keep_clusters(controller == Controller::Vo),
             dcbf: DcbfFilter::new(),
             ranges: Vec::with_capacity(lidar.beams),
             truth: Vec::with_capacity(lidar.beams),

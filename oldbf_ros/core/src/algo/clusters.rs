@@ -67,6 +67,11 @@ impl Clusters {
         self.clusters.is_empty()
     }
 
+    /// No clusters (a scan whose clusters nobody needs).
+    pub fn clear(&mut self) {
+        self.clusters.clear();
+    }
+
     /// Marks cluster `k` as no measurement of anything (its point count set to
     /// 0, so the tracker never takes it as a candidate); its points stay.
     pub fn exclude(&mut self, k: usize) {

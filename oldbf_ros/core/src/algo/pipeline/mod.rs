@@ -95,6 +95,9 @@ pub struct SafetyPipeline {
     last_clearances: Clearances,
     last_box: InputBox,
     clusters: Clusters,
+    /// Build clusters even with tracking off (a consumer such as the VO
+    /// baseline reads them); with tracking on they are always built.
+    keep_clusters: bool,
     tracker: ObstacleTracker,
     /// Where the points will be after one step (moving clusters advanced).
     points_next: Vec<Vec2>,
@@ -145,6 +148,7 @@ impl SafetyPipeline {
             last_clearances: Clearances::OPEN,
             last_box,
             clusters: Clusters::with_capacity(cap),
+            keep_clusters: false,
             tracker: ObstacleTracker::with_capacity(max_tracks, cap),
             points_next: Vec::with_capacity(cap),
             ego: None,
@@ -158,8 +162,16 @@ impl SafetyPipeline {
     }
 
     /// The clusters of the last accepted scan (indices into `points`).
+    /// With tracking off they are built only after [`Self::keep_clusters`];
+    /// empty otherwise.
     pub fn clusters(&self) -> &[Cluster] {
         self.clusters.as_slice()
+    }
+
+    /// Builds clusters at every step even with tracking off, for a consumer
+    /// of [`Self::clusters`] (the filter needs them only to track).
+    pub fn keep_clusters(&mut self, keep: bool) {
+        self.keep_clusters = keep;
     }
 
     /// Where the points will be after one step, as the filter predicted
@@ -281,7 +293,11 @@ impl SafetyPipeline {
         self.points_next.extend_from_slice(&self.points.points);
         self.threats.clear();
         self.passive.set_movers(std::iter::empty());
-        // Clusters always (the baselines use them), tracking only when enabled.
+        // Clusters for tracking, or for a consumer that asked for them.
+        self.clusters.clear();
+        if !self.params.obstacles.enabled && !self.keep_clusters {
+            return;
+        }
         self.clusters.build(
             &self.points.points,
             &self.points.beam_index,
