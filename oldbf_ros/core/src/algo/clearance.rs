@@ -78,6 +78,8 @@ pub struct Clearances {
     /// Closest point overall, robot frame (m).
     pub closest: Option<Vec2>,
     /// Σ 1/‖P‖ over the left hemisphere sector (1/m): how cluttered a side is; breaks ties.
+    /// With faded sides it is filled only when the sides tie, the only time the
+    /// steering reads it ([`side_crowding`]); 0 otherwise.
     pub crowding_left: f64,
     /// The same over the right hemisphere sector (1/m).
     pub crowding_right: f64,
@@ -184,45 +186,187 @@ fn penalties_batch(chunk: &[Vec2], reciprocals: &[f64; BATCH], fade: &SideFade) 
     (left, right)
 }
 
-/// Computes every clearance in one pass over the points; with `fade`, the
-/// side clearances fade by bearing (see the module docs).
+/// Margins of the pruning in [`compute_clearances_faded`]: relative on the
+/// radii, absolute on the cosines and sines of bearings. Far beyond the
+/// rounding of a root or a division, so no point that can reach or tie a
+/// minimum is skipped.
+const PRUNE_MARGIN: f64 = 1e-9;
+
+/// Whether x/‖P‖ ≥ `c` for a coordinate `x` of a point with squared norm
+/// `n2`, without the root.
+#[inline]
+fn ratio_at_least(x: f64, n2: f64, c: f64) -> bool {
+    if c <= 0.0 {
+        x >= 0.0 || x * x <= n2 * c * c
+    } else {
+        x >= 0.0 && x * x >= n2 * c * c
+    }
+}
+
+/// Squared radii within which a point may still change each faded minimum.
+#[derive(Debug, Clone, Copy)]
+struct Reach {
+    min2: f64,
+    front2: f64,
+    left2: f64,
+    right2: f64,
+    /// The largest of the four.
+    any2: f64,
+}
+
+impl Reach {
+    /// From upper bounds of the final minima (+inf: unbounded).
+    fn new(bound: &Clearances, robot_radius_m: f64) -> Self {
+        let r2 = |u: f64| {
+            if u.is_finite() {
+                // ‖P‖ − r > u for every point beyond this (‖P‖ ≥ 0, so u + r ≥ 0).
+                let reach = (u + robot_radius_m).max(0.0) * (1.0 + PRUNE_MARGIN) + f64::MIN_POSITIVE;
+                reach * reach
+            } else {
+                f64::INFINITY
+            }
+        };
+        let (min2, front2, left2, right2) = (
+            r2(bound.d_min_m),
+            r2(bound.d_front_m),
+            r2(bound.d_left_m),
+            r2(bound.d_right_m),
+        );
+        Self {
+            min2,
+            front2,
+            left2,
+            right2,
+            any2: min2.max(front2).max(left2).max(right2),
+        }
+    }
+}
+
+/// Every clearance of a faded filter but the crowding sums, which stay 0
+/// ([`side_crowding`] gives them; the steering reads them only when the sides
+/// tie, [`super::doaa::sides_tie`]).
+///
+/// Exact, and most points cost a squared norm and a comparison or two. A
+/// first pass, without roots, finds the nearest point overall, the nearest
+/// in the front sector and the nearest on each side's penalty-free part (own
+/// half, bearing within the hemisphere less the fade). Their exact values
+/// bound the final minima from above (each is a candidate of the minimum it
+/// bounds). A point is then skipped when, for each minimum it may count in
+/// (by bearing, decided without roots and with [`PRUNE_MARGIN`] to spare),
+/// its clearance is beyond that minimum's bound: penalised or not, it can
+/// be neither a minimum nor tie one. The others are taken in beam order
+/// with the same arithmetic as every point was before, so values and the
+/// points that realise them are the same bit for bit.
 pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
+    let reach = Reach::new(&seed_bounds(points, robot_radius_m, front, fade), robot_radius_m);
+    // Bearing tests, widened by the margin: a point failing one cannot count there.
+    let in_front = |p: &Vec2, n2: f64| front.full || ratio_at_least(p.x, n2, front.cos_half - PRUNE_MARGIN);
+    let sin_fade = -(1.0 / fade.inv_sin_fade) - PRUNE_MARGIN;
+    let in_hemisphere = |p: &Vec2, n2: f64| match fade.rear {
+        Some((start, inv)) => ratio_at_least(p.x, n2, start - 1.0 / inv - PRUNE_MARGIN),
+        None => true,
+    };
     let mut c = Clearances::OPEN;
-    for chunk in points.chunks(BATCH) {
-        let (norms, reciprocals) = norms_and_reciprocals(chunk);
-        let (left, right) = penalties_batch(chunk, &reciprocals, fade);
-        for (k, p) in chunk.iter().enumerate() {
-            let norm = norms[k];
-            let clearance = norm - robot_radius_m;
-            if clearance < c.d_min_m {
-                c.d_min_m = clearance;
-                c.closest = Some(*p);
-            }
-            if front.contains(*p, norm) && clearance < c.d_front_m {
-                c.d_front_m = clearance;
-            }
-            if norm == 0.0 {
-                continue;
-            }
-            let inv = reciprocals[k];
-            let (pl, pr) = (left[k], right[k]);
-            if pl.is_finite() {
-                c.crowding_left += if p.y > 0.0 { inv } else { 0.0 };
-                if clearance + pl < c.d_left_m {
-                    c.d_left_m = clearance + pl;
-                    c.closest_left = Some(*p);
-                }
-            }
-            if pr.is_finite() {
-                c.crowding_right += if p.y < 0.0 { inv } else { 0.0 };
-                if clearance + pr < c.d_right_m {
-                    c.d_right_m = clearance + pr;
-                    c.closest_right = Some(*p);
-                }
-            }
+    for p in points {
+        let n2 = p.norm_squared();
+        if n2 > reach.any2 {
+            continue;
+        }
+        let keep = n2 <= reach.min2
+            || (n2 <= reach.front2 && in_front(p, n2))
+            || (n2 <= reach.left2 && ratio_at_least(p.y, n2, sin_fade) && in_hemisphere(p, n2))
+            || (n2 <= reach.right2 && ratio_at_least(-p.y, n2, sin_fade) && in_hemisphere(p, n2));
+        if keep {
+            add_faded(&mut c, *p, robot_radius_m, front, fade);
         }
     }
     c
+}
+
+/// One point into the faded minima (not the crowding sums).
+#[inline]
+fn add_faded(c: &mut Clearances, p: Vec2, robot_radius_m: f64, front: Sector, fade: &SideFade) {
+    // ‖P‖ as nalgebra computes it: the root of the squared norm.
+    let norm = p.norm_squared().sqrt();
+    let clearance = norm - robot_radius_m;
+    if clearance < c.d_min_m {
+        c.d_min_m = clearance;
+        c.closest = Some(p);
+    }
+    if front.contains(p, norm) && clearance < c.d_front_m {
+        c.d_front_m = clearance;
+    }
+    if norm == 0.0 {
+        return;
+    }
+    let inv = 1.0 / norm;
+    let (pl, pr) = fade.penalties(p.x * inv, p.y * inv);
+    if pl.is_finite() && clearance + pl < c.d_left_m {
+        c.d_left_m = clearance + pl;
+        c.closest_left = Some(p);
+    }
+    if pr.is_finite() && clearance + pr < c.d_right_m {
+        c.d_right_m = clearance + pr;
+        c.closest_right = Some(p);
+    }
+}
+
+/// Upper bounds of the faded minima: their exact values over a few seed
+/// points (the nearest overall, in front, and on each side's penalty-free
+/// part; see [`compute_clearances_faded`]). Zones are told without roots and
+/// may be off at their edges, which is harmless: a seed's values are exact.
+fn seed_bounds(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
+    let free = |p: &Vec2, n2: f64| match fade.rear {
+        Some((start, _)) => ratio_at_least(p.x, n2, start),
+        None => true,
+    };
+    // Nearest overall, in front, left, right: (squared norm, index).
+    let mut seeds = [(f64::INFINITY, usize::MAX); 4];
+    for (i, p) in points.iter().enumerate() {
+        let n2 = p.norm_squared();
+        if n2 < seeds[0].0 {
+            seeds[0] = (n2, i);
+        }
+        if n2 < seeds[1].0 && (front.full || ratio_at_least(p.x, n2, front.cos_half)) {
+            seeds[1] = (n2, i);
+        }
+        if (n2 < seeds[2].0 || n2 < seeds[3].0) && free(p, n2) {
+            if p.y >= 0.0 && n2 < seeds[2].0 {
+                seeds[2] = (n2, i);
+            }
+            if p.y <= 0.0 && n2 < seeds[3].0 {
+                seeds[3] = (n2, i);
+            }
+        }
+    }
+    let mut bound = Clearances::OPEN;
+    for (_, i) in seeds.into_iter().filter(|s| s.1 != usize::MAX) {
+        add_faded(&mut bound, points[i], robot_radius_m, front, fade);
+    }
+    bound
+}
+
+/// Σ 1/‖P‖ over the points counting for the left and the right side (those
+/// with a finite penalty, own half only): the tie-breaker of the faded
+/// steering, in beam order as [`reference_clearances_faded`] sums them.
+pub fn side_crowding(points: &[Vec2], fade: &SideFade) -> (f64, f64) {
+    let (mut left, mut right) = (0.0, 0.0);
+    for chunk in points.chunks(BATCH) {
+        let (norms, reciprocals) = norms_and_reciprocals(chunk);
+        let (pl, pr) = penalties_batch(chunk, &reciprocals, fade);
+        for (k, p) in chunk.iter().enumerate() {
+            if norms[k] == 0.0 {
+                continue;
+            }
+            if pl[k].is_finite() {
+                left += if p.y > 0.0 { reciprocals[k] } else { 0.0 };
+            }
+            if pr[k].is_finite() {
+                right += if p.y < 0.0 { reciprocals[k] } else { 0.0 };
+            }
+        }
+    }
+    (left, right)
 }
 
 /// Computes every clearance in one pass over the points.
@@ -261,8 +405,8 @@ pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sect
     c
 }
 
-/// [`compute_clearances_faded`] as it was before the penalties were taken a
-/// batch at a time: the plain reference its property test compares it with.
+/// The faded clearances with the crowding sums, every point taken: the plain
+/// reference [`compute_clearances_faded`] and [`side_crowding`] are compared with.
 #[cfg(test)]
 pub(crate) fn reference_clearances_faded(
     points: &[Vec2],
@@ -434,7 +578,8 @@ mod fast_path_properties {
             let points: Vec<Vec2> = points.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
             let front = Sector::new(front_deg.to_radians());
             let fade = SideFade::new(fade_deg.to_radians(), hemisphere_deg.to_radians(), d_act).unwrap();
-            let fast = compute_clearances_faded(&points, radius, front, &fade);
+            let mut fast = compute_clearances_faded(&points, radius, front, &fade);
+            (fast.crowding_left, fast.crowding_right) = side_crowding(&points, &fade);
             let reference = reference_clearances_faded(&points, radius, front, &fade);
             prop_assert_eq!(bits(&fast), bits(&reference));
         }

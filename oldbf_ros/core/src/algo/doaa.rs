@@ -112,6 +112,15 @@ impl TurnDirection {
 /// Clearances closer than this (m) are treated as equal when picking a turn side.
 const TIE_M: f64 = 0.01;
 
+/// Whether the side clearances tie (within [`TIE_M`], or both +inf): only
+/// then does the steering look at the crowding sums, so only then must they
+/// be filled ([`super::clearance::side_crowding`]).
+pub fn sides_tie(c: &Clearances) -> bool {
+    // inf − inf is NaN: no clearance difference to go by, a tie.
+    let gap = (c.d_left_m - c.d_right_m).abs();
+    gap.is_nan() || gap <= TIE_M
+}
+
 /// The DOAA state machine: the latched both-sides turn and the committed
 /// turn direction.
 #[derive(Debug, Default, Clone)]
@@ -261,8 +270,7 @@ fn commit_side(avoid: f64, c: &Clearances, p: &Params) -> TurnDirection {
     if avoid.abs() > 0.05 * p.doaa.gain_k_radps {
         return pick(avoid > 0.0);
     }
-    // inf − inf is NaN and fails the comparison: no clearance difference to go by.
-    if (c.d_left_m - c.d_right_m).abs() > TIE_M {
+    if !sides_tie(c) {
         return pick(c.d_left_m > c.d_right_m);
     }
     if c.crowding_left != c.crowding_right {
@@ -274,7 +282,7 @@ fn commit_side(avoid: f64, c: &Clearances, p: &Params) -> TurnDirection {
 /// The side with more clearance; ties go to the less crowded side, then to
 /// the way the nominal command already turns, then left.
 fn pick_turn(c: &Clearances, nominal: Twist) -> TurnDirection {
-    let left_better = if (c.d_left_m - c.d_right_m).abs() > TIE_M {
+    let left_better = if !sides_tie(c) {
         c.d_left_m > c.d_right_m
     } else if c.crowding_left != c.crowding_right {
         c.crowding_left < c.crowding_right

@@ -21,10 +21,10 @@
 use super::barrier::compute_barriers;
 use super::beam_memory::BeamMemory;
 use super::blind::BlindDetector;
-use super::clearance::{compute_clearances, compute_clearances_faded, Clearances, Sector, SideFade};
+use super::clearance::{compute_clearances, compute_clearances_faded, side_crowding, Clearances, Sector, SideFade};
 use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
-use super::doaa::{Doaa, DoaaState};
+use super::doaa::{sides_tie, Doaa, DoaaState};
 use super::dtcbf::{DtcbfFilter, InputBox};
 use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
@@ -470,6 +470,13 @@ impl SafetyPipeline {
         let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.predict_obstacles(&mut c, v_now, scan.header.stamp_s, pose, full_circle);
+        // The faded pass leaves the crowding sums out: they only break a tie between the
+        // sides (both +inf: no point counts for either side, and both sums are 0).
+        if let Some(fade) = &d.fade {
+            if sides_tie(&c) && c.d_left_m.is_finite() {
+                (c.crowding_left, c.crowding_right) = side_crowding(&self.points.points, fade);
+            }
+        }
         self.passive.set_phantoms(&self.points.phantoms);
         self.passive.prepare(&self.points_next, &self.params);
         self.last_clearances = c;
