@@ -9,7 +9,9 @@
 //!     target/release/examples/pipeline_steps 360 people
 //! ```
 //!
-//! Arguments: beams (360, 720, 1440 or 2048) and `people` or `off` (tracking).
+//! Arguments: beams (360, 720, 1440 or 2048), `people` or `off` (tracking),
+//! and how many times to repeat the measured steps (default 1; more for a
+//! sampling profiler such as `perf record`).
 
 #[path = "../benches/common/mod.rs"]
 mod common;
@@ -41,9 +43,9 @@ fn step(pipe: &mut SafetyPipeline, cycle: &ScanCycle, k: usize) -> StepRecord {
 
 /// The measured part (callgrind's `--toggle-collect` target).
 #[inline(never)]
-fn measured_steps(pipe: &mut SafetyPipeline, cycle: &ScanCycle) -> f64 {
+fn measured_steps(pipe: &mut SafetyPipeline, cycle: &ScanCycle, first: usize) -> f64 {
     let mut sum = 0.0;
-    for k in FRAMES..FRAMES + STEPS {
+    for k in first..first + STEPS {
         let rec = step(pipe, black_box(cycle), k);
         sum += rec.cmd.v_mps + rec.cmd.omega_radps;
     }
@@ -61,6 +63,11 @@ fn main() {
     for k in 0..FRAMES {
         step(&mut pipe, &cycle, k);
     }
-    let checksum = measured_steps(&mut pipe, &cycle);
-    println!("{beams} beams, tracking {tracking}: {STEPS} steps, checksum {checksum:.12}");
+    let repeats: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(1);
+    let mut checksum = 0.0;
+    for rep in 0..repeats {
+        // Time runs on: each repeat continues the cycle where the last one left it.
+        checksum += measured_steps(&mut pipe, &cycle, FRAMES + rep * STEPS);
+    }
+    println!("{beams} beams, tracking {tracking}: {} steps, checksum {checksum:.12}", repeats * STEPS);
 }

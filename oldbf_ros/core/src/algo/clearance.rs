@@ -320,27 +320,30 @@ fn seed_bounds(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideF
         Some((start, _)) => ratio_at_least(p.x, n2, start),
         None => true,
     };
-    // Nearest overall, in front, left, right: (squared norm, index).
-    let mut seeds = [(f64::INFINITY, usize::MAX); 4];
+    // Nearest overall, in front, left, right: squared norm and index, in locals so
+    // that the running minima stay in registers.
+    let (mut n_all, mut n_front, mut n_left, mut n_right) = (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let (mut i_all, mut i_front, mut i_left, mut i_right) = (usize::MAX, usize::MAX, usize::MAX, usize::MAX);
     for (i, p) in points.iter().enumerate() {
         let n2 = p.norm_squared();
-        if n2 < seeds[0].0 {
-            seeds[0] = (n2, i);
+        if n2 < n_all {
+            (n_all, i_all) = (n2, i);
         }
-        if n2 < seeds[1].0 && (front.full || ratio_at_least(p.x, n2, front.cos_half)) {
-            seeds[1] = (n2, i);
+        if n2 < n_front && (front.full || ratio_at_least(p.x, n2, front.cos_half)) {
+            (n_front, i_front) = (n2, i);
         }
-        if (n2 < seeds[2].0 || n2 < seeds[3].0) && free(p, n2) {
-            if p.y >= 0.0 && n2 < seeds[2].0 {
-                seeds[2] = (n2, i);
+        if (n2 < n_left || n2 < n_right) && free(p, n2) {
+            if p.y >= 0.0 && n2 < n_left {
+                (n_left, i_left) = (n2, i);
             }
-            if p.y <= 0.0 && n2 < seeds[3].0 {
-                seeds[3] = (n2, i);
+            if p.y <= 0.0 && n2 < n_right {
+                (n_right, i_right) = (n2, i);
             }
         }
     }
+    let seeds = [i_all, i_front, i_left, i_right];
     let mut bound = Clearances::OPEN;
-    for (_, i) in seeds.into_iter().filter(|s| s.1 != usize::MAX) {
+    for i in seeds.into_iter().filter(|&i| i != usize::MAX) {
         add_faded(&mut bound, points[i], robot_radius_m, front, fade);
     }
     bound

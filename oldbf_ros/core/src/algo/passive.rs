@@ -97,6 +97,16 @@ fn small_turn(a: f64) -> (f64, f64) {
     }
 }
 
+/// Whether ‖`d`‖ ≥ `limit` (m, ≥ 0) for certain, without the root: the
+/// comparisons it replaces (‖d‖ < limit, and a gap ‖d‖ − ρ ≥ limit − ρ that a
+/// cap at limit − ρ takes away) then come out the same, with a relative
+/// margin of 1e-9 far beyond the rounding of either side.
+#[inline]
+fn surely_beyond(d: Vec2, limit: f64) -> bool {
+    let far = limit * (1.0 + 1e-9);
+    d.norm_squared() > far * far
+}
+
 /// A tracked moving obstacle, robot frame, now.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Mover {
@@ -168,6 +178,13 @@ impl EvasionScore {
 #[derive(Debug, Clone, Default)]
 pub struct PassiveSafety {
     movers: Vec<Mover>,
+    /// The movers an evasion path of this step can come near, each with the
+    /// earliest time it can (s), soonest first (all of them, from 0 s, until
+    /// [`Self::select_reach`] has sorted out the others).
+    near_movers: Vec<(f64, Mover)>,
+    /// The movers a braking path of this step can come near (all of them
+    /// until [`Self::prepare`] has sorted out the others).
+    brake_movers: Vec<Mover>,
     /// Where unknown beams may hide something (robot frame, m): driven into
     /// like static points, never counted in h.
     phantoms: Vec<Vec2>,
@@ -230,6 +247,8 @@ impl PassiveSafety {
     pub fn with_capacity(max_movers: usize, points: usize) -> Self {
         Self {
             movers: Vec::with_capacity(max_movers),
+            near_movers: Vec::with_capacity(max_movers),
+            brake_movers: Vec::with_capacity(max_movers),
             phantoms: Vec::with_capacity(points),
             near_seen: Vec::with_capacity(points),
             near_unseen: Vec::with_capacity(points),
@@ -245,6 +264,10 @@ impl PassiveSafety {
     pub fn set_movers(&mut self, movers: impl Iterator<Item = Mover>) {
         self.movers.clear();
         self.movers.extend(movers);
+        self.near_movers.clear();
+        self.near_movers.extend(self.movers.iter().map(|m| (0.0, *m)));
+        self.brake_movers.clear();
+        self.brake_movers.extend_from_slice(&self.movers);
         self.forget_answers();
     }
 
@@ -327,6 +350,18 @@ impl PassiveSafety {
         self.near_unseen.clear();
         self.near_unseen
             .extend(self.phantoms.iter().filter(|q| q.norm_squared() <= reach2));
+        // A mover is out of reach of every braking path when, closing at its speed
+        // from where it is while the robot travels its longest path, it stays beyond
+        // its grown disc for the path's whole duration: at every sample
+        // `first_closing_contact` would skip it (`surely_beyond`).
+        let duration = p.control.dt_s() + speed / p.passive.brake_decel_mps2;
+        let (r, pp) = (p.robot_radius_m(), &p.passive);
+        self.brake_movers.clear();
+        self.brake_movers.extend(self.movers.iter().filter(|m| {
+            let nearest = m.position.norm() - m.velocity.norm() * duration - travel;
+            let grown = r + m.radius_m + pp.mover_margin_m + pp.mover_growth_mps * duration;
+            nearest <= grown * (1.0 + 1e-6) + 1e-6
+        }));
         self.forget_answers();
     }
 
@@ -385,10 +420,13 @@ impl PassiveSafety {
                     }
                 }
             }
-            for m in &self.movers {
+            for m in &self.brake_movers {
                 let c = m.position + m.velocity * s.t_s;
                 let reach_m = r + m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * s.t_s;
                 let d = c - s.pos;
+                if surely_beyond(d, reach_m) {
+                    continue;
+                }
                 let dist = d.norm();
                 if dist < reach_m {
                     let towards = if dist > 0.0 { s.vel.dot(&d) / dist } else { s.vel.norm() };
@@ -414,6 +452,20 @@ impl PassiveSafety {
         self.reach.clear();
         self.reach
             .extend(all.iter().chain(&self.phantoms).filter(|q| q.norm_squared() <= reach2));
+        // Until a mover, closing at its speed plus the robot's from where it is, can
+        // come within its radius + r + the larger of the gap cap and its grown margin,
+        // `score_evasion` would skip it at every sample (`surely_beyond`): it is looked
+        // at from then on, and not at all if that is beyond the horizon.
+        let horizon = p.passive.evasion_horizon_s;
+        let beyond = GAP_CAP_M.max(p.passive.mover_margin_m + p.passive.mover_growth_mps * horizon);
+        let r = p.robot_radius_m();
+        self.near_movers.clear();
+        self.near_movers.extend(self.movers.iter().filter_map(|m| {
+            let room = m.position.norm() - ((r + m.radius_m + beyond) * (1.0 + 1e-6) + 1e-6);
+            let from = (room / (m.velocity.norm() + vmax)).max(0.0);
+            (from <= horizon).then_some((from, *m))
+        }));
+        self.near_movers.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         self.evasion_memo.clear();
     }
 
@@ -448,9 +500,19 @@ impl PassiveSafety {
             let pos = walk.pos;
             let vel = walk.heading * cmd.v_mps;
             let mut gap = f64::INFINITY;
-            for m in &self.movers {
+            // A mover farther than this beyond r + its radius is past the gap cap and
+            // its grown disc: it changes neither, and its distance needs no root.
+            let beyond = GAP_CAP_M.max(p.passive.mover_margin_m + p.passive.mover_growth_mps * t);
+            for (from, m) in &self.near_movers {
+                if t < *from {
+                    break; // it and every later one are still too far
+                }
                 let c = m.position + m.velocity * t;
-                let dist = (c - pos).norm();
+                let d = c - pos;
+                if surely_beyond(d, r + m.radius_m + beyond) {
+                    continue;
+                }
+                let dist = d.norm();
                 gap = gap.min(dist - r - m.radius_m);
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
                 if contact.is_none() && dist < r + grown {
