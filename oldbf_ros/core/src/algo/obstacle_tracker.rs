@@ -240,14 +240,20 @@ impl ObstacleTracker {
                 .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centroid))),
         );
 
-        // Gated nearest neighbour, greedy by distance.
+        // Gated nearest neighbour, greedy by distance. A pair whose squared distance
+        // is beyond the gate's (1e-9 to spare) is out without its root.
         self.pairs.clear();
+        let far2 = (p.gate_m * (1.0 + 1e-9)).powi(2);
         for (ci, z) in self.measured.iter().enumerate() {
             let Some(z) = *z else {
                 continue;
             };
             for (ti, t) in self.tracks.iter().enumerate() {
-                let d = (z - t.position()).norm();
+                let dz = z - t.position();
+                if dz.norm_squared() > far2 {
+                    continue;
+                }
+                let d = dz.norm();
                 if d <= p.gate_m {
                     self.pairs.push((d, ti, ci));
                 }
