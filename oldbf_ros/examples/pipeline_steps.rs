@@ -69,5 +69,8 @@ fn main() {
         // Time runs on: each repeat continues the cycle where the last one left it.
         checksum += measured_steps(&mut pipe, &cycle, FRAMES + rep * STEPS);
     }
-    println!("{beams} beams, tracking {tracking}: {} steps, checksum {checksum:.12}", repeats * STEPS);
+    println!(
+        "{beams} beams, tracking {tracking}: {} steps, checksum {checksum:.12}",
+        repeats * STEPS
+    );
 }

@@ -322,7 +322,8 @@ fn seed_bounds(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideF
     };
     // Nearest overall, in front, left, right: squared norm and index, in locals so
     // that the running minima stay in registers.
-    let (mut n_all, mut n_front, mut n_left, mut n_right) = (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let (mut n_all, mut n_front, mut n_left, mut n_right) =
+        (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let (mut i_all, mut i_front, mut i_left, mut i_right) = (usize::MAX, usize::MAX, usize::MAX, usize::MAX);
     for (i, p) in points.iter().enumerate() {
         let n2 = p.norm_squared();
