@@ -773,3 +773,246 @@ mod tests {
         }
     }
 }
+
+/// The braking check and the evasion score as first written, every mover
+/// looked at at every sample with its root: the plain references the fast
+/// paths (movers out of reach left out, roots only where they decide) are
+/// compared with, bit for bit.
+#[cfg(test)]
+impl PassiveSafety {
+    fn reference_closing_contact(&mut self, cmd: Twist, p: &Params) -> Option<ClosingContact> {
+        self.braking_path(cmd, p);
+        let last = self.path.last()?;
+        let r = p.robot_radius_m();
+        let threshold = 0.5 * p.passive.closing_speed_mps;
+        // Only points the body can reach on this path matter: within r of a path
+        // no longer than the time it takes at the starting speed.
+        let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
+        let reach2 = reach * reach;
+        let r2 = r * r;
+        let ru = r + UNSEEN_MARGIN_M;
+        let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
+        // The points this path can reach, with the contact radius of each, once.
+        self.scratch.clear();
+        let seen = self
+            .near_seen
+            .iter()
+            .filter(|q| q.norm_squared() <= reach2)
+            .map(|q| (*q, r2));
+        let unseen = self
+            .near_unseen
+            .iter()
+            .filter(|q| q.norm_squared() <= reach_u2)
+            .map(|q| (*q, ru2));
+        self.scratch.extend(seen.chain(unseen));
+        for s in &self.path {
+            for &(q, r2) in &self.scratch {
+                let d = q - s.pos;
+                let d2 = d.norm_squared();
+                if d2 < r2 {
+                    let towards = if d2 > 0.0 {
+                        s.vel.dot(&d) / d2.sqrt()
+                    } else {
+                        s.vel.norm()
+                    };
+                    if towards > threshold {
+                        return Some(ClosingContact {
+                            t_s: s.t_s,
+                            closing_speed_mps: towards,
+                            mover: false,
+                        });
+                    }
+                }
+            }
+            for m in &self.movers {
+                let c = m.position + m.velocity * s.t_s;
+                let reach_m = r + m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * s.t_s;
+                let d = c - s.pos;
+                let dist = d.norm();
+                if dist < reach_m {
+                    let towards = if dist > 0.0 { s.vel.dot(&d) / dist } else { s.vel.norm() };
+                    if towards > threshold {
+                        return Some(ClosingContact {
+                            t_s: s.t_s,
+                            closing_speed_mps: towards,
+                            mover: true,
+                        });
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    fn reference_evasion_score(&self, cmd: Twist, p: &Params) -> EvasionScore {
+        let r = p.robot_radius_m();
+        let horizon = p.passive.evasion_horizon_s;
+        let threshold = 0.5 * p.passive.closing_speed_mps;
+        let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
+        let mut contact: Option<f64> = None;
+        let mut gap_sum = 0.0;
+        let speed = cmd.v_mps.abs();
+        // No static point can be reached before this: the robot closes on any point no
+        // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
+        let mut static_clear_until = 0.0;
+        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
+        for k in 0..=n {
+            let t = horizon * k as f64 / n as f64;
+            if k > 0 {
+                walk.step();
+            }
+            let pos = walk.pos;
+            let vel = walk.heading * cmd.v_mps;
+            let mut gap = f64::INFINITY;
+            for m in &self.movers {
+                let c = m.position + m.velocity * t;
+                let dist = (c - pos).norm();
+                gap = gap.min(dist - r - m.radius_m);
+                let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
+                if contact.is_none() && dist < r + grown {
+                    contact = Some(t);
+                }
+            }
+            if k > 0 {
+                gap_sum += gap.min(GAP_CAP_M);
+                if contact.is_none() && speed > 0.0 && t >= static_clear_until {
+                    let mut nearest2 = f64::INFINITY;
+                    let static_hit = self.reach.iter().any(|q| {
+                        let d = q - pos;
+                        let d2 = d.norm_squared();
+                        nearest2 = nearest2.min(d2);
+                        d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
+                    });
+                    if static_hit {
+                        contact = Some(t);
+                    } else {
+                        static_clear_until = t + (nearest2.sqrt() - r).max(0.0) / speed;
+                    }
+                }
+            }
+        }
+        // Sidestep (§5b): how far inside the swept line of a mover coming head-on
+        // (within 45° of straight at the robot, and able to reach it within the
+        // look-ahead) the robot still is at the horizon's end.
+        let mut line_deficit_m: f64 = 0.0;
+        for m in &self.movers {
+            let speed = m.velocity.norm();
+            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
+            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
+                continue;
+            }
+            let need = r + m.radius_m + p.passive.mover_margin_m;
+            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
+                continue;
+            }
+            let lateral_of = |q: Vec2| {
+                let d = q - m.position;
+                (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
+            };
+            // Already beside its line: nothing to step out of.
+            if lateral_of(Vec2::zeros()) >= need {
+                continue;
+            }
+            line_deficit_m = line_deficit_m.max(need - lateral_of(walk.pos));
+        }
+        EvasionScore {
+            line_deficit_m,
+            time_to_contact_s: contact.unwrap_or(horizon),
+            mover_gap_m: if self.movers.is_empty() {
+                f64::INFINITY
+            } else {
+                gap_sum / n as f64
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod fast_path_properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Movers anywhere in a room, and movers right at the edge of reach:
+    /// 0.4-0.8 m out, where the braking path's own travel decides.
+    fn mover() -> impl Strategy<Value = Mover> {
+        let position = prop_oneof![
+            (-4.0f64..4.0, -4.0f64..4.0),
+            (0.4f64..0.8, -std::f64::consts::PI..std::f64::consts::PI).prop_map(|(d, a)| (d * a.cos(), d * a.sin())),
+        ];
+        (position, -0.4f64..0.4, -0.4f64..0.4, 0.05f64..0.3).prop_map(|((x, y), vx, vy, r)| Mover {
+            position: Vec2::new(x, y),
+            velocity: Vec2::new(vx, vy),
+            radius_m: r,
+        })
+    }
+
+    fn command() -> impl Strategy<Value = Twist> {
+        (
+            prop_oneof![Just(0.0), Just(0.22), Just(-0.15), -0.15f64..0.22],
+            prop_oneof![Just(0.0), Just(0.3), Just(-0.3), -0.3f64..0.3],
+        )
+            .prop_map(|(v, w)| Twist::new(v, w))
+    }
+
+    fn bits(s: &EvasionScore) -> [u64; 3] {
+        [
+            s.time_to_contact_s.to_bits(),
+            s.mover_gap_m.to_bits(),
+            s.line_deficit_m.to_bits(),
+        ]
+    }
+
+    #[test]
+    fn a_mover_reached_only_by_the_robots_own_travel_is_still_checked() {
+        // At rest 0.47 m ahead, radius 0.2: its disc grown for the braking path's
+        // 0.32 s reaches 0.178 + 0.2 + 0.05 + 0.1 · 0.32 = 0.46 m, so it is out of
+        // reach of a robot standing still. Driving at it at 0.22 m/s, the robot is
+        // 0.039 m on at 0.2 s, still closing at 0.12 m/s, within 0.448 m of it.
+        let p = Params::default();
+        let mut ps = PassiveSafety::with_capacity(4, 4);
+        ps.set_movers(std::iter::once(Mover {
+            position: Vec2::new(0.47, 0.0),
+            velocity: Vec2::zeros(),
+            radius_m: 0.2,
+        }));
+        ps.set_phantoms(&[]);
+        ps.prepare(&[], &p);
+        let cmd = Twist::new(0.22, 0.0);
+        let reference = ps.reference_closing_contact(cmd, &p);
+        assert!(reference.is_some_and(|c| c.mover), "{reference:?}");
+        assert_eq!(ps.closing_contact(cmd, &p), reference);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(1500))]
+
+        #[test]
+        fn braking_checks_and_evasion_scores_match_their_references(
+            movers in prop::collection::vec(mover(), 0..12),
+            points in prop::collection::vec((-2.0f64..2.0, -2.0f64..2.0), 0..40),
+            phantoms in prop::collection::vec((-1.0f64..1.0, -1.0f64..1.0), 0..4),
+            commands in prop::collection::vec(command(), 1..6),
+            growth in prop_oneof![Just(0.1), 0.0f64..1.0],
+            horizon in prop_oneof![Just(4.0), 0.5f64..10.0],
+        ) {
+            let mut p = Params::default();
+            p.passive.mover_growth_mps = growth;
+            p.passive.evasion_horizon_s = horizon;
+            let points: Vec<Vec2> = points.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            let phantoms: Vec<Vec2> = phantoms.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            let mut ps = PassiveSafety::with_capacity(16, 64);
+            ps.set_movers(movers.iter().copied());
+            ps.set_phantoms(&phantoms);
+            ps.prepare(&points, &p);
+            for &cmd in &commands {
+                let fast = ps.closing_contact(cmd, &p);
+                prop_assert_eq!(fast, ps.reference_closing_contact(cmd, &p), "{:?}", cmd);
+            }
+            ps.select_reach(&points, &p);
+            for &cmd in &commands {
+                let fast = ps.evasion_score(cmd, &p);
+                prop_assert_eq!(bits(&fast), bits(&ps.reference_evasion_score(cmd, &p)), "{:?}", cmd);
+            }
+        }
+    }
+}

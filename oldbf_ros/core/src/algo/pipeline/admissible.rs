@@ -218,6 +218,14 @@ impl SafetyPipeline {
             let cost = |c: Twist| (c.v_mps - desired.v_mps).powi(2) + w * (c.omega_radps - desired.omega_radps).powi(2);
             let current = self.passive.evasion_score(chosen.cmd, p);
             let (min_gain_s, tier_both) = (p.passive.evasion_min_gain_s, chosen.condition && chosen.passive);
+            // The DTCBF's noise margin δ (§5): evasion may replace a command that kept it
+            // only by one that keeps it too. Without it, a track on a static object that
+            // looked like a mover had the robot evade at the very edge of the condition,
+            // and the true geometry broke it by 0.3 mm (soak_static, seed 1, world 233).
+            let delta = p.dtcbf.noise_margin_m;
+            let margin_target = (h.is_finite() && h >= 0.0).then_some((1.0 - p.dtcbf.gamma) * (h - delta) + delta);
+            let keeps_margin = move |h_next: f64| margin_target.is_none_or(|t| h_next >= t - TOL_M);
+            let tier_margin = tier_both && keeps_margin(chosen.h_next_m);
             let (last_omega, jump) = (self.last_cmd.omega_radps, p.control.omega_max_radps);
             let smooth = |c: Twist| (c.omega_radps - last_omega).abs() <= jump + 1e-9;
             let (mut best, mut best_score) = (chosen, current);
@@ -229,7 +237,7 @@ impl SafetyPipeline {
                     // The cheap condition first: a command it rules out needs no braking check.
                     let cmd = Twist::new(v, omega);
                     let (h_next_m, condition) = self.condition(cmd, h);
-                    if tier_both && !condition {
+                    if (tier_both && !condition) || (tier_margin && !keeps_margin(h_next_m)) {
                         continue;
                     }
                     let passive = self.passive.closing_contact(cmd, &self.params).is_none();
