@@ -234,8 +234,20 @@ impl SafetyPipeline {
             for k in 0..EVASION_OMEGAS {
                 let omega = grid(-bx.omega_max, bx.omega_max, k, EVASION_OMEGAS);
                 for v in speeds.into_iter().chain(std::iter::once(0.0)) {
-                    // The cheap condition first: a command it rules out needs no braking check.
                     let cmd = Twist::new(v, omega);
+                    // A command no closer to the DOAA's than a best that keeps clear of every
+                    // mover and out of every head-on line cannot displace it, whatever its
+                    // score (`ahead`: a later contact is impossible, a tie goes to the cost):
+                    // when that holds for both bests it may update, it is not weighed at all.
+                    let settled = |b: &Candidate, s: &EvasionScore| {
+                        s.time_to_contact_s >= horizon && s.line_deficit_m <= 0.0 && cost(cmd) >= cost(b.cmd)
+                    };
+                    if settled(&best, &best_score)
+                        && (!smooth(cmd) || smooth_best.as_ref().is_some_and(|(b, s)| settled(b, s)))
+                    {
+                        continue;
+                    }
+                    // The cheap condition first: a command it rules out needs no braking check.
                     let (h_next_m, condition) = self.condition(cmd, h);
                     if (tier_both && !condition) || (tier_margin && !keeps_margin(h_next_m)) {
                         continue;
