@@ -180,6 +180,10 @@ const NEAR_MARGIN_M: f64 = 1e-3;
 #[derive(Debug, Default, Clone)]
 struct NearPoints {
     points: Vec<Vec2>,
+    /// Of those, the ones that can be nearest after a step, by (b) alone: all
+    /// `min_distance` needs (the passive-safety search asks it for ~276
+    /// commands a step, and (a) keeps far more points than (b)).
+    nearest: Vec<Vec2>,
     /// Longest displacement over one step the selection is valid for (m).
     max_step_m: f64,
 }
@@ -194,6 +198,11 @@ impl NearPoints {
         let r2 = radius * radius;
         self.points.clear();
         self.points.extend(all.iter().filter(|p| p.norm_squared() <= r2));
+        let reach = nearest + 2.0 * max_step + NEAR_MARGIN_M;
+        let reach2 = reach * reach;
+        self.nearest.clear();
+        self.nearest
+            .extend(self.points.iter().filter(|p| p.norm_squared() <= reach2));
         self.max_step_m = max_step;
     }
 
@@ -201,7 +210,7 @@ impl NearPoints {
     /// the selection covers, else (never for a command of the box) over `all`.
     fn min_distance(&self, all: &[Vec2], disp: Vec2) -> f64 {
         if disp.norm() <= self.max_step_m {
-            min_distance(&self.points, disp)
+            min_distance(&self.nearest, disp)
         } else {
             min_distance(all, disp)
         }
@@ -235,6 +244,7 @@ impl DtcbfFilter {
             },
             near: NearPoints {
                 points: Vec::with_capacity(points),
+                nearest: Vec::with_capacity(points),
                 max_step_m: 0.0,
             },
             turn_sign: 0.0,
@@ -285,10 +295,12 @@ impl DtcbfFilter {
         self.forbidden.intervals.clear();
         self.forbidden.intervals.reserve(points_next.len());
         self.near.points.reserve(points_next.len());
+        self.near.nearest.reserve(points_next.len());
         let h = min_distance(points, Vec2::zeros()) - r - d_safe;
         if !h.is_finite() || points_next.is_empty() {
             // Nothing visible: nothing to keep away from.
             self.near.points.clear();
+            self.near.nearest.clear();
             self.near.max_step_m = f64::INFINITY;
             let h_next = min_distance(points_next, predicted_displacement(model, desired, dt)) - r - d_safe;
             return DtcbfOutcome {
