@@ -33,7 +33,8 @@ pub struct OdometryState {
     pub wheels: WheelSpeeds,
     /// Integration steps done.
     pub updates: u64,
-    /// Position jumps that re-baselined the integration.
+    /// Position jumps, and speeds beyond any the robot can reach, that
+    /// re-baselined the integration.
     pub resets: u64,
 }
 
@@ -94,10 +95,20 @@ impl Odometry {
         };
         self.wheels[0].pending = None;
         self.wheels[1].pending = None;
-        self.state.wheels = WheelSpeeds {
+        let wheels = WheelSpeeds {
             left_radps: self.kin.motor_to_wheel(Wheel::Left, l.1),
             right_radps: self.kin.motor_to_wheel(Wheel::Right, r.1),
         };
+        // A reported speed beyond any the robot can reach is garbage, not motion: it
+        // would reach the filter as the robot's speed. Handled like a position jump:
+        // nothing of the pair is used, the next pair starts afresh.
+        let fastest = JUMP_FACTOR * self.plausible_wheel_speed_radps + JUMP_FLOOR_RAD;
+        if wheels.left_radps.abs() > fastest || wheels.right_radps.abs() > fastest {
+            self.state.resets += 1;
+            self.rebase(l.0, r.0, now);
+            return false;
+        }
+        self.state.wheels = wheels;
         self.state.twist = self.kin.twist(self.state.wheels);
         let (Some(bl), Some(br)) = (self.wheels[0].base_pos, self.wheels[1].base_pos) else {
             self.rebase(l.0, r.0, now);
@@ -279,6 +290,24 @@ mod tests {
         assert_eq!(o.state().resets, 1);
         assert!(feed(&mut o, 1000.5, 1000.5, 0.3));
         assert!((o.state().pose.x_m - 2.0 * 0.5 * 0.033).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_implausible_speed_is_a_reset_not_a_twist() {
+        let k = kin();
+        let mut o = Odometry::new(k, None, 10.0);
+        feed(&mut o, 0.0, 0.0, 0.0);
+        // Bound: 2 × 10 + 1 = 21 wheel rad/s. The generic protocol's most negative
+        // count decodes to -21474.8 motor rad/s.
+        o.on_feedback(Wheel::Left, 0.0, -21474.83648, t(0.1));
+        assert!(!o.on_feedback(Wheel::Right, 0.0, 0.0, t(0.1)));
+        assert_eq!(o.state().twist.linear_mps, 0.0);
+        assert_eq!(o.state().resets, 1);
+        // Within it, the twist is taken: 20 wheel rad/s on both wheels.
+        o.on_feedback(Wheel::Left, 0.0, 20.0 * k.motor_per_wheel(Wheel::Left), t(0.2));
+        o.on_feedback(Wheel::Right, 0.0, 20.0 * k.motor_per_wheel(Wheel::Right), t(0.2));
+        assert!((o.state().twist.linear_mps - 20.0 * 0.033).abs() < 1e-12);
+        assert_eq!(o.state().resets, 1);
     }
 
     #[test]
