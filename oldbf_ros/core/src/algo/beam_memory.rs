@@ -29,7 +29,7 @@ const POSE_RING: usize = 1024;
 pub struct BeamMemory {
     /// Last valid range of each beam (m), and the scan it came from
     /// (`u32::MAX` = none).
-    last: Vec<(f32, u32)>,
+    last: Vec<BeamSlot>,
     /// Robot pose in the tracking frame and stamp (s) of recent scans, by scan number.
     poses: Vec<(Pose2, f64)>,
     /// Number of the scan being processed.
@@ -84,6 +84,21 @@ impl BeamMemory {
         self.poses[self.seq as usize % POSE_RING] = (ego, stamp_s);
     }
 
+    /// The per-beam slots of the scan begun by [`Self::begin_scan`], to be
+    /// written in one pass over the beams, and the read-only rest that
+    /// [`HeldView::held_point`] needs: the same as [`Self::remember`],
+    /// [`Self::forget`] and [`Self::held_point`] beam by beam, without an index
+    /// check per beam.
+    pub fn scan_slots(&mut self) -> (&mut [BeamSlot], HeldView<'_>) {
+        (
+            &mut self.last,
+            HeldView {
+                poses: &self.poses,
+                seq: self.seq,
+            },
+        )
+    }
+
     /// Beam `i` read `range_m` (valid, or range_min for −inf).
     #[inline]
     pub fn remember(&mut self, i: usize, range_m: f32) {
@@ -101,7 +116,43 @@ impl BeamMemory {
     /// point in the robot frame of the scan it was taken in.
     #[inline]
     pub fn held_point(&self, i: usize, hold_s: f64, local: impl Fn(f32) -> Vec2) -> Option<Vec2> {
-        let (range, seq) = self.last[i];
+        HeldView {
+            poses: &self.poses,
+            seq: self.seq,
+        }
+        .held_point(self.last[i], hold_s, local)
+    }
+}
+
+/// One beam's memory: its last valid range (m) and the scan it came from.
+pub type BeamSlot = (f32, u32);
+
+/// What a beam's slot needs to become a held point: the pose ring and the
+/// current scan's number ([`BeamMemory::scan_slots`]).
+#[derive(Debug, Clone, Copy)]
+pub struct HeldView<'a> {
+    poses: &'a [(Pose2, f64)],
+    seq: u32,
+}
+
+impl HeldView<'_> {
+    /// Marks `slot` as read `range_m` in this scan ([`BeamMemory::remember`]).
+    #[inline]
+    pub fn remember(&self, slot: &mut BeamSlot, range_m: f32) {
+        *slot = (range_m, self.seq);
+    }
+
+    /// Marks `slot` as reading nothing in range ([`BeamMemory::forget`]).
+    #[inline]
+    pub fn forget(&self, slot: &mut BeamSlot) {
+        slot.1 = NONE;
+    }
+
+    /// The point `slot` last saw, in the current robot frame, if seen within
+    /// `hold_s` of now ([`BeamMemory::held_point`]).
+    #[inline]
+    pub fn held_point(&self, slot: BeamSlot, hold_s: f64, local: impl Fn(f32) -> Vec2) -> Option<Vec2> {
+        let (range, seq) = slot;
         if seq == NONE || self.seq.wrapping_sub(seq) as usize >= POSE_RING {
             return None;
         }

@@ -326,6 +326,11 @@ impl ScanPoints {
         self.points.clear();
         self.beam_index.clear();
         self.status.clear();
+        self.clear_counts();
+    }
+
+    /// Zeroes the counts and empties the phantoms, leaving the point buffers.
+    fn clear_counts(&mut self) {
         self.beams = 0;
         self.unknown = 0;
         self.held = 0;
@@ -494,15 +499,25 @@ pub fn fill_points(
     memory: &mut BeamMemory,
     rear_half_rad: f64,
 ) {
-    out.clear();
+    // The point buffers keep their contents: the pass below overwrites them by
+    // index and cuts them to the points made (emptied, every scan would fill
+    // them anew first).
+    out.clear_counts();
     out.beams = scan.ranges_m.len();
     // Grows only when a scan has more beams than any before: no allocation in steady state.
-    out.reserve(out.beams);
+    out.phantoms.reserve(2 * out.beams);
     let (rmin, rmax) = (scan.header.range_min_m, scan.header.range_max_m);
     let origin = mount.pose.position();
     let cos_rear = rear_half_rad.cos();
     let dirs = out.directions.get(scan, mount);
     if params.range_semantics == RangeSemantics::AllInvalidFree {
+        out.points.clear();
+        out.beam_index.clear();
+        out.status.clear();
+        let n = out.beams;
+        out.points.reserve(n);
+        out.beam_index.reserve(n);
+        out.status.reserve(n);
         for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
             out.rear_beams += (dir.x <= -cos_rear) as usize;
             if is_valid_range(p, rmin, rmax) {
@@ -533,25 +548,44 @@ pub fn fill_points(
         ..
     } = out;
     let dirs = &directions.dirs;
+    let n = scan.ranges_m.len();
+    // Written by index into buffers sized once per scan (a point per beam at
+    // most), then cut to the points made: no capacity check per beam.
+    points.resize(n, Vec2::zeros());
+    beam_index.resize(n, 0);
+    status.resize(n, BeamStatus::Free);
+    let (slots, memory) = memory.scan_slots();
+    let (points_out, beam_index_out) = (&mut points[..n], &mut beam_index[..n]);
     let (mut unknown, mut unknown_front, mut unknown_rear) = (0, 0, 0);
-    let (mut held, mut too_close) = (0, 0);
-    for (i, (&p, dir)) in scan.ranges_m.iter().zip(dirs).enumerate() {
-        let beam_status = match classify_range(p, rmin, rmax, zero_free) {
+    let (mut held, mut too_close, mut made) = (0, 0, 0);
+    let beams = scan
+        .ranges_m
+        .iter()
+        .zip(dirs)
+        .zip(slots.iter_mut())
+        .zip(status.iter_mut());
+    // Beam numbers as u32, as `beam_index` keeps them (a checked scan has at
+    // most `laser.max_beams` ≤ 10⁶ beams).
+    let mut i = 0u32;
+    for (((&p, dir), slot), beam_status) in beams {
+        *beam_status = match classify_range(p, rmin, rmax, zero_free) {
             RangeKind::Valid => {
-                memory.remember(i, p);
-                points.push(origin + dir * p as f64);
-                beam_index.push(i as u32);
+                memory.remember(slot, p);
+                points_out[made] = origin + dir * p as f64;
+                beam_index_out[made] = i;
+                made += 1;
                 BeamStatus::Valid
             }
             RangeKind::TooClose => {
-                memory.remember(i, rmin);
+                memory.remember(slot, rmin);
                 too_close += 1;
-                points.push(origin + dir * rmin as f64);
-                beam_index.push(i as u32);
+                points_out[made] = origin + dir * rmin as f64;
+                beam_index_out[made] = i;
+                made += 1;
                 BeamStatus::TooClose
             }
             RangeKind::Free => {
-                memory.forget(i);
+                memory.forget(slot);
                 BeamStatus::Free
             }
             RangeKind::Unknown => {
@@ -563,11 +597,12 @@ pub fn fill_points(
                 // check keeps off this beam there, not where the beam last saw
                 // something (a person who stepped inside range_min).
                 let too_close = (p > 0.0).then(|| origin + dir * (p as f64).max(TOO_CLOSE_FLOOR * rmin as f64));
-                match memory.held_point(i, hold_s, |r| origin + dir * r as f64) {
+                match memory.held_point(*slot, hold_s, |r| origin + dir * r as f64) {
                     Some(q) => {
                         held += 1;
-                        points.push(q);
-                        beam_index.push(i as u32);
+                        points_out[made] = q;
+                        beam_index_out[made] = i;
+                        made += 1;
                         // Where it was: it may have come closer since.
                         phantoms.push(too_close.unwrap_or(q));
                         BeamStatus::Held
@@ -579,8 +614,10 @@ pub fn fill_points(
                 }
             }
         };
-        status.push(beam_status);
+        i = i.wrapping_add(1);
     }
+    points.truncate(made);
+    beam_index.truncate(made);
     (out.front_beams, out.rear_beams, out.unknown) = (front_beams, rear_beams, unknown);
     (out.unknown_front, out.unknown_rear) = (unknown_front, unknown_rear);
     (out.held, out.too_close) = (held, too_close);
