@@ -325,7 +325,9 @@ fn seed_bounds(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideF
     let (mut n_all, mut n_front, mut n_left, mut n_right) =
         (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let (mut i_all, mut i_front, mut i_left, mut i_right) = (usize::MAX, usize::MAX, usize::MAX, usize::MAX);
-    for (i, p) in points.iter().enumerate() {
+    // Indices from a range, not `enumerate` (whose count is overflow-checked).
+    for i in 0..points.len() {
+        let p = &points[i];
         let n2 = p.norm_squared();
         if n2 < n_all {
             (n_all, i_all) = (n2, i);
