@@ -189,11 +189,11 @@ struct NearPoints {
 }
 
 impl NearPoints {
-    /// Keeps the points of `all` that can matter for required centre distances
-    /// up to `max_clearance_m` and steps up to `max_step_m` (m).
-    fn select(&mut self, all: &[Vec2], max_clearance_m: f64, max_step_m: f64) {
+    /// Keeps the points of `all`, whose nearest is `nearest` = ‖P‖ min (m)
+    /// away, that can matter for required centre distances up to
+    /// `max_clearance_m` and steps up to `max_step_m` (m).
+    fn select(&mut self, all: &[Vec2], nearest: f64, max_clearance_m: f64, max_step_m: f64) {
         let max_step = max_step_m + NEAR_MARGIN_M;
-        let nearest = min_distance(all, Vec2::zeros());
         let radius = max_clearance_m.max(nearest + max_step) + max_step + NEAR_MARGIN_M;
         let r2 = radius * radius;
         self.points.clear();
@@ -296,7 +296,8 @@ impl DtcbfFilter {
         self.forbidden.intervals.reserve(points_next.len());
         self.near.points.reserve(points_next.len());
         self.near.nearest.reserve(points_next.len());
-        let h = min_distance(points, Vec2::zeros()) - r - d_safe;
+        let nearest_now = min_distance(points, Vec2::zeros());
+        let h = nearest_now - r - d_safe;
         if !h.is_finite() || points_next.is_empty() {
             // Nothing visible: nothing to keep away from.
             self.near.points.clear();
@@ -331,7 +332,13 @@ impl DtcbfFilter {
         // The longest step of the box: |κ| ≤ Δt for both models.
         let max_step = dt * bx.v_lo.abs().max(bx.v_hi.abs());
         let max_clearance = targets.iter().map(|t| (r + d_safe + t).abs()).fold(0.0, f64::max);
-        self.near.select(points_next, max_clearance, max_step);
+        // A static step passes the points as both (the same slice): one search.
+        let nearest_next = if std::ptr::eq(points, points_next) {
+            nearest_now
+        } else {
+            min_distance(points_next, Vec2::zeros())
+        };
+        self.near.select(points_next, nearest_next, max_clearance, max_step);
         let near = &self.near;
         let h_next_of =
             |cmd: Twist| near.min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
@@ -817,7 +824,7 @@ mod tests {
             let (dt, omega_max) = (0.1, 0.3);
             let model = if arc { PredictionModel::Arc } else { PredictionModel::Euler };
             let mut near = NearPoints::default();
-            near.select(&all, max_clearance, dt * v_lo.abs().max(v_hi));
+            near.select(&all, min_distance(&all, Vec2::zeros()), max_clearance, dt * v_lo.abs().max(v_hi));
             let speeds: Vec<f64> = (0..=20).map(|j| v_lo + (v_hi - v_lo) * j as f64 / 20.0).collect();
             let (mut from_near, mut from_all) = (ForbiddenSpeeds::default(), ForbiddenSpeeds::default());
             for k in 0..=10 {

@@ -3,7 +3,7 @@
 //! closes in. A child of the pipeline module: it works on the pipeline's
 //! state (points, movers, last command) as the rest of a step does.
 
-use super::SafetyPipeline;
+use super::{next_points, SafetyPipeline};
 use crate::algo::dtcbf::{motion_direction, DtcbfOutcome, InputBox};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
@@ -75,7 +75,7 @@ impl SafetyPipeline {
     /// condition, the one the record and the tests judge.
     fn condition(&self, cmd: Twist, h: f64) -> (f64, bool) {
         let p = &self.params;
-        let h_next = self.filter.h_next(&self.points_next, cmd, p);
+        let h_next = self.filter.h_next(self.points_next(), cmd, p);
         (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
     }
 
@@ -83,7 +83,7 @@ impl SafetyPipeline {
     /// (`predicted_displacement` of it), bit for bit.
     fn condition_at(&self, disp: Vec2, h: f64) -> (f64, bool) {
         let p = &self.params;
-        let h_next = self.filter.h_next_at(&self.points_next, disp, p);
+        let h_next = self.filter.h_next_at(self.points_next(), disp, p);
         (h_next, !h.is_finite() || h_next >= (1.0 - p.dtcbf.gamma) * h - TOL_M)
     }
 
@@ -194,7 +194,10 @@ impl SafetyPipeline {
         // horizon if it keeps the DTCBF's command.
         let movers = !self.passive.movers().is_empty();
         if movers {
-            self.passive.select_reach(&self.points_next, &self.params);
+            self.passive.select_reach(
+                next_points(self.any_advanced, &self.points_next, &self.points.points),
+                &self.params,
+            );
         }
         // Threatened: contact predicted within the collision-cone look-ahead (the evasion
         // horizon, longer, only ranks the ways out).

@@ -99,8 +99,12 @@ pub struct SafetyPipeline {
     /// baseline reads them); with tracking on they are always built.
     keep_clusters: bool,
     tracker: ObstacleTracker,
-    /// Where the points will be after one step (moving clusters advanced).
+    /// Where the points will be after one step (moving clusters advanced),
+    /// when [`Self::any_advanced`]; else they are the scan's points.
     points_next: Vec<Vec2>,
+    /// Whether a cluster was advanced this step: only then is `points_next`
+    /// filled (a copy of the points, then the movers moved).
+    any_advanced: bool,
     /// Robot pose in the tracking frame, whether it came from odometry, and its stamp (s).
     ego: Option<(Pose2, bool, f64)>,
     threats: Vec<Threat>,
@@ -151,6 +155,7 @@ impl SafetyPipeline {
             keep_clusters: false,
             tracker: ObstacleTracker::with_capacity(max_tracks, cap),
             points_next: Vec::with_capacity(cap),
+            any_advanced: false,
             ego: None,
             threats: Vec::with_capacity(max_tracks),
         }
@@ -177,7 +182,7 @@ impl SafetyPipeline {
     /// Where the points will be after one step, as the filter predicted
     /// them (moving clusters on a collision course advanced by v_o Δt).
     pub fn points_next(&self) -> &[Vec2] {
-        &self.points_next
+        next_points(self.any_advanced, &self.points_next, &self.points.points)
     }
 
     /// Tracked obstacles on a collision course at the last step.
@@ -289,8 +294,7 @@ impl SafetyPipeline {
     /// predicted at the time to collision. Every moving track also becomes a
     /// [`Mover`] for the passive-safety check.
     fn predict_obstacles(&mut self, c: &mut Clearances, v_now: f64, stamp_s: f64, pose: Pose2, full_circle: bool) {
-        self.points_next.clear();
-        self.points_next.extend_from_slice(&self.points.points);
+        self.any_advanced = false;
         self.threats.clear();
         self.passive.set_movers(std::iter::empty());
         // Clusters for tracking, or for a consumer that asked for them.
@@ -362,6 +366,12 @@ impl SafetyPipeline {
                 continue;
             };
             let horizon = ttc;
+            if !self.any_advanced {
+                // Sized to the points, then copied whole (a memory copy; a Vec2 is Copy).
+                self.points_next.resize(n, Vec2::zeros());
+                self.points_next.copy_from_slice(pts);
+                self.any_advanced = true;
+            }
             let mut predicted = f64::INFINITY;
             for i in cluster.indices(n) {
                 self.points_next[i] += vel * dt;
@@ -478,7 +488,8 @@ impl SafetyPipeline {
             }
         }
         self.passive.set_phantoms(&self.points.phantoms);
-        self.passive.prepare(&self.points_next, &self.params);
+        let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
+        self.passive.prepare(next, &self.params);
         self.last_clearances = c;
         let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
         self.last_box = bx;
@@ -532,9 +543,8 @@ impl SafetyPipeline {
             let last = self.last_cmd.omega_radps;
             doaa_cmd.omega_radps = doaa_cmd.omega_radps.clamp(last - step, last + step);
         }
-        let out = self
-            .filter
-            .filter_in(&self.points.points, &self.points_next, doaa_cmd, p, &bx);
+        let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
+        let out = self.filter.filter_in(&self.points.points, next, doaa_cmd, p, &bx);
         let mut infeasibility = out.infeasible.then_some(if out.escape {
             Infeasibility::UnsafeSet
         } else {
@@ -613,6 +623,17 @@ impl SafetyPipeline {
                 .fold(f64::INFINITY, f64::min),
             stop_cause,
         }
+    }
+}
+
+/// Where the points will be after one step: the advanced copy when a cluster
+/// was advanced this step, else the points themselves (the same slice, which
+/// the filter recognises and does not search twice).
+fn next_points<'a>(any_advanced: bool, points_next: &'a [Vec2], points: &'a [Vec2]) -> &'a [Vec2] {
+    if any_advanced {
+        points_next
+    } else {
+        points
     }
 }
 
