@@ -326,8 +326,7 @@ fn seed_bounds(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideF
         (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let (mut i_all, mut i_front, mut i_left, mut i_right) = (usize::MAX, usize::MAX, usize::MAX, usize::MAX);
     // Indices from a range, not `enumerate` (whose count is overflow-checked).
-    for i in 0..points.len() {
-        let p = &points[i];
+    for (i, p) in (0..points.len()).zip(points) {
         let n2 = p.norm_squared();
         if n2 < n_all {
             (n_all, i_all) = (n2, i);
