@@ -258,7 +258,58 @@ impl Reach {
 /// with the same arithmetic as every point was before, so values and the
 /// points that realise them are the same bit for bit.
 pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sector, fade: &SideFade) -> Clearances {
-    let reach = Reach::new(&seed_bounds(points, robot_radius_m, front, fade), robot_radius_m);
+    let bound = seed_bounds(points, robot_radius_m, front, fade);
+    faded_within(points, robot_radius_m, front, fade, &bound).0
+}
+
+/// Which points realise a step's faded minima (indices into its points):
+/// overall, in front, left, right; `usize::MAX` where a minimum has none.
+pub type Minimisers = [usize; 4];
+
+/// No minimiser.
+pub const NO_MINIMISERS: Minimisers = [usize::MAX; 4];
+
+/// [`compute_clearances_faded`], the same values bit for bit, with the
+/// bounds taken from `seeds` (indices into `points`; out-of-range ones are
+/// ignored) instead of a first pass over every point: any point's exact
+/// values bound the minima it counts in from above, and the points that
+/// realised the last scan's minima are next to this scan's. Where a minimum
+/// gets no bound from a seed but `seeds` names one for it, the first pass
+/// runs after all. Also returns this scan's minimisers, the next scan's seeds.
+pub fn compute_clearances_faded_seeded(
+    points: &[Vec2],
+    robot_radius_m: f64,
+    front: Sector,
+    fade: &SideFade,
+    seeds: &Minimisers,
+) -> (Clearances, Minimisers) {
+    let mut bound = Clearances::OPEN;
+    for &i in seeds {
+        if let Some(p) = points.get(i) {
+            add_faded(&mut bound, *p, robot_radius_m, front, fade);
+        }
+    }
+    let bounds = [bound.d_min_m, bound.d_front_m, bound.d_left_m, bound.d_right_m];
+    if seeds
+        .iter()
+        .zip(bounds)
+        .any(|(&i, b)| i != usize::MAX && b == f64::INFINITY)
+    {
+        bound = seed_bounds(points, robot_radius_m, front, fade);
+    }
+    faded_within(points, robot_radius_m, front, fade, &bound)
+}
+
+/// The faded minima over `points`, given upper `bound`s of them, and the
+/// indices of the points that realise them.
+fn faded_within(
+    points: &[Vec2],
+    robot_radius_m: f64,
+    front: Sector,
+    fade: &SideFade,
+    bound: &Clearances,
+) -> (Clearances, Minimisers) {
+    let reach = Reach::new(bound, robot_radius_m);
     // Bearing tests, widened by the margin: a point failing one cannot count there.
     let in_front = |p: &Vec2, n2: f64| front.full || ratio_at_least(p.x, n2, front.cos_half - PRUNE_MARGIN);
     let sin_fade = -(1.0 / fade.inv_sin_fade) - PRUNE_MARGIN;
@@ -267,7 +318,8 @@ pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sec
         None => true,
     };
     let mut c = Clearances::OPEN;
-    for p in points {
+    let mut at = NO_MINIMISERS;
+    for (i, p) in (0..points.len()).zip(points) {
         let n2 = p.norm_squared();
         if n2 > reach.any2 {
             continue;
@@ -277,38 +329,50 @@ pub fn compute_clearances_faded(points: &[Vec2], robot_radius_m: f64, front: Sec
             || (n2 <= reach.left2 && ratio_at_least(p.y, n2, sin_fade) && in_hemisphere(p, n2))
             || (n2 <= reach.right2 && ratio_at_least(-p.y, n2, sin_fade) && in_hemisphere(p, n2));
         if keep {
-            add_faded(&mut c, *p, robot_radius_m, front, fade);
+            let lowered = add_faded(&mut c, *p, robot_radius_m, front, fade);
+            for (k, slot) in at.iter_mut().enumerate() {
+                if lowered & (1 << k) != 0 {
+                    *slot = i;
+                }
+            }
         }
     }
-    c
+    (c, at)
 }
 
-/// One point into the faded minima (not the crowding sums).
+/// One point into the faded minima (not the crowding sums). Returns which it
+/// lowered, as bits: 1 overall, 2 front, 4 left, 8 right ([`Minimisers`]' order).
 #[inline]
-fn add_faded(c: &mut Clearances, p: Vec2, robot_radius_m: f64, front: Sector, fade: &SideFade) {
+fn add_faded(c: &mut Clearances, p: Vec2, robot_radius_m: f64, front: Sector, fade: &SideFade) -> u8 {
     // ‖P‖ as nalgebra computes it: the root of the squared norm.
     let norm = p.norm_squared().sqrt();
     let clearance = norm - robot_radius_m;
+    let mut lowered = 0;
     if clearance < c.d_min_m {
         c.d_min_m = clearance;
         c.closest = Some(p);
+        lowered |= 1;
     }
     if front.contains(p, norm) && clearance < c.d_front_m {
         c.d_front_m = clearance;
+        lowered |= 2;
     }
     if norm == 0.0 {
-        return;
+        return lowered;
     }
     let inv = 1.0 / norm;
     let (pl, pr) = fade.penalties(p.x * inv, p.y * inv);
     if pl.is_finite() && clearance + pl < c.d_left_m {
         c.d_left_m = clearance + pl;
         c.closest_left = Some(p);
+        lowered |= 4;
     }
     if pr.is_finite() && clearance + pr < c.d_right_m {
         c.d_right_m = clearance + pr;
         c.closest_right = Some(p);
+        lowered |= 8;
     }
+    lowered
 }
 
 /// Upper bounds of the faded minima: their exact values over a few seed
@@ -587,6 +651,36 @@ mod fast_path_properties {
             (fast.crowding_left, fast.crowding_right) = side_crowding(&points, &fade);
             let reference = reference_clearances_faded(&points, radius, front, &fade);
             prop_assert_eq!(bits(&fast), bits(&reference));
+        }
+
+        #[test]
+        fn seeded_clearances_match_their_reference_whatever_the_seeds(
+            points in prop::collection::vec((coordinate(), coordinate()), 0..100),
+            seeds in prop::array::uniform4(prop_oneof![Just(usize::MAX), 0usize..120]),
+            radius in prop_oneof![Just(0.0), 0.0f64..0.5],
+            front_deg in prop::sample::select(vec![0.0f64, 30.0, 60.0, 360.0]),
+            fade_deg in prop::sample::select(vec![1.0f64, 30.0, 90.0, 120.0]),
+            hemisphere_deg in prop::sample::select(vec![60.0f64, 180.0, 270.0, 360.0]),
+            d_act in 0.1f64..2.0,
+        ) {
+            let points: Vec<Vec2> = points.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            let front = Sector::new(front_deg.to_radians());
+            let fade = SideFade::new(fade_deg.to_radians(), hemisphere_deg.to_radians(), d_act).unwrap();
+            let reference = reference_clearances_faded(&points, radius, front, &fade);
+            // Any seeds, then the minimisers as seeds (the next scan's case).
+            let (mut fast, at) = compute_clearances_faded_seeded(&points, radius, front, &fade, &seeds);
+            (fast.crowding_left, fast.crowding_right) = side_crowding(&points, &fade);
+            prop_assert_eq!(bits(&fast), bits(&reference));
+            let (mut again, at_again) = compute_clearances_faded_seeded(&points, radius, front, &fade, &at);
+            (again.crowding_left, again.crowding_right) = side_crowding(&points, &fade);
+            prop_assert_eq!(bits(&again), bits(&reference));
+            prop_assert_eq!(at, at_again);
+            // The minimisers are the points the minima name.
+            let named = |k: usize| points.get(at[k]).copied();
+            prop_assert_eq!(named(0), reference.closest);
+            prop_assert_eq!(named(2), reference.closest_left);
+            prop_assert_eq!(named(3), reference.closest_right);
+            prop_assert_eq!(at[1] == usize::MAX, reference.d_front_m == f64::INFINITY);
         }
     }
 }

@@ -21,7 +21,9 @@
 use super::barrier::compute_barriers;
 use super::beam_memory::BeamMemory;
 use super::blind::BlindDetector;
-use super::clearance::{compute_clearances, compute_clearances_faded, side_crowding, Clearances, Sector, SideFade};
+use super::clearance::{
+    compute_clearances, compute_clearances_faded_seeded, side_crowding, Clearances, Sector, SideFade,
+};
 use super::clusters::{Cluster, Clusters};
 use super::collision_cone::collision_cone;
 use super::doaa::{sides_tie, Doaa, DoaaState};
@@ -105,6 +107,9 @@ pub struct SafetyPipeline {
     /// Whether a cluster was advanced this step: only then is `points_next`
     /// filled (a copy of the points, then the movers moved).
     any_advanced: bool,
+    /// Beams of the points that realised the last step's faded minima
+    /// (overall, front, left, right; `u32::MAX` none): this step's seeds.
+    minimiser_beams: [u32; 4],
     /// Robot pose in the tracking frame, whether it came from odometry, and its stamp (s).
     ego: Option<(Pose2, bool, f64)>,
     threats: Vec<Threat>,
@@ -156,6 +161,7 @@ impl SafetyPipeline {
             tracker: ObstacleTracker::with_capacity(max_tracks, cap),
             points_next: Vec::with_capacity(cap),
             any_advanced: false,
+            minimiser_beams: [u32::MAX; 4],
             ego: None,
             threats: Vec::with_capacity(max_tracks),
         }
@@ -469,7 +475,17 @@ impl SafetyPipeline {
         };
         let d = self.derived;
         let mut c = match &d.fade {
-            Some(fade) => compute_clearances_faded(&self.points.points, d.robot_radius_m, d.front, fade),
+            Some(fade) => {
+                // Seeded by the points on the beams of the last step's minimisers.
+                let beams = &self.points.beam_index;
+                let seeds = self
+                    .minimiser_beams
+                    .map(|b| beams.binary_search(&b).unwrap_or(usize::MAX));
+                let (c, at) =
+                    compute_clearances_faded_seeded(&self.points.points, d.robot_radius_m, d.front, fade, &seeds);
+                self.minimiser_beams = at.map(|i| beams.get(i).copied().unwrap_or(u32::MAX));
+                c
+            }
             None => compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front),
         };
         let v_now = if current_v_mps.is_finite() {
