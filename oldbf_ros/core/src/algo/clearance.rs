@@ -319,7 +319,11 @@ fn faded_within(
     };
     let mut c = Clearances::OPEN;
     let mut at = NO_MINIMISERS;
-    for (i, p) in (0..points.len()).zip(points) {
+    // Indexed: an `enumerate` count is overflow-checked and a zip with a range
+    // is not flattened here, each a few instructions per point.
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..points.len() {
+        let p = &points[i];
         let n2 = p.norm_squared();
         if n2 > reach.any2 {
             continue;
@@ -330,9 +334,11 @@ fn faded_within(
             || (n2 <= reach.right2 && ratio_at_least(-p.y, n2, sin_fade) && in_hemisphere(p, n2));
         if keep {
             let lowered = add_faded(&mut c, *p, robot_radius_m, front, fade);
-            for (k, slot) in at.iter_mut().enumerate() {
-                if lowered & (1 << k) != 0 {
-                    *slot = i;
+            if lowered != 0 {
+                for (k, slot) in at.iter_mut().enumerate() {
+                    if lowered & (1 << k) != 0 {
+                        *slot = i;
+                    }
                 }
             }
         }

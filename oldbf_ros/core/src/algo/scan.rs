@@ -16,7 +16,7 @@
 //! invalid reading is free space (the reciprocal 1/∞ = 0), nothing is held.
 //! Malformed scans are rejected with a reason instead of being half-used.
 
-use super::beam_memory::BeamMemory;
+use super::beam_memory::{BeamMemory, BeamSlot, HeldView};
 use super::geometry::{Pose2, Vec2};
 use super::params::{LaserParams, RangeSemantics};
 use std::fmt;
@@ -556,8 +556,20 @@ pub fn fill_points(
     status.resize(n, BeamStatus::Free);
     let (slots, memory) = memory.scan_slots();
     let (points_out, beam_index_out) = (&mut points[..n], &mut beam_index[..n]);
-    let (mut unknown, mut unknown_front, mut unknown_rear) = (0, 0, 0);
-    let (mut held, mut too_close, mut made) = (0, 0, 0);
+    let mut unknowns = UnknownBeams {
+        memory,
+        hold_s,
+        origin,
+        rmin,
+        cos_front,
+        cos_rear,
+        unknown: 0,
+        unknown_front: 0,
+        unknown_rear: 0,
+        held: 0,
+        phantoms,
+    };
+    let (mut too_close, mut made) = (0, 0);
     let beams = scan
         .ranges_m
         .iter()
@@ -588,38 +600,23 @@ pub fn fill_points(
                 memory.forget(slot);
                 BeamStatus::Free
             }
-            RangeKind::Unknown => {
-                unknown += 1;
-                unknown_front += (dir.x >= cos_front) as usize;
-                unknown_rear += (dir.x <= -cos_rear) as usize;
-                // A positive reading below range_min is no measurement, but it says
-                // something is that close (REP 117: too close to measure): the braking
-                // check keeps off this beam there, not where the beam last saw
-                // something (a person who stepped inside range_min).
-                let too_close = (p > 0.0).then(|| origin + dir * (p as f64).max(TOO_CLOSE_FLOOR * rmin as f64));
-                match memory.held_point(*slot, hold_s, |r| origin + dir * r as f64) {
-                    Some(q) => {
-                        held += 1;
-                        points_out[made] = q;
-                        beam_index_out[made] = i;
-                        made += 1;
-                        // Where it was: it may have come closer since.
-                        phantoms.push(too_close.unwrap_or(q));
-                        BeamStatus::Held
-                    }
-                    None => {
-                        phantoms.extend(too_close);
-                        BeamStatus::Unknown
-                    }
+            RangeKind::Unknown => match unknowns.take(p, dir, *slot) {
+                Some(q) => {
+                    points_out[made] = q;
+                    beam_index_out[made] = i;
+                    made += 1;
+                    BeamStatus::Held
                 }
-            }
+                None => BeamStatus::Unknown,
+            },
         };
         i = i.wrapping_add(1);
     }
     points.truncate(made);
     beam_index.truncate(made);
+    let (unknown, held) = (unknowns.unknown, unknowns.held);
     (out.front_beams, out.rear_beams, out.unknown) = (front_beams, rear_beams, unknown);
-    (out.unknown_front, out.unknown_rear) = (unknown_front, unknown_rear);
+    (out.unknown_front, out.unknown_rear) = (unknowns.unknown_front, unknowns.unknown_rear);
     (out.held, out.too_close) = (held, too_close);
     // Runs of unknown beams with nothing held: something may be right there.
     // (Every unknown beam held: there are none, and no pass over the beams.)
@@ -639,6 +636,54 @@ pub fn fill_points(
                 run_start = None;
             }
             _ => {}
+        }
+    }
+}
+
+/// The unknown beams of a scan in [`fill_points`]: their counts, phantoms and
+/// held points. Out of line: unknown beams are few in a working sensor, and
+/// the valid beams' loop keeps its registers.
+struct UnknownBeams<'a> {
+    memory: HeldView<'a>,
+    hold_s: f64,
+    /// Laser origin in the robot frame (m).
+    origin: Vec2,
+    rmin: f32,
+    cos_front: f64,
+    cos_rear: f64,
+    unknown: usize,
+    unknown_front: usize,
+    unknown_rear: usize,
+    held: usize,
+    phantoms: &'a mut Vec<Vec2>,
+}
+
+impl UnknownBeams<'_> {
+    /// An unknown reading `p` on the beam of direction `dir` whose memory is
+    /// `slot`: counted, its phantom kept, and its held point if any.
+    #[cold]
+    #[inline(never)]
+    fn take(&mut self, p: f32, dir: &Vec2, slot: BeamSlot) -> Option<Vec2> {
+        let (origin, rmin) = (self.origin, self.rmin);
+        self.unknown += 1;
+        self.unknown_front += (dir.x >= self.cos_front) as usize;
+        self.unknown_rear += (dir.x <= -self.cos_rear) as usize;
+        // A positive reading below range_min is no measurement, but it says
+        // something is that close (REP 117: too close to measure): the braking
+        // check keeps off this beam there, not where the beam last saw
+        // something (a person who stepped inside range_min).
+        let too_close = (p > 0.0).then(|| origin + dir * (p as f64).max(TOO_CLOSE_FLOOR * rmin as f64));
+        match self.memory.held_point(slot, self.hold_s, |r| origin + dir * r as f64) {
+            Some(q) => {
+                self.held += 1;
+                // Where it was: it may have come closer since.
+                self.phantoms.push(too_close.unwrap_or(q));
+                Some(q)
+            }
+            None => {
+                self.phantoms.extend(too_close);
+                None
+            }
         }
     }
 }
