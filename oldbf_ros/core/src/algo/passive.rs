@@ -450,8 +450,10 @@ impl PassiveSafety {
         let reach = p.robot_radius_m() + vmax * p.passive.evasion_horizon_s + 0.05;
         let reach2 = reach * reach;
         self.reach.clear();
-        self.reach
-            .extend(all.iter().chain(&self.phantoms).filter(|q| q.norm_squared() <= reach2));
+        // The points, then the phantoms (two passes: a chained one costs more per point).
+        for set in [all, &self.phantoms] {
+            self.reach.extend(set.iter().filter(|q| q.norm_squared() <= reach2));
+        }
         // Until a mover, closing at its speed plus the robot's from where it is, can
         // come within its radius + r + the larger of the gap cap and its grown margin,
         // `score_evasion` would skip it at every sample (`surely_beyond`): it is looked
