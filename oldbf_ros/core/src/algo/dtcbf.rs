@@ -51,6 +51,9 @@ const TOL_M: f64 = 1e-9;
 const LEAST_BAD_SPEEDS: usize = 8;
 /// The least-bad command replaces a stop only if it keeps h(k+1) this much higher (m).
 const LEAST_BAD_GAIN_M: f64 = 1e-6;
+/// Inside the unsafe set, when the condition cannot be met: the share of the
+/// best rise of h over the box an escape command must reach.
+const ESCAPE_BEST_SHARE: f64 = 0.5;
 
 /// What the filter did with one command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -228,9 +231,20 @@ pub struct DtcbfFilter {
     /// −1 right, 0 none yet): kept until a command is admissible again, so the
     /// robot does not dither between the two.
     turn_sign: f64,
+    /// Something the prediction does not explain is closing in
+    /// ([`Self::set_closing_in`]): inside the unsafe set, escape faster.
+    closing_in: bool,
 }
 
 impl DtcbfFilter {
+    /// Whether h has been falling by more than the predictions explain
+    /// (§5): for the next [`Self::filter_in`], inside the unsafe set, the
+    /// escape asks for half the best rise of h the box offers before settling
+    /// for ε.
+    pub fn set_closing_in(&mut self, closing_in: bool) {
+        self.closing_in = closing_in;
+    }
+
     /// A filter whose buffers grow on first use.
     pub fn new() -> Self {
         Self::default()
@@ -248,6 +262,7 @@ impl DtcbfFilter {
                 max_step_m: 0.0,
             },
             turn_sign: 0.0,
+            closing_in: false,
         }
     }
 
@@ -357,6 +372,24 @@ impl DtcbfFilter {
         for (i, &t) in targets.iter().enumerate() {
             if i > 0 && t == targets[i - 1] {
                 continue;
+            }
+            if escape && i == 1 && self.closing_in {
+                // The condition's rise γ|h| is out of reach, and h has been falling more than
+                // predicted: something walks in that the prediction does not move (a mover
+                // the tracker missed, or took for static). Rather than the least rise ε
+                // closest to the desired command, a crawl it outpaces, ask for a share of
+                // the best rise the box offers.
+                if let Some((_, best)) = least_bad(near, points_next, &bx, p) {
+                    let mid = h + ESCAPE_BEST_SHARE * (best - h);
+                    if mid > t {
+                        if let Some(cmd) = self.forbidden.solve(&near.points, desired, mid, h, &bx, p) {
+                            if h_next_of(cmd) >= mid - TOL_M {
+                                self.turn_sign = 0.0;
+                                return outcome(cmd, false);
+                            }
+                        }
+                    }
+                }
             }
             if let Some(cmd) = self.forbidden.solve(&near.points, desired, t, h, &bx, p) {
                 if h_next_of(cmd) >= t - TOL_M {
@@ -705,6 +738,27 @@ mod tests {
         assert!(out.infeasible && out.escape && !out.condition_held);
         assert_eq!(out.cmd, Twist::new(0.0, 0.2));
         assert!((out.h_next_m - out.h_m).abs() < 1e-12);
+    }
+
+    #[test]
+    fn something_closing_in_unexplained_makes_the_escape_take_half_the_best_rise() {
+        // As above (h = −0.078, γ|h| out of reach), but h has been falling unexplained: the
+        // best rise is backing off at full reverse, |v_lo| Δt; half of it is asked for, and
+        // the command closest to the desired one giving it backs off at half that speed.
+        let mut p = params();
+        p.control.allow_reverse = true;
+        let pts = [Vec2::new(0.3, 0.0)];
+        let mut f = DtcbfFilter::new();
+        f.set_closing_in(true);
+        let out = f.filter(&pts, &pts, Twist::new(0.15, 0.0), &p);
+        let v_lo = p.control.v_reverse_max_mps;
+        assert!(out.escape && !out.infeasible && !out.condition_held, "{out:?}");
+        assert!((out.cmd.v_mps + 0.5 * v_lo).abs() < 1e-7, "{out:?}");
+        assert!(out.h_next_m >= out.h_m + 0.5 * v_lo * p.control.dt_s() - 1e-9);
+        // Nothing unexplained: the least rise ε, as before.
+        f.set_closing_in(false);
+        let out = f.filter(&pts, &pts, Twist::new(0.15, 0.0), &p);
+        assert!((out.cmd.v_mps + 0.01).abs() < 1e-7, "{out:?}");
     }
 
     #[test]

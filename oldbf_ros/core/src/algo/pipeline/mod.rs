@@ -113,7 +113,16 @@ pub struct SafetyPipeline {
     /// Robot pose in the tracking frame, whether it came from odometry, and its stamp (s).
     ego: Option<(Pose2, bool, f64)>,
     threats: Vec<Threat>,
+    /// The last steps' unexplained changes of h: measured h minus the h(k+1)
+    /// predicted a step before for the command sent (m), a ring.
+    surprise: [f64; SURPRISE_STEPS],
+    surprise_next: usize,
+    /// h(k+1) predicted for the last command sent (m; NaN: none).
+    last_h_next: f64,
 }
+
+/// Steps over which unexplained falls of h add up (1 s at 10 Hz).
+const SURPRISE_STEPS: usize = 10;
 
 /// A tracked obstacle on a collision course this step (robot frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -164,6 +173,9 @@ impl SafetyPipeline {
             minimiser_beams: [u32::MAX; 4],
             ego: None,
             threats: Vec::with_capacity(max_tracks),
+            surprise: [0.0; SURPRISE_STEPS],
+            surprise_next: 0,
+            last_h_next: f64::NAN,
         }
     }
 
@@ -237,6 +249,22 @@ impl SafetyPipeline {
         self.doaa.reset();
         self.unstuck.reset();
         self.last_cmd = Twist::ZERO;
+        self.forget_surprise();
+    }
+
+    fn forget_surprise(&mut self) {
+        self.surprise = [0.0; SURPRISE_STEPS];
+        self.last_h_next = f64::NAN;
+    }
+
+    /// Records this step's h (m) against the last prediction and returns
+    /// whether h has fallen, over the last [`SURPRISE_STEPS`] steps, by more
+    /// than the noise margin δ beyond what the predictions explain.
+    fn closing_in_unexplained(&mut self, h: f64) -> bool {
+        let change = h - self.last_h_next;
+        self.surprise[self.surprise_next] = if change.is_finite() { change } else { 0.0 };
+        self.surprise_next = (self.surprise_next + 1) % SURPRISE_STEPS;
+        self.surprise.iter().sum::<f64>() < -self.params.dtcbf.noise_margin_m
     }
 
     /// Where the nominal command is heading, for the next step only: the
@@ -259,6 +287,7 @@ impl SafetyPipeline {
     pub fn stop(&mut self, now_s: f64, nominal: Twist, cause: StopCause) -> StepRecord {
         self.doaa.reset();
         self.last_cmd = Twist::ZERO;
+        self.last_h_next = f64::NAN;
         StepRecord::stop(now_s, nominal, cause)
     }
 
@@ -559,6 +588,10 @@ impl SafetyPipeline {
             let last = self.last_cmd.omega_radps;
             doaa_cmd.omega_radps = doaa_cmd.omega_radps.clamp(last - step, last + step);
         }
+        // Part of the defence against movers (§5b): off with the braking check.
+        let closing_in = self.closing_in_unexplained(c.d_min_m - p.barrier.d_safe_m);
+        self.filter.set_closing_in(closing_in && self.params.passive.enabled);
+        let p = &self.params;
         let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
         let out = self.filter.filter_in(&self.points.points, next, doaa_cmd, p, &bx);
         let mut infeasibility = out.infeasible.then_some(if out.escape {
@@ -597,6 +630,7 @@ impl SafetyPipeline {
         // Last line of defence: nothing non-finite leaves this function.
         let cmd = if cmd.is_finite() { bx.clamp(cmd) } else { Twist::ZERO };
         self.last_cmd = cmd;
+        self.last_h_next = out.h_next_m;
         let p = &self.params;
         StepRecord {
             stamp_s: now_s,
