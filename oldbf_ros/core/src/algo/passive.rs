@@ -482,6 +482,36 @@ impl PassiveSafety {
         self.evasion_memo.put(cmd, score)
     }
 
+    /// Sidestep (§5b): how far inside the swept line of a mover coming head-on
+    /// (within 45° of straight at the robot, and able to reach it within the
+    /// look-ahead) the robot still is when its path ends at `end` (robot
+    /// frame, m).
+    fn line_deficit(&self, end: Vec2, p: &Params) -> f64 {
+        let r = p.robot_radius_m();
+        let mut line_deficit_m: f64 = 0.0;
+        for m in &self.movers {
+            let speed = m.velocity.norm();
+            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
+            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
+                continue;
+            }
+            let need = r + m.radius_m + p.passive.mover_margin_m;
+            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
+                continue;
+            }
+            let lateral_of = |q: Vec2| {
+                let d = q - m.position;
+                (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
+            };
+            // Already beside its line: nothing to step out of.
+            if lateral_of(Vec2::zeros()) >= need {
+                continue;
+            }
+            line_deficit_m = line_deficit_m.max(need - lateral_of(end));
+        }
+        line_deficit_m
+    }
+
     fn score_evasion(&self, cmd: Twist, p: &Params) -> EvasionScore {
         let r = p.robot_radius_m();
         let horizon = p.passive.evasion_horizon_s;
@@ -539,32 +569,8 @@ impl PassiveSafety {
                 }
             }
         }
-        // Sidestep (§5b): how far inside the swept line of a mover coming head-on
-        // (within 45° of straight at the robot, and able to reach it within the
-        // look-ahead) the robot still is at the horizon's end.
-        let mut line_deficit_m: f64 = 0.0;
-        for m in &self.movers {
-            let speed = m.velocity.norm();
-            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
-            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
-                continue;
-            }
-            let need = r + m.radius_m + p.passive.mover_margin_m;
-            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
-                continue;
-            }
-            let lateral_of = |q: Vec2| {
-                let d = q - m.position;
-                (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
-            };
-            // Already beside its line: nothing to step out of.
-            if lateral_of(Vec2::zeros()) >= need {
-                continue;
-            }
-            line_deficit_m = line_deficit_m.max(need - lateral_of(walk.pos));
-        }
         EvasionScore {
-            line_deficit_m,
+            line_deficit_m: self.line_deficit(walk.pos, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
                 f64::INFINITY
@@ -893,32 +899,9 @@ impl PassiveSafety {
                 }
             }
         }
-        // Sidestep (§5b): how far inside the swept line of a mover coming head-on
-        // (within 45° of straight at the robot, and able to reach it within the
-        // look-ahead) the robot still is at the horizon's end.
-        let mut line_deficit_m: f64 = 0.0;
-        for m in &self.movers {
-            let speed = m.velocity.norm();
-            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
-            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
-                continue;
-            }
-            let need = r + m.radius_m + p.passive.mover_margin_m;
-            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
-                continue;
-            }
-            let lateral_of = |q: Vec2| {
-                let d = q - m.position;
-                (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
-            };
-            // Already beside its line: nothing to step out of.
-            if lateral_of(Vec2::zeros()) >= need {
-                continue;
-            }
-            line_deficit_m = line_deficit_m.max(need - lateral_of(walk.pos));
-        }
+        // The sidestep part has no fast path: shared with `score_evasion`.
         EvasionScore {
-            line_deficit_m,
+            line_deficit_m: self.line_deficit(walk.pos, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
                 f64::INFINITY
