@@ -693,6 +693,28 @@ mod tests {
     use crate::algo::scan::ScanHeader;
     use std::f32::consts::PI;
 
+    #[test]
+    fn h_falling_beyond_its_predictions_for_a_second_is_closing_in() {
+        // δ = 0.03 m. Each step h comes out 0.004 m below the 1.0 m predicted for it:
+        // after the first step (nothing predicted yet) the unexplained fall adds up to
+        // 0.004 (k − 1) m, beyond δ from the 9th step on.
+        let mut pipe = SafetyPipeline::new(Params::default());
+        let mut flags = Vec::new();
+        for _ in 0..10 {
+            flags.push(pipe.closing_in_unexplained(0.996));
+            pipe.last_h_next = 1.0;
+        }
+        let mut expected = vec![false; 8];
+        expected.extend([true, true]);
+        assert_eq!(flags, expected);
+        // Predictions that come true: the falls leave the 10-step ring, one per step.
+        let recovered: Vec<bool> = (0..10).map(|_| pipe.closing_in_unexplained(1.0)).collect();
+        assert_eq!(recovered.iter().position(|&f| !f), Some(2), "{recovered:?}");
+        // A stop forgets the prediction: its step adds nothing.
+        pipe.stop(0.0, Twist::ZERO, StopCause::BadNominal);
+        assert!(!pipe.closing_in_unexplained(-5.0));
+    }
+
     /// 360 beams over a full turn starting at −π, all at `far` m, with
     /// `(beam, range)` overrides.
     fn ring(far: f32, overrides: &[(usize, f32)]) -> Vec<f32> {
