@@ -126,6 +126,13 @@ pub struct FrameMap {
     c: f64,
 }
 
+impl Default for FrameMap {
+    /// The identity: the map of the default pose.
+    fn default() -> Self {
+        Pose2::default().frame_map()
+    }
+}
+
 impl FrameMap {
     /// Maps a point given in the pose's frame into the parent frame.
     #[inline]
@@ -134,6 +141,20 @@ impl FrameMap {
             self.x + self.c * p.x - self.s * p.y,
             self.y + self.s * p.x + self.c * p.y,
         )
+    }
+
+    /// Maps a point given in the parent frame into the pose's frame:
+    /// `Pose2::inverse_transform_point`, bit for bit, without its sine and cosine.
+    #[inline]
+    pub fn inverse_point(&self, p: Vec2) -> Vec2 {
+        let d = p - Vec2::new(self.x, self.y);
+        self.inverse_vector(d)
+    }
+
+    /// Rotates a vector from the parent frame into the pose's frame.
+    #[inline]
+    pub fn inverse_vector(&self, v: Vec2) -> Vec2 {
+        Vec2::new(self.c * v.x + self.s * v.y, -self.s * v.x + self.c * v.y)
     }
 }
 

@@ -29,7 +29,7 @@
 //! All buffers are reused: no allocation in steady state.
 
 use super::clusters::Cluster;
-use super::geometry::{Pose2, Vec2};
+use super::geometry::{FrameMap, Pose2, Vec2};
 use super::params::ObstacleParams;
 
 /// A 1-D constant-velocity Kalman filter (position, velocity).
@@ -145,6 +145,8 @@ pub struct ObstacleTracker {
     last_stamp_s: Option<f64>,
     /// Robot pose in the tracking frame at the last update.
     robot_pose: Pose2,
+    /// Its map, sine and cosine computed once per update.
+    robot_map: FrameMap,
     /// Scratch: candidate pairs (distance, track, cluster).
     pairs: Vec<(f64, usize, usize)>,
     /// Per cluster of the last scan: the track it was associated with.
@@ -190,13 +192,8 @@ impl ObstacleTracker {
 
     /// A track's position and velocity in the robot frame at the last update.
     pub fn in_robot_frame(&self, t: &Track) -> (Vec2, Vec2) {
-        let pose = self.robot_pose;
-        let (s, c) = pose.theta.sin_cos();
-        let v = t.velocity();
-        (
-            pose.inverse_transform_point(t.position()),
-            Vec2::new(c * v.x + s * v.y, -s * v.x + c * v.y),
-        )
+        let map = &self.robot_map;
+        (map.inverse_point(t.position()), map.inverse_vector(t.velocity()))
     }
 
     /// Drops every track (e.g. when the frame source changes).
@@ -225,6 +222,7 @@ impl ObstacleTracker {
         }
         self.last_stamp_s = Some(stamp_s);
         self.robot_pose = robot_pose;
+        self.robot_map = robot_pose.frame_map();
         let (q, r) = (p.accel_noise_mps2, p.measurement_noise_m);
         for t in &mut self.tracks {
             t.fx.predict(dt, q);
