@@ -184,6 +184,7 @@ mod tests {
             len: n,
             centroid: pts_centroid,
             radius_m: 0.0,
+            centre: pts_centroid,
         }]
     }
 

@@ -11,7 +11,8 @@
 //!    `max_cluster_diameter_m` across: people and robots, not walls) are
 //!    associated to tracks by gated nearest neighbour, greedily by distance,
 //!    within `gate_m` of the prediction;
-//! 3. associated tracks are updated with the cluster's centroid.
+//! 3. associated tracks are updated with the cluster's centre estimate
+//!    (`Cluster::centre`: on the centroid's bearing, behind the visible arc).
 //!
 //! Lifecycle rules:
 //! * an unassociated candidate starts a **tentative** track;
@@ -152,7 +153,7 @@ pub struct ObstacleTracker {
     /// Per cluster of the last scan: the track it was associated with.
     cluster_track: Vec<Option<usize>>,
     track_taken: Vec<bool>,
-    /// Scratch, per cluster: its centroid in the tracking frame if it is a
+    /// Scratch, per cluster: its centre in the tracking frame if it is a
     /// candidate for tracking.
     measured: Vec<Option<Vec2>>,
     /// Scratch, per track: its index after the dead tracks are dropped.
@@ -229,13 +230,13 @@ impl ObstacleTracker {
             t.fy.predict(dt, q);
         }
 
-        // The candidates' centroids in the tracking frame, mapped once.
+        // The candidates' centres (`Cluster::centre`) in the tracking frame, mapped once.
         let to_tracking = robot_pose.frame_map();
         self.measured.clear();
         self.measured.extend(
             clusters
                 .iter()
-                .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centroid))),
+                .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centre))),
         );
 
         // Gated nearest neighbour, greedy by distance. A pair whose squared distance
@@ -355,6 +356,7 @@ mod tests {
             len: 4,
             centroid: Vec2::new(x, y),
             radius_m: 0.1,
+            centre: Vec2::new(x, y),
         }
     }
 
