@@ -170,3 +170,35 @@ fn a_person_drifting_at_three_centimetres_a_second_is_a_mover() {
     assert!((9.5..13.0).contains(&t), "first a mover at {t} s");
     assert!((last_speed - 0.03).abs() < 0.015, "speed {last_speed} m/s");
 }
+
+/// The disc the braking check keeps clear of is centred where the mover is,
+/// not on the centroid of the arc the LiDAR sees of it, which lies about
+/// 0.7 R nearer the robot (R sin α / α in front of the centre for an arc of
+/// half-angle α; 0.1 m here): a disc there reached that much nearer the
+/// robot than the person did and pinned robots that had room (ALGORITHM §6).
+#[test]
+fn a_movers_disc_is_centred_on_the_mover_not_on_the_arc_seen() {
+    let s = Scenario::from_str(ONE_MOVER, "one_mover.yaml", None).unwrap();
+    let mut seen = None;
+    drive(&s, 3.15, Twist::ZERO, |t, fleet, pipe| {
+        if (t - 3.0).abs() < 1e-9 {
+            // The robot stands at the origin facing +x: its frame is the world's.
+            let truth = fleet.world().moving_circles().next().unwrap().center;
+            let disc = pipe.movers().first().map(|m| m.position);
+            let centroid = pipe
+                .tracker()
+                .tracks()
+                .iter()
+                .map(|t| t.position())
+                .min_by(|a, b| (a - truth).norm().total_cmp(&(b - truth).norm()));
+            seen = Some((truth, disc, centroid));
+        }
+    });
+    let (truth, disc, centroid) = seen.expect("ran to 3 s");
+    let disc = disc.expect("a mover after 3 s (0.6 m travelled)");
+    let centroid = centroid.expect("a track");
+    println!("truth {truth:?}: disc centre {disc:?}, tracked centroid {centroid:?}");
+    assert!((disc - truth).norm() < 0.04, "disc {:.3} m off", (disc - truth).norm());
+    assert!((centroid - truth).norm() > 0.07, "the centroid is the near side's");
+    assert!(disc.norm() > centroid.norm());
+}

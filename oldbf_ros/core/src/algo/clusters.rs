@@ -2,8 +2,9 @@
 //! whose points are closer than `cluster_gap_m` to their neighbour. Each
 //! cluster is summarised by a circle: the centroid of its points and the
 //! largest distance from it (m), and by where the centre of the round object
-//! it sees probably is (behind the centroid: [`Cluster::centre`]), which the
-//! tracker measures. The robot is not added here; the collision cone adds r.
+//! it sees probably is (behind the centroid: [`Cluster::centre`]), where the
+//! tracker puts a mover's disc. The robot is not added here; the collision
+//! cone adds r.
 //!
 //! On a full 360° scan the last and the first beam are neighbours, so a
 //! cluster spanning the scan's seam is one cluster, not two.
@@ -30,8 +31,7 @@ pub struct Cluster {
     /// The centroid of the visible arc of a disc of radius R lies about
     /// 0.7 R nearer the robot than the disc's centre (seen in the simulator:
     /// 0.12-0.16 m for people of R = 0.2 m within 1.5 m), so a disc round
-    /// the centroid reaches that much nearer the robot than the person does,
-    /// and its velocity moves with the robot's view of it.
+    /// the centroid reaches that much nearer the robot than the person does.
     pub centre: Vec2,
 }
 

@@ -11,8 +11,8 @@
 //!    `max_cluster_diameter_m` across: people and robots, not walls) are
 //!    associated to tracks by gated nearest neighbour, greedily by distance,
 //!    within `gate_m` of the prediction;
-//! 3. associated tracks are updated with the cluster's centre estimate
-//!    (`Cluster::centre`: on the centroid's bearing, behind the visible arc).
+//! 3. associated tracks are updated with the cluster's centroid; the disc
+//!    the robot keeps clear of is put behind it (`Track::depth_m`).
 //!
 //! Lifecycle rules:
 //! * an unassociated candidate starts a **tentative** track;
@@ -101,6 +101,12 @@ pub struct Track {
     pub status: TrackStatus,
     /// Radius of the obstacle's circle (m), smoothed over its clusters.
     pub radius_m: f64,
+    /// How far behind the tracked centroid, seen from the robot, the centre
+    /// of the round object probably is (m, ≥ 0; `Cluster::centre`), smoothed
+    /// like the radius. The centroid is tracked (an average of many points, it
+    /// gives the steadier velocity); the disc the robot must keep clear of is
+    /// put this much farther out ([`ObstacleTracker::disc_in_robot_frame`]).
+    pub depth_m: f64,
     /// Consecutive associations so far / consecutive misses.
     pub hits: u32,
     /// Consecutive scans without an association.
@@ -138,6 +144,11 @@ impl Track {
     }
 }
 
+/// How far behind a cluster's centroid its centre estimate lies (m, ≥ 0).
+fn depth_of(c: &Cluster) -> f64 {
+    (c.centre.norm() - c.centroid.norm()).max(0.0)
+}
+
 /// The tracker's state between scans.
 #[derive(Debug, Default, Clone)]
 pub struct ObstacleTracker {
@@ -153,7 +164,7 @@ pub struct ObstacleTracker {
     /// Per cluster of the last scan: the track it was associated with.
     cluster_track: Vec<Option<usize>>,
     track_taken: Vec<bool>,
-    /// Scratch, per cluster: its centre in the tracking frame if it is a
+    /// Scratch, per cluster: its centroid in the tracking frame if it is a
     /// candidate for tracking.
     measured: Vec<Option<Vec2>>,
     /// Scratch, per track: its index after the dead tracks are dropped.
@@ -197,6 +208,15 @@ impl ObstacleTracker {
         (map.inverse_point(t.position()), map.inverse_vector(t.velocity()))
     }
 
+    /// A track's disc centre and velocity in the robot frame at the last
+    /// update: its position pushed `depth_m` farther out along its bearing.
+    pub fn disc_in_robot_frame(&self, t: &Track) -> (Vec2, Vec2) {
+        let (pos, vel) = self.in_robot_frame(t);
+        let d = pos.norm();
+        let centre = if d > 0.0 { pos * ((d + t.depth_m) / d) } else { pos };
+        (centre, vel)
+    }
+
     /// Drops every track (e.g. when the frame source changes).
     pub fn reset(&mut self) {
         self.tracks.clear();
@@ -230,13 +250,13 @@ impl ObstacleTracker {
             t.fy.predict(dt, q);
         }
 
-        // The candidates' centres (`Cluster::centre`) in the tracking frame, mapped once.
+        // The candidates' centroids in the tracking frame, mapped once.
         let to_tracking = robot_pose.frame_map();
         self.measured.clear();
         self.measured.extend(
             clusters
                 .iter()
-                .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centre))),
+                .map(|c| Self::candidate(c, p).then(|| to_tracking.point(c.centroid))),
         );
 
         // Gated nearest neighbour, greedy by distance. A pair whose squared distance
@@ -274,6 +294,7 @@ impl ObstacleTracker {
             t.fx.update(z.x, r);
             t.fy.update(z.y, r);
             t.radius_m = 0.8 * t.radius_m + 0.2 * clusters[ci].radius_m;
+            t.depth_m = 0.8 * t.depth_m + 0.2 * depth_of(&clusters[ci]);
             t.max_travel_m = t.max_travel_m.max((t.position() - t.born_at).norm());
             t.hits += 1;
             t.misses = 0;
@@ -333,6 +354,7 @@ impl ObstacleTracker {
                     TrackStatus::Tentative
                 },
                 radius_m: c.radius_m,
+                depth_m: depth_of(c),
                 hits: 1,
                 misses: 0,
                 born_at: z,

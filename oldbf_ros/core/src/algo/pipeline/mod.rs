@@ -368,7 +368,7 @@ impl SafetyPipeline {
         let tracker = &self.tracker;
         self.passive
             .set_movers(tracker.tracks().iter().filter(|t| t.is_moving(o)).map(|t| {
-                let (position, velocity) = tracker.in_robot_frame(t);
+                let (position, velocity) = tracker.disc_in_robot_frame(t);
                 Mover {
                     position,
                     velocity,
