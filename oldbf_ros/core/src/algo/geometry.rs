@@ -100,9 +100,7 @@ impl Pose2 {
 
     /// Maps a point given in the parent frame into this pose's frame.
     pub fn inverse_transform_point(&self, p: Vec2) -> Vec2 {
-        let (s, c) = self.theta.sin_cos();
-        let d = p - self.position();
-        Vec2::new(c * d.x + s * d.y, -s * d.x + c * d.y)
+        self.frame_map().inverse_point(p)
     }
 
     /// Rotates a vector from this pose's frame into the parent frame.
@@ -143,8 +141,8 @@ impl FrameMap {
         )
     }
 
-    /// Maps a point given in the parent frame into the pose's frame:
-    /// `Pose2::inverse_transform_point`, bit for bit, without its sine and cosine.
+    /// Maps a point given in the parent frame into the pose's frame (what
+    /// `Pose2::inverse_transform_point` does, with the sine and cosine kept).
     #[inline]
     pub fn inverse_point(&self, p: Vec2) -> Vec2 {
         let d = p - Vec2::new(self.x, self.y);
