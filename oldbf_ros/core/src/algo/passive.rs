@@ -147,6 +147,10 @@ pub struct EvasionScore {
     /// Predicted time to the first contact with the command held (s);
     /// the horizon when there is none.
     pub time_to_contact_s: f64,
+    /// Predicted time to the first contact with a mover's grown disc alone (s);
+    /// the horizon when there is none. What makes a command *threatened*: a
+    /// static point ahead is the DTCBF's business, step by step.
+    pub mover_contact_s: f64,
     /// Mean over the horizon (after now) of the predicted body-to-nearest-
     /// mover distance, capped at [`GAP_CAP_M`] (m; movers at their estimated
     /// radius, no margin): when contact cannot be put off, the command that
@@ -518,6 +522,7 @@ impl PassiveSafety {
         let threshold = 0.5 * p.passive.closing_speed_mps;
         let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
         let mut contact: Option<f64> = None;
+        let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
         let speed = cmd.v_mps.abs();
         // No static point can be reached before this: the robot closes on any point no
@@ -547,8 +552,9 @@ impl PassiveSafety {
                 let dist = d.norm();
                 gap = gap.min(dist - r - m.radius_m);
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
-                if contact.is_none() && dist < r + grown {
-                    contact = Some(t);
+                if dist < r + grown {
+                    contact = contact.or(Some(t));
+                    mover_contact = mover_contact.or(Some(t));
                 }
             }
             if k > 0 {
@@ -572,6 +578,7 @@ impl PassiveSafety {
         EvasionScore {
             line_deficit_m: self.line_deficit(walk.pos, p),
             time_to_contact_s: contact.unwrap_or(horizon),
+            mover_contact_s: mover_contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
                 f64::INFINITY
             } else {
@@ -733,6 +740,18 @@ mod tests {
         assert!((ahead.time_to_contact_s - 1.0).abs() < 1e-9, "{ahead:?}");
         assert!(back.beats(&stay, 0.1, 0.0), "{back:?} {stay:?}");
         assert!(stay.beats(&ahead, 0.1, 0.0), "{stay:?} {ahead:?}");
+        // Every contact here is with the mover.
+        for s in [stay, back, ahead] {
+            assert_eq!(s.mover_contact_s, s.time_to_contact_s, "{s:?}");
+        }
+        // Backing off at 0.15 m/s towards a wall 0.378 m behind: the body reaches it after
+        // 0.2 / 0.15 = 1.33 s (sampled 1.4 s), before the mover could (1 − 0.15 t =
+        // 0.428 + 0.1 t → 2.29 s, sampled 2.4); only the mover's contact is a threat (§5b).
+        let wall: Vec<Vec2> = (-5..=5).map(|k| Vec2::new(-0.378, 0.05 * k as f64)).collect();
+        ps.select_reach(&wall, &p);
+        let flee = ps.evasion_score(Twist::new(-0.15, 0.0), &p);
+        assert!((flee.time_to_contact_s - 1.4).abs() < 1e-9, "{flee:?}");
+        assert!((flee.mover_contact_s - 2.4).abs() < 1e-9, "{flee:?}");
         // No mover: every command scores the horizon, and none beats another.
         ps.set_movers(std::iter::empty());
         let a = ps.evasion_score(Twist::ZERO, &p);
@@ -858,6 +877,7 @@ impl PassiveSafety {
         let threshold = 0.5 * p.passive.closing_speed_mps;
         let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
         let mut contact: Option<f64> = None;
+        let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
         let speed = cmd.v_mps.abs();
         // No static point can be reached before this: the robot closes on any point no
@@ -877,8 +897,9 @@ impl PassiveSafety {
                 let dist = (c - pos).norm();
                 gap = gap.min(dist - r - m.radius_m);
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
-                if contact.is_none() && dist < r + grown {
-                    contact = Some(t);
+                if dist < r + grown {
+                    contact = contact.or(Some(t));
+                    mover_contact = mover_contact.or(Some(t));
                 }
             }
             if k > 0 {
@@ -903,6 +924,7 @@ impl PassiveSafety {
         EvasionScore {
             line_deficit_m: self.line_deficit(walk.pos, p),
             time_to_contact_s: contact.unwrap_or(horizon),
+            mover_contact_s: mover_contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
                 f64::INFINITY
             } else {
@@ -939,9 +961,10 @@ mod fast_path_properties {
             .prop_map(|(v, w)| Twist::new(v, w))
     }
 
-    fn bits(s: &EvasionScore) -> [u64; 3] {
+    fn bits(s: &EvasionScore) -> [u64; 4] {
         [
             s.time_to_contact_s.to_bits(),
+            s.mover_contact_s.to_bits(),
             s.mover_gap_m.to_bits(),
             s.line_deficit_m.to_bits(),
         ]

@@ -199,11 +199,14 @@ impl SafetyPipeline {
                 &self.params,
             );
         }
-        // Threatened: contact predicted within the collision-cone look-ahead (the evasion
-        // horizon, longer, only ranks the ways out).
+        // Threatened: contact with a mover predicted within the collision-cone look-ahead
+        // (the evasion horizon, longer, only ranks the ways out). A static point the
+        // held command would reach is not a threat: the DTCBF steers round it step by
+        // step, and counting it had evasion stop an escape from the unsafe set whenever
+        // any mover was in sight (slow_obstacles seed 1, world 11).
         let trigger = self.params.obstacles.lookahead_s.min(horizon);
         let threatened = |ps: &mut PassiveSafety, cmd: Twist, p: &Params| {
-            movers && ps.evasion_score(cmd, p).time_to_contact_s < trigger
+            movers && ps.evasion_score(cmd, p).mover_contact_s < trigger
         };
         let closing_in = !self.threats.is_empty();
         let stalled = out.infeasible || out.cmd.v_mps.abs() < stall;
