@@ -26,6 +26,14 @@
 //!   jumps as the robot's view of it changes (up to about half its size), which
 //!   the filter reads as speed; only a real mover keeps getting farther from
 //!   where it started.
+//! * a moving track that dies (two people walking side by side merge into one
+//!   cluster too wide to track, a person brushes past a box) leaves a *ghost*
+//!   where it was for [`GHOST_MEMORY_S`]. A track born within `gate_m` +
+//!   [`GHOST_SPREAD_MPS`] · age of a ghost is the same mover seen again: it
+//!   needs only [`REACQUIRED_TRAVEL_FRACTION`] of `min_travel_m` of its own
+//!   travel to count as moving. Without it a slow person (0.05 m/s) who had
+//!   been merged was static for the 6 s it took to travel `min_travel_m`
+//!   again, and walked into the robot (slow_obstacles seed 1, world 61).
 //!
 //! All buffers are reused: no allocation in steady state.
 
@@ -81,6 +89,23 @@ impl CvFilter {
     }
 }
 
+/// How long a dead moving track's ghost is remembered (s).
+pub const GHOST_MEMORY_S: f64 = 6.0;
+/// How fast the region a ghost claims grows with its age (m/s): slow movers,
+/// those the travel proof holds back longest.
+pub const GHOST_SPREAD_MPS: f64 = 0.1;
+/// The share of `min_travel_m` a track born at a ghost must travel itself.
+pub const REACQUIRED_TRAVEL_FRACTION: f64 = 1.0 / 3.0;
+
+/// What a deleted moving track leaves behind: proof that something moved there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Ghost {
+    /// Where the track was when it died, tracking frame (m).
+    position: Vec2,
+    /// When it died (s, scan stamps).
+    died_s: f64,
+}
+
 /// Where a track is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TrackStatus {
@@ -116,6 +141,8 @@ pub struct Track {
     /// The farthest it has been from `born_at` so far (m): proof that it really
     /// moves, kept when it turns round (a pacing person stays a mover).
     pub max_travel_m: f64,
+    /// Born at a ghost: the same mover seen again, with less travel to prove.
+    pub reacquired: bool,
     fx: CvFilter,
     fy: CvFilter,
 }
@@ -137,10 +164,16 @@ impl Track {
     }
 
     /// Confirmed, faster than `moving_speed_mps`, and once at least
-    /// `min_travel_m` away from where it was first seen (centroid jitter on a
+    /// `min_travel_m` (a third of it when reacquired at a ghost) away from
+    /// where it was first seen (centroid jitter on a
     /// static object never adds up to that).
     pub fn is_moving(&self, p: &ObstacleParams) -> bool {
-        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps && self.max_travel_m >= p.min_travel_m
+        let needed_m = if self.reacquired {
+            REACQUIRED_TRAVEL_FRACTION * p.min_travel_m
+        } else {
+            p.min_travel_m
+        };
+        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps && self.max_travel_m >= needed_m
     }
 }
 
@@ -169,6 +202,8 @@ pub struct ObstacleTracker {
     measured: Vec<Option<Vec2>>,
     /// Scratch, per track: its index after the dead tracks are dropped.
     new_index: Vec<Option<usize>>,
+    /// Dead moving tracks of the last [`GHOST_MEMORY_S`], oldest first.
+    ghosts: Vec<Ghost>,
 }
 
 impl ObstacleTracker {
@@ -183,6 +218,7 @@ impl ObstacleTracker {
             track_taken: Vec::with_capacity(max_tracks),
             measured: Vec::with_capacity(max_clusters),
             new_index: Vec::with_capacity(max_tracks),
+            ghosts: Vec::with_capacity(max_tracks),
             ..Self::default()
         }
     }
@@ -222,6 +258,7 @@ impl ObstacleTracker {
         self.tracks.clear();
         self.last_stamp_s = None;
         self.cluster_track.clear();
+        self.ghosts.clear();
     }
 
     fn candidate(c: &Cluster, p: &ObstacleParams) -> bool {
@@ -322,6 +359,15 @@ impl ObstacleTracker {
                 _ => t.misses > p.max_misses,
             };
             if dead {
+                if t.is_moving(p) {
+                    if self.ghosts.len() >= p.max_tracks {
+                        self.ghosts.remove(0); // the oldest
+                    }
+                    self.ghosts.push(Ghost {
+                        position: t.position(),
+                        died_s: stamp_s,
+                    });
+                }
                 self.new_index.push(None);
                 continue;
             }
@@ -337,7 +383,8 @@ impl ObstacleTracker {
             }
         }
 
-        // Births.
+        // Births; a birth at a ghost is a mover seen again.
+        self.ghosts.retain(|g| stamp_s - g.died_s <= GHOST_MEMORY_S);
         for (ci, c) in clusters.iter().enumerate() {
             let Some(z) = self.measured[ci] else {
                 continue; // not a candidate
@@ -345,6 +392,10 @@ impl ObstacleTracker {
             if self.cluster_track[ci].is_some() || self.tracks.len() >= p.max_tracks {
                 continue;
             }
+            let reacquired = self.ghosts.iter().any(|g| {
+                let claim = p.gate_m + GHOST_SPREAD_MPS * (stamp_s - g.died_s);
+                (z - g.position).norm_squared() <= claim * claim
+            });
             self.next_id = self.next_id.wrapping_add(1);
             self.tracks.push(Track {
                 id: self.next_id,
@@ -359,6 +410,7 @@ impl ObstacleTracker {
                 misses: 0,
                 born_at: z,
                 max_travel_m: 0.0,
+                reacquired,
                 fx: CvFilter::new(z.x, r),
                 fy: CvFilter::new(z.y, r),
             });
@@ -505,5 +557,50 @@ mod tests {
             }
         }
         assert!(matches!(first_moving, Some(20..=22)), "{first_moving:?}");
+    }
+
+    /// A walker at 0.05 m/s along x from x = 2 m, scanned every 0.1 s, lost for
+    /// `gap_s` after 8 s (merged with something too wide to track), seen again
+    /// `offset_m` off its line: the scan after which its new track counts as
+    /// moving, if it does within 6 s of being seen again.
+    fn moving_again_after(gap_s: f64, offset_m: f64) -> Option<usize> {
+        let p = ObstacleParams::default();
+        let mut tr = ObstacleTracker::default();
+        let at = |t: f64| cluster_at(2.0 + 0.05 * t, 0.0);
+        for k in 0..=80 {
+            tr.update(&[at(0.1 * k as f64)], 0.1 * k as f64, Pose2::default(), &p);
+        }
+        // 8 s: travelled 0.4 m, a mover.
+        assert!(tr.tracks()[0].is_moving(&p));
+        let back = 80 + (gap_s / 0.1).round() as usize;
+        for k in 81..back {
+            tr.update(&[], 0.1 * k as f64, Pose2::default(), &p);
+        }
+        assert!(tr.tracks().is_empty(), "dead after the 6th miss");
+        for k in back..back + 60 {
+            let t = 0.1 * k as f64;
+            let c = Cluster {
+                centroid: at(t).centroid + Vec2::new(0.0, offset_m),
+                ..at(t)
+            };
+            tr.update(&[c], t, Pose2::default(), &p);
+            if tr.tracks()[0].is_moving(&p) {
+                return Some(k - back);
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn a_slow_mover_lost_and_seen_again_is_a_mover_again_sooner() {
+        // Seen again 1 s later where it walked on: its ghost (died at 8.6 s, claiming
+        // 0.5 + 0.1 · 0.5 m) makes the new track reacquired, so it needs 0.1 m of travel,
+        // 2 s at 0.05 m/s (the filtered position trails by about a scan), not 0.3 m (6 s).
+        let again = moving_again_after(1.0, 0.0);
+        assert!(matches!(again, Some(19..=24)), "{again:?}");
+        // Seen 1 m off the line: not at the ghost, a new object, 6 s to prove.
+        assert_eq!(moving_again_after(1.0, 1.0), None);
+        // Seen again after the ghost is forgotten (6 s): the same.
+        assert_eq!(moving_again_after(7.0, 0.0), None);
     }
 }
