@@ -30,10 +30,10 @@
 //!   cluster too wide to track, a person brushes past a box) leaves a *ghost*
 //!   where it was for [`GHOST_MEMORY_S`]. A track born within `gate_m` +
 //!   [`GHOST_SPREAD_MPS`] · age of a ghost is the same mover seen again: it
-//!   needs only [`REACQUIRED_TRAVEL_FRACTION`] of `min_travel_m` of its own
-//!   travel to count as moving. Without it a slow person (0.05 m/s) who had
-//!   been merged was static for the 6 s it took to travel `min_travel_m`
-//!   again, and walked into the robot (slow_obstacles seed 1, world 61).
+//!   counts as moving once confirmed and faster than `moving_speed_mps`, with
+//!   no travel to prove. Without it a slow person (0.05 m/s) who had been
+//!   merged was static for the 6 s it took to travel `min_travel_m` again,
+//!   and walked into the robot (slow_obstacles seed 1, world 61).
 //!
 //! All buffers are reused: no allocation in steady state.
 
@@ -94,8 +94,6 @@ pub const GHOST_MEMORY_S: f64 = 6.0;
 /// How fast the region a ghost claims grows with its age (m/s): slow movers,
 /// those the travel proof holds back longest.
 pub const GHOST_SPREAD_MPS: f64 = 0.1;
-/// The share of `min_travel_m` a track born at a ghost must travel itself.
-pub const REACQUIRED_TRAVEL_FRACTION: f64 = 1.0 / 3.0;
 
 /// What a deleted moving track leaves behind: proof that something moved there.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -141,7 +139,7 @@ pub struct Track {
     /// The farthest it has been from `born_at` so far (m): proof that it really
     /// moves, kept when it turns round (a pacing person stays a mover).
     pub max_travel_m: f64,
-    /// Born at a ghost: the same mover seen again, with less travel to prove.
+    /// Born at a ghost: the same mover seen again, with no travel to prove.
     pub reacquired: bool,
     fx: CvFilter,
     fy: CvFilter,
@@ -164,16 +162,13 @@ impl Track {
     }
 
     /// Confirmed, faster than `moving_speed_mps`, and once at least
-    /// `min_travel_m` (a third of it when reacquired at a ghost) away from
-    /// where it was first seen (centroid jitter on a
+    /// `min_travel_m` away from where it was first seen unless reacquired at
+    /// a ghost (centroid jitter on a
     /// static object never adds up to that).
     pub fn is_moving(&self, p: &ObstacleParams) -> bool {
-        let needed_m = if self.reacquired {
-            REACQUIRED_TRAVEL_FRACTION * p.min_travel_m
-        } else {
-            p.min_travel_m
-        };
-        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps && self.max_travel_m >= needed_m
+        self.is_confirmed()
+            && self.velocity().norm() > p.moving_speed_mps
+            && (self.reacquired || self.max_travel_m >= p.min_travel_m)
     }
 }
 
@@ -594,10 +589,11 @@ mod tests {
     #[test]
     fn a_slow_mover_lost_and_seen_again_is_a_mover_again_sooner() {
         // Seen again 1 s later where it walked on: its ghost (died at 8.6 s, claiming
-        // 0.5 + 0.1 · 0.5 m) makes the new track reacquired, so it needs 0.1 m of travel,
-        // 2 s at 0.05 m/s (the filtered position trails by about a scan), not 0.3 m (6 s).
+        // 0.5 + 0.1 · 0.5 m) makes the new track reacquired, so it is a mover once
+        // confirmed (3 scans) and its velocity estimate passes 0.02 m/s, not after 0.3 m
+        // of travel (6 s).
         let again = moving_again_after(1.0, 0.0);
-        assert!(matches!(again, Some(19..=24)), "{again:?}");
+        assert!(matches!(again, Some(2..=8)), "{again:?}");
         // Seen 1 m off the line: not at the ghost, a new object, 6 s to prove.
         assert_eq!(moving_again_after(1.0, 1.0), None);
         // Seen again after the ghost is forgotten (6 s): the same.
