@@ -241,3 +241,28 @@ fn a_person_walking_head_on_is_sidestepped_not_backed_away_from() {
         assert!(back_off_m < 1.2, "seed {seed}: backed off {back_off_m:.2} m");
     }
 }
+
+/// Only a mover's predicted disc makes a command threatened (ALGORITHM §5b):
+/// a static point the held command would reach is the DTCBF's business. In
+/// these two worlds of `slow_obstacles` the robot is escaping from the unsafe
+/// set, backing or creeping away from a person, with a box or a post within
+/// the evasion horizon of that motion. When that point counted as a threat,
+/// evasion took over and turned the robot in place (v = 0), and the person
+/// walked into it: seed 5, world 45 (evasion from 18.3 s, contact at 22.5 s)
+/// and seed 11, world 77 (from 36.8 s, contact at 39.2 s).
+#[test]
+fn a_static_point_behind_does_not_stop_an_escape_from_a_person() {
+    use oldbf_ros::batch::template::Template;
+    let path = common::repo_root().join("config/batch/slow_obstacles.yaml");
+    let template = Template::load(&path, None).unwrap();
+    for (seed, index) in [(5, 45), (11, 77)] {
+        let w = template.world(seed, index).unwrap();
+        let f = run(&w.scenario, Controller::Oldbf, w.sensor_seed).figures;
+        println!(
+            "seed {seed}, world {index}: collisions {}, least clearance {:.3} m",
+            f.collisions, f.min_clearance_m
+        );
+        assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
+        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
+    }
+}

@@ -203,27 +203,29 @@ fn a_movers_disc_is_centred_on_the_mover_not_on_the_arc_seen() {
     assert!(disc.norm() > centroid.norm());
 }
 
-/// Slow people (0.05 m/s) who merged into one cluster too wide to track are
-/// movers again as soon as their new tracks are confirmed, not after
-/// `min_travel_m` (6 s at that speed): each dead track left a ghost
-/// (ALGORITHM §6). Without it, in these two worlds of `slow_obstacles` at
-/// seed 1, a person who had parted from another (world 61) or from a box
-/// (world 11) counted as static and walked into the robot.
+/// Slow people who merged into one cluster too wide to track are movers
+/// again as soon as their new tracks are confirmed, not after `min_travel_m`
+/// (6 s at 0.05 m/s): each dead track left a ghost (ALGORITHM §6). In these
+/// two worlds of `slow_obstacles` the runs with and without ghosts are the
+/// same until one more track counts as moving with them (seed 4, world 7 at
+/// 27.1 s; seed 5, world 9 at 21.8 s), which can only be a track reacquired
+/// from a ghost; the robot backs or turns away from it. Without ghosts it
+/// counts as static and walks into the robot 6.0 s and 3.9 s later.
 #[test]
 fn slow_people_who_merged_are_movers_again_when_they_part() {
     use oldbf_ros::batch::template::Template;
     use oldbf_ros::sim::run::{run_scenario, Controller};
     let path = common::repo_root().join("config/batch/slow_obstacles.yaml");
     let template = Template::load(&path, None).unwrap();
-    for index in [11, 61] {
-        let w = template.world(1, index).unwrap();
+    for (seed, index) in [(4, 7), (5, 9)] {
+        let w = template.world(seed, index).unwrap();
         let r = run_scenario(&w.scenario, Controller::Oldbf, w.sensor_seed).unwrap();
         let f = &r.summary.figures;
         println!(
-            "world {index}: collisions {}, least clearance {:.3} m",
+            "seed {seed}, world {index}: collisions {}, least clearance {:.3} m",
             f.collisions, f.min_clearance_m
         );
-        assert_eq!(f.collisions, 0, "world {index}: {f:?}");
-        assert!(f.reached_goal, "world {index}: {f:?}");
+        assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
+        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
     }
 }

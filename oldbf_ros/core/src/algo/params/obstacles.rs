@@ -76,7 +76,10 @@ pub struct PassiveParams {
     /// Robot speed towards an obstacle above which a contact is "closing" (m/s).
     pub closing_speed_mps: f64,
     /// Evasion scores a command by the predicted time to contact with the
-    /// command held this long (s).
+    /// command held this long (s); with `obstacles.lookahead_s`, also how soon a
+    /// predicted contact triggers it. About the time a turn of π/2 takes at
+    /// ω_max = 0.3 rad/s (5.2 s): a robot that sees a person later cannot turn
+    /// out of the way in time.
     pub evasion_horizon_s: f64,
     /// Evasion replaces the filter's command only if it gains at least this
     /// much predicted time to contact (s): no dithering between near-equals.
@@ -91,7 +94,7 @@ impl Default for PassiveParams {
             mover_margin_m: 0.05,
             mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,
-            evasion_horizon_s: 4.0,
+            evasion_horizon_s: 5.0,
             evasion_min_gain_s: 0.2,
         }
     }
