@@ -252,17 +252,5 @@ fn a_person_walking_head_on_is_sidestepped_not_backed_away_from() {
 /// and seed 11, world 77 (from 36.8 s, contact at 39.2 s).
 #[test]
 fn a_static_point_behind_does_not_stop_an_escape_from_a_person() {
-    use oldbf_ros::batch::template::Template;
-    let path = common::repo_root().join("config/batch/slow_obstacles.yaml");
-    let template = Template::load(&path, None).unwrap();
-    for (seed, index) in [(5, 45), (11, 77)] {
-        let w = template.world(seed, index).unwrap();
-        let f = run(&w.scenario, Controller::Oldbf, w.sensor_seed).figures;
-        println!(
-            "seed {seed}, world {index}: collisions {}, least clearance {:.3} m",
-            f.collisions, f.min_clearance_m
-        );
-        assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
-        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
-    }
+    common::assert_template_worlds_safe("slow_obstacles", &[(5, 45), (11, 77)]);
 }

@@ -28,3 +28,24 @@ pub fn shipped_scenarios() -> Vec<PathBuf> {
     v.sort();
     v
 }
+
+/// Runs OLDBF on batch world `index` of `config/batch/{template}.yaml` at
+/// `seed`, as `oldbf batch` does, and asserts it ends without a contact and
+/// at its goal (regression worlds of closed-loop tests).
+pub fn assert_template_worlds_safe(template: &str, worlds: &[(u64, usize)]) {
+    use oldbf_ros::batch::template::Template;
+    use oldbf_ros::sim::run::{run_scenario, Controller};
+    let path = repo_root().join(format!("config/batch/{template}.yaml"));
+    let template = Template::load(&path, None).unwrap();
+    for &(seed, index) in worlds {
+        let w = template.world(seed, index).unwrap();
+        let r = run_scenario(&w.scenario, Controller::Oldbf, w.sensor_seed).unwrap();
+        let f = &r.summary.figures;
+        println!(
+            "seed {seed}, world {index}: collisions {}, least clearance {:.3} m",
+            f.collisions, f.min_clearance_m
+        );
+        assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
+        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
+    }
+}

@@ -213,19 +213,5 @@ fn a_movers_disc_is_centred_on_the_mover_not_on_the_arc_seen() {
 /// counts as static and walks into the robot 6.0 s and 3.9 s later.
 #[test]
 fn slow_people_who_merged_are_movers_again_when_they_part() {
-    use oldbf_ros::batch::template::Template;
-    use oldbf_ros::sim::run::{run_scenario, Controller};
-    let path = common::repo_root().join("config/batch/slow_obstacles.yaml");
-    let template = Template::load(&path, None).unwrap();
-    for (seed, index) in [(4, 7), (5, 9)] {
-        let w = template.world(seed, index).unwrap();
-        let r = run_scenario(&w.scenario, Controller::Oldbf, w.sensor_seed).unwrap();
-        let f = &r.summary.figures;
-        println!(
-            "seed {seed}, world {index}: collisions {}, least clearance {:.3} m",
-            f.collisions, f.min_clearance_m
-        );
-        assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
-        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
-    }
+    common::assert_template_worlds_safe("slow_obstacles", &[(4, 7), (5, 9)]);
 }
