@@ -205,13 +205,13 @@ fn a_movers_disc_is_centred_on_the_mover_not_on_the_arc_seen() {
 
 /// Slow people who merged into one cluster too wide to track are movers
 /// again as soon as their new tracks are confirmed, not after `min_travel_m`
-/// (6 s at 0.05 m/s): each dead track left a ghost (ALGORITHM §6). In these
-/// two worlds of `slow_obstacles` the runs with and without ghosts are the
-/// same until one more track counts as moving with them (seed 4, world 7 at
-/// 27.1 s; seed 5, world 9 at 21.8 s), which can only be a track reacquired
-/// from a ghost; the robot backs or turns away from it. Without ghosts it
-/// counts as static and walks into the robot 6.0 s and 3.9 s later.
+/// (6 s at 0.05 m/s): each dead track left a ghost (ALGORITHM §6). In this
+/// world of `slow_obstacles` (seed 4, world 7) the runs with and without
+/// ghosts are the same until one more track counts as moving with them, at
+/// 27.1 s, which can only be a track reacquired from a ghost; the robot backs
+/// away from it. Without ghosts it counts as static and walks into the robot
+/// 6.0 s later.
 #[test]
 fn slow_people_who_merged_are_movers_again_when_they_part() {
-    common::assert_template_worlds_safe("slow_obstacles", &[(4, 7), (5, 9)]);
+    common::assert_template_worlds_safe("slow_obstacles", &[(4, 7)]);
 }

@@ -15,7 +15,7 @@
 //!   than `unstuck.progress_m` for `unstuck.stall_s`.
 //! * **Follow**: the way round, planned on a grid round the robot
 //!   ([`LocalPlanner`]: cells r + d_safe + `unstuck.margin_m` clear of every
-//!   point) to the point `unstuck.ahead_m` further along the reference's
+//!   point but those of moving tracks, which the pipeline leaves out) to the point `unstuck.ahead_m` further along the reference's
 //!   path: the shortest path when it is reachable (through the gap nearest
 //!   the reference that the robot fits through), else to the reachable cell
 //!   nearest it. The nominal becomes a turn towards the path's farthest
@@ -151,6 +151,13 @@ impl Unstuck {
     /// Whether the robot is following a way round an obstacle.
     pub fn following(&self) -> bool {
         self.following_from_m.is_some()
+    }
+
+    /// Whether [`Self::step`] at `now_s` may plan a way round (and so read
+    /// the points): following already, or no progress for `stall_s`. A
+    /// superset: the step may still find progress, arrival or a mover near.
+    pub fn may_plan(&self, now_s: f64, p: &Params) -> bool {
+        self.following_from_m.is_some() || self.last_gain_s.is_some_and(|t| now_s - t >= p.unstuck.stall_s)
     }
 
     /// One step: `guidance` (None: nothing to make progress towards, nothing

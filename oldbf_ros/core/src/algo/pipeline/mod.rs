@@ -119,6 +119,11 @@ pub struct SafetyPipeline {
     surprise_next: usize,
     /// h(k+1) predicted for the last command sent (m; NaN: none).
     last_h_next: f64,
+    /// The points the unstuck planner sees: the scan's, less those of moving
+    /// tracks (a person is not a wall to plan round, §4b), and a per-point
+    /// mark of the moving ones; scratch, reused every step.
+    plan_points: Vec<Vec2>,
+    on_mover: Vec<bool>,
 }
 
 /// Steps over which unexplained falls of h add up (1 s at 10 Hz).
@@ -176,6 +181,8 @@ impl SafetyPipeline {
             surprise: [0.0; SURPRISE_STEPS],
             surprise_next: 0,
             last_h_next: f64::NAN,
+            plan_points: Vec::with_capacity(cap),
+            on_mover: Vec::with_capacity(cap),
         }
     }
 
@@ -265,6 +272,27 @@ impl SafetyPipeline {
         self.surprise[self.surprise_next] = if change.is_finite() { change } else { 0.0 };
         self.surprise_next = (self.surprise_next + 1) % SURPRISE_STEPS;
         self.surprise.iter().sum::<f64>() < -self.params.dtcbf.noise_margin_m
+    }
+
+    /// The scan's points less those of this step's moving tracks, for the
+    /// unstuck planner (§4b): planning round people as if they were walls
+    /// sent robots on long detours away from their goal while people walked
+    /// through the way; evasion and the DTCBF still see every point.
+    fn fill_plan_points(&mut self) {
+        let n = self.points.points.len();
+        self.on_mover.clear();
+        self.on_mover.resize(n, false);
+        let o = &self.params.obstacles;
+        for (cluster, track) in self.clusters.as_slice().iter().zip(self.tracker.cluster_track()) {
+            if track.is_some_and(|t| self.tracker.tracks()[t].is_moving(o)) {
+                for i in cluster.indices(n) {
+                    self.on_mover[i] = true;
+                }
+            }
+        }
+        self.plan_points.clear();
+        let kept = self.points.points.iter().zip(&self.on_mover).filter(|(_, m)| !**m);
+        self.plan_points.extend(kept.map(|(q, _)| *q));
     }
 
     /// Where the nominal command is heading, for the next step only: the
@@ -538,6 +566,11 @@ impl SafetyPipeline {
         self.last_clearances = c;
         let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
         self.last_box = bx;
+        // The planner's points only when unstuck may plan this step (it plans only then).
+        let plans = self.params.unstuck.enabled && self.unstuck.may_plan(now_s, &self.params);
+        if plans {
+            self.fill_plan_points();
+        }
         let p = &self.params;
         let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &p.barrier);
         let nominal_boxed = bx.clamp(nominal);
@@ -551,7 +584,7 @@ impl SafetyPipeline {
             let now = Situation {
                 now_s,
                 nominal: nominal_boxed,
-                points: &self.points.points,
+                points: if plans { &self.plan_points } else { &self.points.points },
                 ego: pose,
                 movers_near,
             };
@@ -737,6 +770,48 @@ mod tests {
             ranges_m: ranges,
             intensities: &[],
         }
+    }
+
+    /// Lowers `ranges` (360 beams from −π) to where each beam meets the disc
+    /// of `radius` m centred at `centre` (m, robot frame).
+    fn add_disc(ranges: &mut [f32], centre: Vec2, radius: f64) {
+        for (i, r) in ranges.iter_mut().enumerate() {
+            let a = -std::f64::consts::PI + i as f64 * 2.0 * std::f64::consts::PI / 360.0;
+            let along = centre.x * a.cos() + centre.y * a.sin();
+            let off2 = centre.norm_squared() - along * along;
+            if along > 0.0 && off2 <= radius * radius {
+                *r = r.min((along - (radius * radius - off2).sqrt()) as f32);
+            }
+        }
+    }
+
+    #[test]
+    fn the_way_round_is_planned_without_the_points_of_walking_people() {
+        // A person (radius 0.15 m) walks across 1.2 m ahead at 0.3 m/s for 4 s; a post
+        // (radius 0.1 m) stands 1.5 m to the left. The robot stands at the origin.
+        let mut pipe = SafetyPipeline::new(Params::default());
+        let post = Vec2::new(0.0, 1.5);
+        let mut person = Vec2::zeros();
+        for k in 0..40 {
+            let t = 1.0 + 0.1 * k as f64;
+            person = Vec2::new(1.2, -0.9 + 0.03 * k as f64);
+            let mut ranges = vec![f32::INFINITY; 360];
+            add_disc(&mut ranges, person, 0.15);
+            add_disc(&mut ranges, post, 0.1);
+            let mut s = scan(&ranges);
+            s.header.stamp_s = t;
+            pipe.step_with_pose(&s, t, Twist::ZERO, 0.0, Some(Pose2::default()));
+        }
+        assert_eq!(pipe.movers().len(), 1, "{:?}", pipe.movers());
+        pipe.fill_plan_points();
+        let near = |c: Vec2| move |q: &&Vec2| (**q - c).norm() < 0.25;
+        let seen = pipe.points.points.iter().filter(near(person)).count();
+        let post_seen = pipe.points.points.iter().filter(near(post)).count();
+        assert!(seen >= 3 && post_seen >= 3, "{seen} {post_seen}");
+        // The planner sees the post, not the person; nothing else is dropped.
+        assert_eq!(pipe.plan_points.iter().filter(near(person)).count(), 0);
+        assert_eq!(pipe.plan_points.iter().filter(near(post)).count(), post_seen);
+        assert_eq!(pipe.plan_points.len(), pipe.points.points.len() - seen);
     }
 
     #[test]
