@@ -15,7 +15,8 @@
 //!   than `unstuck.progress_m` for `unstuck.stall_s`.
 //! * **Follow**: the way round, planned on a grid round the robot
 //!   ([`LocalPlanner`]: cells r + d_safe + `unstuck.margin_m` clear of every
-//!   point but those of moving tracks, which the pipeline leaves out) to the point `unstuck.ahead_m` further along the reference's
+//!   point but those of movers walking at 0.1 m/s or more, which the
+//!   pipeline leaves out) to the point `unstuck.ahead_m` further along the reference's
 //!   path: the shortest path when it is reachable (through the gap nearest
 //!   the reference that the robot fits through), else to the reachable cell
 //!   nearest it. The nominal becomes a turn towards the path's farthest
