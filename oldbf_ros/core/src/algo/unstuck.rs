@@ -158,7 +158,12 @@ impl Unstuck {
     /// the points): following already, or no progress for `stall_s`. A
     /// superset: the step may still find progress, arrival or a mover near.
     pub fn may_plan(&self, now_s: f64, p: &Params) -> bool {
-        self.following_from_m.is_some() || self.last_gain_s.is_some_and(|t| now_s - t >= p.unstuck.stall_s)
+        self.following_from_m.is_some() || self.stalled(now_s, p)
+    }
+
+    /// No progress for `unstuck.stall_s` at `now_s`.
+    fn stalled(&self, now_s: f64, p: &Params) -> bool {
+        self.last_gain_s.is_some_and(|t| now_s - t >= p.unstuck.stall_s)
     }
 
     /// One step: `guidance` (None: nothing to make progress towards, nothing
@@ -187,7 +192,6 @@ impl Unstuck {
             self.best_progress_m = Some(self.best_progress_m.map_or(progress, |b| b.max(progress)));
             self.last_gain_s = Some(now_s);
         }
-        let last_gain = self.last_gain_s.unwrap_or(now_s);
         let arrived = dist <= p.tracking.capture_radius_m;
         if arrived || movers_near {
             self.following_from_m = None;
@@ -197,10 +201,11 @@ impl Unstuck {
         }
         if self.following_from_m.is_none() {
             let wants_to_move = nominal.v_mps > 0.0 || nominal.omega_radps != 0.0;
-            if !u.enabled || !wants_to_move || now_s - last_gain < u.stall_s {
+            if !u.enabled || !wants_to_move || !self.stalled(now_s, p) {
                 return UnstuckDecision::NONE;
             }
-            log::debug!("t {now_s:.1}: no progress for {:.1} s: going round", now_s - last_gain);
+            let idle_s = now_s - self.last_gain_s.unwrap_or(now_s);
+            log::debug!("t {now_s:.1}: no progress for {idle_s:.1} s: going round");
             self.following_from_m = Some(progress);
             self.side = None;
         }

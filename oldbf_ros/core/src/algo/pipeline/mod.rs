@@ -290,12 +290,9 @@ impl SafetyPipeline {
         let n = self.points.points.len();
         self.on_mover.clear();
         self.on_mover.resize(n, false);
-        let o = &self.params.obstacles;
+        let (tracks, o) = (self.tracker.tracks(), &self.params.obstacles);
+        let walks_off = |t: usize| tracks[t].is_moving(o) && tracks[t].velocity().norm() >= PLAN_THROUGH_SPEED_MPS;
         for (cluster, track) in self.clusters.as_slice().iter().zip(self.tracker.cluster_track()) {
-            let walks_off = |t: usize| {
-                let track = &self.tracker.tracks()[t];
-                track.is_moving(o) && track.velocity().norm() >= PLAN_THROUGH_SPEED_MPS
-            };
             if track.is_some_and(walks_off) {
                 for i in cluster.indices(n) {
                     self.on_mover[i] = true;
