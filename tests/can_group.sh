@@ -11,6 +11,8 @@
 #    (watchdog, e-stop, drive killed/silent/axis error, odometry, error
 #    frames / bus-off, ENOBUFS, interface down) and the candump + python
 #    cantools decoding checks (tests/can/can_checks.py), PASS/FAIL per check;
+#    and the robot's bringup on vcan0 with scans and no upstream command
+#    (tests/can/bringup_no_upstream.py: only zero setpoints on the bus);
 # 3. prints the timing of each step and the tx jitter measured in the guest.
 #
 # Needs: Rust ≥ 1.85, and tests/vm/setup-host.sh run once (can-utils, python
@@ -70,6 +72,10 @@ for name in sys.argv[2:]:
 PY
 BIN_DIR="$TARGET/release"
 for b in can_bridge_cli virtual_drive; do [ -x "$BIN_DIR/$b" ] || die "$BIN_DIR/$b missing"; done
+# The robot's bringup on the bus (tests/can/bringup_no_upstream.py) needs ROS
+# and the nodes laid out as a ROS package (target/ros).
+"$ROOT/tests/ros/install_deps.sh" > "$OUT/ros_deps.log" 2>&1 || { tail -20 "$OUT/ros_deps.log"; die "installing the ROS packages failed"; }
+"$ROOT/oldbf_ros/rospkg/install.sh" > "$OUT/rospkg.log" 2>&1 || { tail -20 "$OUT/rospkg.log"; die "building the ROS nodes failed"; }
 t_built=$(ms)
 
 # ------------------------------------------------------------------ 2. one guest

@@ -11,13 +11,20 @@
 //! stop, when the scans do not. Every tick applies the same rules, whatever
 //! triggered it.
 //!
-//! Nominal command, in order of precedence (`nominal_source: auto`):
+//! The safety layer never originates motion on a robot (ALGORITHM §5c): with
+//! no upstream command the nominal is zero. Nominal command, in order of
+//! precedence (`nominal_source: auto`, what the simulator's robots use):
 //! 1. `cmd_vel_in` (teleop, a planner). Once one has arrived the node stays in
 //!    this mode: if it goes stale the nominal is zero. A silent planner must
 //!    never turn into "drive straight at v_nom".
-//! 2. The configured reference trajectory, tracked with odometry (stop
-//!    without fresh odometry).
-//! 3. Straight ahead at `control.v_nom_mps` (the paper's line test).
+//! 2. The scenario's reference trajectory, tracked with odometry (stop
+//!    without fresh odometry), or the scenario's constant command.
+//! 3. Zero.
+//!
+//! `nominal_source: cmd_vel_in` (the shipped default, and what the robot
+//! launch files use) takes only 1; `constant` drives straight at the
+//! scenario's constant command or `control.v_nom_mps` (the paper's line
+//! test), and exists only for an explicit request.
 //!
 //! Scan order (ours, beyond the pipeline's per-scan checks): a scan whose
 //! stamp is not newer than the newest one already taken (the same stamp
@@ -47,13 +54,15 @@ use std::fmt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum NominalSource {
-    /// cmd_vel_in if one has ever arrived, else the reference, else v_nom.
+    /// cmd_vel_in if one has ever arrived, else the scenario's reference or
+    /// constant command, else zero.
     Auto,
-    /// Only cmd_vel_in (zero while none is fresh).
+    /// Only cmd_vel_in (zero while none is fresh): the default on a robot.
     CmdVelIn,
     /// Only the reference trajectory (zero without fresh odometry).
     Reference,
-    /// Straight ahead at control.v_nom_mps.
+    /// The scenario's constant command, or straight ahead at
+    /// control.v_nom_mps: only where explicitly asked for.
     Constant,
 }
 
@@ -81,12 +90,23 @@ impl Default for NodeSettings {
     fn default() -> Self {
         Self {
             base_frame: "base_link".into(),
-            nominal_source: NominalSource::Auto,
+            nominal_source: NominalSource::CmdVelIn,
             cmd_in_timeout_s: 0.5,
             odom_timeout_s: 0.5,
             publish_markers: true,
             scenario: String::new(),
             robot: String::new(),
+        }
+    }
+}
+
+impl NodeSettings {
+    /// The settings of a simulated robot: `auto`, so the scenario's reference
+    /// or constant command is the nominal until an upstream command arrives.
+    pub fn for_scenario() -> Self {
+        Self {
+            nominal_source: NominalSource::Auto,
+            ..Self::default()
         }
     }
 }
@@ -179,6 +199,8 @@ pub enum NominalUsed {
     Reference,
     ReferenceNoOdom,
     Constant,
+    /// `auto` with no upstream command, no reference and no constant: zero.
+    NoUpstream,
 }
 
 impl fmt::Display for NominalUsed {
@@ -188,7 +210,8 @@ impl fmt::Display for NominalUsed {
             Self::CmdVelInStale => "cmd_vel_in (stale: zero)",
             Self::Reference => "reference",
             Self::ReferenceNoOdom => "reference (no odometry: zero)",
-            Self::Constant => "constant v_nom",
+            Self::Constant => "constant",
+            Self::NoUpstream => "no upstream command: zero",
         })
     }
 }
@@ -523,10 +546,15 @@ impl NodeCore {
                 None => (Twist::ZERO, NominalUsed::ReferenceNoOdom, None),
             };
         }
-        let constant = self
-            .constant
-            .unwrap_or_else(|| Twist::new(self.pipeline.params().control.v_nom_mps, 0.0));
-        (constant, NominalUsed::Constant, None)
+        match (self.settings.nominal_source, self.constant) {
+            (NominalSource::Constant, c) => (
+                c.unwrap_or_else(|| Twist::new(self.pipeline.params().control.v_nom_mps, 0.0)),
+                NominalUsed::Constant,
+                None,
+            ),
+            (NominalSource::Auto, Some(c)) => (c, NominalUsed::Constant, None),
+            _ => (Twist::ZERO, NominalUsed::NoUpstream, None),
+        }
     }
 
     /// One control tick at time `now_s` (the node's clock, same as scan stamps).
@@ -666,11 +694,36 @@ mod tests {
         assert_eq!(n.tick(1.62).cmd, Twist::new(0.15, 0.0));
     }
 
+    /// The safety layer never originates motion (ALGORITHM §5c): in free
+    /// space, with no upstream command, every source a robot can be
+    /// configured with sends zero; only `constant`, asked for explicitly,
+    /// drives at v_nom.
+    #[test]
+    fn with_no_upstream_command_the_node_sends_zero() {
+        for source in [NominalSource::Auto, NominalSource::CmdVelIn, NominalSource::Reference] {
+            let mut n = node(source);
+            for k in 0..20 {
+                let t = 1.0 + 0.1 * f64::from(k);
+                n.on_scan(meta(t), &open(), &[]);
+                let tick = n.tick(t + 0.01);
+                assert_eq!(tick.cmd, Twist::ZERO, "{source:?} at {t} s: {tick:?}");
+                assert!(
+                    tick.record.stop_cause.is_none(),
+                    "{source:?}: a filtered zero, not a fault"
+                );
+            }
+        }
+        assert_eq!(NodeSettings::default().nominal_source, NominalSource::CmdVelIn);
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &open(), &[]);
+        assert_eq!(n.tick(1.01).cmd, Twist::new(0.15, 0.0));
+    }
+
     #[test]
     fn upstream_command_is_filtered_and_never_replaced_by_v_nom() {
         let mut n = node(NominalSource::Auto);
         n.on_scan(meta(1.0), &open(), &[]);
-        assert_eq!(n.tick(1.0).nominal_used, NominalUsed::Constant);
+        assert_eq!(n.tick(1.0).nominal_used, NominalUsed::NoUpstream);
         n.on_cmd_in(Twist::new(0.1, 0.2), 1.0);
         let t = n.tick(1.1);
         assert_eq!((t.cmd, t.nominal_used), (Twist::new(0.1, 0.2), NominalUsed::CmdVelIn));
@@ -720,7 +773,7 @@ mod tests {
     #[test]
     fn reference_needs_odometry() {
         let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 2.0);
-        let mut n = NodeCore::new(Params::default(), NodeSettings::default(), Some(r));
+        let mut n = NodeCore::new(Params::default(), NodeSettings::for_scenario(), Some(r));
         n.on_scan(meta(1.0), &open(), &[]);
         let t = n.tick(1.0);
         assert_eq!((t.cmd, t.nominal_used), (Twist::ZERO, NominalUsed::ReferenceNoOdom));
@@ -758,7 +811,7 @@ mod tests {
         let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 10.0);
         // Reference time at each tick (s): the first tick advances by Δt.
         for (fixed, t_ref_s) in [(false, [0.0, 0.1, 0.35]), (true, [0.0, 0.1, 0.2])] {
-            let mut n = NodeCore::new(Params::default(), NodeSettings::default(), Some(r));
+            let mut n = NodeCore::new(Params::default(), NodeSettings::for_scenario(), Some(r));
             if fixed {
                 n = n.with_fixed_period();
             }

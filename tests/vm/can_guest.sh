@@ -67,6 +67,15 @@ else
 fi
 TIMES+=("can_checks.py $(( $(ms) - t0 ))")
 
+# ------------------------------------------------------------------ the bringup, no upstream command
+t0=$(ms)
+if ( source "$ROOT/target/ros/setup.bash" && /usr/bin/python3 tests/can/bringup_no_upstream.py ); then
+  pass "bringup.launch with scans and no cmd_vel_in: zero setpoints only"
+else
+  fail "bringup.launch with scans and no cmd_vel_in (logs: target/can_group/bringup/)"
+fi
+TIMES+=("bringup_no_upstream.py $(( $(ms) - t0 ))")
+
 echo "guest timings (ms):"
 for t in "${TIMES[@]}"; do echo "  $t"; done
 if [ "$fails" -eq 0 ]; then echo "can_guest: all checks passed"; exit 0; fi

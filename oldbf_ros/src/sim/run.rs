@@ -225,8 +225,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .iter()
         .map(|plan| AgentLoop {
             plan: plan.clone(),
-            // No reference: the scenario's constant command (none: stand still).
-            node: NodeCore::new(params.clone(), NodeSettings::default(), plan.reference)
+            // The scenario's reference, else its constant command (none: stand still).
+            node: NodeCore::new(params.clone(), NodeSettings::for_scenario(), plan.reference)
                 .with_constant(plan.constant.unwrap_or(Twist::ZERO))
                 .with_fixed_period()
                 .keep_clusters(controller == Controller::Vo),

@@ -239,14 +239,32 @@ impl ObstacleTracker {
 
     /// A track's position and velocity in the robot frame at the last update.
     pub fn in_robot_frame(&self, t: &Track) -> (Vec2, Vec2) {
-        let map = &self.robot_map;
-        (map.inverse_point(t.position()), map.inverse_vector(t.velocity()))
+        Self::predicted(t, 0.0, &self.robot_map)
     }
 
     /// A track's disc centre and velocity in the robot frame at the last
     /// update: its position pushed `depth_m` farther out along its bearing.
     pub fn disc_in_robot_frame(&self, t: &Track) -> (Vec2, Vec2) {
-        let (pos, vel) = self.in_robot_frame(t);
+        Self::predicted_disc(t, 0.0, &self.robot_map)
+    }
+
+    /// When the tracks were last updated (s, scan stamp); `None` before the first scan.
+    pub fn last_stamp_s(&self) -> Option<f64> {
+        self.last_stamp_s
+    }
+
+    /// A track's position and velocity `ahead_s` after the last update on
+    /// its constant-velocity prediction, in the frame of the robot pose whose
+    /// map (tracking frame) is `robot`: where a tick between two scans sees it.
+    pub fn predicted(t: &Track, ahead_s: f64, robot: &FrameMap) -> (Vec2, Vec2) {
+        let pos = t.position() + t.velocity() * ahead_s;
+        (robot.inverse_point(pos), robot.inverse_vector(t.velocity()))
+    }
+
+    /// [`Self::predicted`] of the disc centre: pushed `depth_m` farther out
+    /// along its bearing from that robot pose.
+    pub fn predicted_disc(t: &Track, ahead_s: f64, robot: &FrameMap) -> (Vec2, Vec2) {
+        let (pos, vel) = Self::predicted(t, ahead_s, robot);
         let d = pos.norm();
         let centre = if d > 0.0 { pos * ((d + t.depth_m) / d) } else { pos };
         (centre, vel)
