@@ -19,6 +19,15 @@
 #   latency    scan -> cmd_vel latency over loopback (tests/ros/latency_probe.py):
 #              every command is shown to come from the scan it is timed
 #              against (~state carries its stamp); p50/p99/max reported
+#   ticks      a planner at 20 and at 100 Hz beside a 10 Hz LiDAR, a person
+#              walking at the robot (tests/ros/between_scans.py): once it is a
+#              threat, every command, between scans too, reports it
+#   clock      cmd_vel_in at 1 kHz on the wall clock for 2 minutes beside 10 Hz
+#              scans (tests/ros/fast_commands.py): no clock jump reported, no
+#              zero command in open space
+#   simtime    /use_sim_time: the first scan is taken (no resubscription when
+#              simulated time jumps from 0), and Ctrl-C ends the node after
+#              /clock has stopped (tests/ros/sim_time.py)
 #   reconfigure  dynamic_reconfigure through Debian's Python client: read
 #              the parameters, set d_safe 0.2 -> 0.4 and read it back, the
 #              robot stops 0.2 m earlier before a wall; out-of-range values
@@ -44,7 +53,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan sim stale latency reconfigure bag params multi carmen shutdown catkin rviz)
+ALL=(md5 scan sim stale latency ticks clock simtime reconfigure bag params multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -181,6 +190,53 @@ t_latency() {
   figure "latency scan -> cmd_vel over loopback: $(json "'p50 %s ms, p99 %s ms, max %s ms over %d scans (~state: p50 %s, p99 %s, max %s ms); %d cmd_vel messages' % (d['cmd_latency_ms']['p50'], d['cmd_latency_ms']['p99'], d['cmd_latency_ms']['max'], d['cmd_latency_ms']['n'], d['state_latency_ms']['p50'], d['state_latency_ms']['p99'], d['state_latency_ms']['max'], d['cmd_vel_messages'])" <<< "$s")"
   # Asserted: each scan's command was computed from it (not a timing bound, which is reported only).
   check "$(json "str(d['used'] >= 0.95 * d['scans'] and d['matched'] >= 0.95 * (d['scans'] - 1) and d['wrong_kind'] == 0).lower()" <<< "$s")" "commands not traced to their scans: $s"
+}
+
+t_ticks() {
+  local node s hz
+  node=$(spawn ticks_node "$BIN/oldbf_node" __ns:=/t_ticks)
+  wait_log "$LOG/ticks_node.log" "filtering at" 10 || return 1
+  for hz in 20 100; do
+    s=$($ROSPY tests/ros/between_scans.py /t_ticks "$hz" 9) || { stop_pid "$node"; return 1; }
+    echo "$s" > "$LOG/ticks_$hz.json"
+    figure "ticks: planner at $hz Hz beside a 10 Hz LiDAR, a person walking in: $(json "'%d states, %d between scans; after the first threat (person at %.2f m) %d states, %d without it' % (d['states'], d['between'], d['first_threat_x'] or -1, d['after_threat'], d['missed'])" <<< "$s")"
+    check "$(json "str(d['first_threat_x'] is not None and d['between'] > d['states'] // 3 and d['after_threat'] > 40 and d['missed'] == 0).lower()" <<< "$s")" "planner at $hz Hz: $s" || { stop_pid "$node"; return 1; }
+    sleep 1
+  done
+  stop_pid "$node"
+}
+
+t_clock() {
+  local node s jumps
+  node=$(spawn clock_node "$BIN/oldbf_node" __ns:=/t_clock)
+  wait_log "$LOG/clock_node.log" "filtering at" 10 || return 1
+  s=$($ROSPY tests/ros/fast_commands.py /t_clock 1000 120) || { stop_pid "$node"; return 1; }
+  stop_pid "$node"
+  echo "$s" > "$LOG/clock.json"
+  jumps=$(grep -c "clock jumped" "$LOG/clock_node.log" || true)
+  figure "clock: cmd_vel_in at $(json "d['rate_hz']" <<< "$s") Hz for 120 s: $(json "'%d commands, %d states, %d naming a clock jump, %d zero commands' % (d['published'], d['states'], d['clock_jump'], d['zero'])" <<< "$s"); $jumps clock-jump lines in the node's log"
+  check "$(json "str(d['rate_hz'] >= 700 and d['states'] >= 0.5 * d['published'] and d['clock_jump'] == 0 and d['zero'] == 0).lower()" <<< "$s")" "1 kHz commands: $s" || return 1
+  check "$([ "$jumps" = 0 ] && echo true)" "the node logged $jumps clock jumps"
+}
+
+t_simtime() {
+  local node s waited=0
+  rosparam set /use_sim_time true
+  node=$(spawn simtime_node "$BIN/oldbf_node" __ns:=/t_simtime)
+  wait_log "$LOG/simtime_node.log" "filtering at" 10 || { rosparam delete /use_sim_time; stop_pid "$node"; return 1; }
+  s=$($ROSPY tests/ros/sim_time.py /t_simtime 6) || { rosparam delete /use_sim_time; stop_pid "$node"; return 1; }
+  echo "$s" > "$LOG/simtime.json"
+  # /clock has stopped: Ctrl-C must still end the node.
+  kill -INT "$node"
+  while kill -0 "$node" 2>/dev/null && [ "$waited" -lt 50 ]; do sleep 0.1; waited=$((waited + 1)); done
+  local alive=false
+  kill -0 "$node" 2>/dev/null && alive=true
+  stop_pid "$node" KILL
+  rosparam delete /use_sim_time
+  figure "simtime: first scan at $(json "d['first_scan_s']" <<< "$s") s (simulated), first command from a scan at $(json "d['first_scan_state_s']" <<< "$s") s; $(json "'%d states, %d from scans' % (d['states'], d['states_with_scan'])" <<< "$s"); Ctrl-C with /clock stopped: $([ $alive = false ] && echo "exited after $((waited * 100)) ms" || echo "still running after 5 s")"
+  check "$(json "str(d['first_scan_state_s'] is not None and d['first_scan_state_s'] - d['first_scan_s'] <= 0.25 and d['states_with_scan'] > 40).lower()" <<< "$s")" "sim time: $s" || return 1
+  check "$(! grep -q 'subscribing to scan again' "$LOG/simtime_node.log" && echo true)" "the node subscribed to scan again under sim time" || return 1
+  check "$([ $alive = false ] && echo true)" "Ctrl-C did not end the node with /clock stopped"
 }
 
 t_reconfigure() {

@@ -142,6 +142,9 @@ pub struct OdomSample {
 struct OwnedScan {
     /// `None` until a scan is taken, and again after the clock jumped back.
     header: Option<ScanHeader>,
+    /// The pipeline has not perceived this scan yet (or rejected it, and may
+    /// take it later): the next tick gives it to the pipeline.
+    new: bool,
     ranges_m: Vec<f32>,
     intensities: Vec<f32>,
 }
@@ -233,6 +236,33 @@ pub struct Tick {
     /// The (governed) reference pose the tracking law followed this tick;
     /// `None` when the nominal did not come from the reference.
     pub reference_pose: Option<Pose2>,
+}
+
+impl Tick {
+    /// Why the robot is stopped, with the scan-order fault when that is the
+    /// cause; empty when it is not.
+    pub fn stop_reason(&self) -> String {
+        match (self.record.stop_cause, self.scan_fault) {
+            (Some(_), Some(f)) => f.to_string(),
+            (Some(c), None) => c.to_string(),
+            (None, _) => String::new(),
+        }
+    }
+
+    /// The log line for this tick's status, saying what was sent: a stop,
+    /// or (no admissible command) the least-bad command that moves the robot,
+    /// or filtering.
+    pub fn status_line(&self) -> String {
+        let Twist { v_mps, omega_radps } = self.cmd;
+        match self.record.stop_cause {
+            Some(_) if self.cmd == Twist::ZERO => format!("commanding a stop: {}", self.stop_reason()),
+            Some(_) => format!(
+                "{}: sending the least-bad command, v = {v_mps:.3} m/s, ω = {omega_radps:.3} rad/s",
+                self.stop_reason()
+            ),
+            None => format!("filtering ({})", self.nominal_used),
+        }
+    }
 }
 
 /// The node's state between ticks.
@@ -416,6 +446,7 @@ impl NodeCore {
         }
         let s = &mut self.scan;
         s.header = Some(meta);
+        s.new = true;
         s.ranges_m.clear();
         s.ranges_m.extend_from_slice(ranges_m);
         s.intensities.clear();
@@ -431,6 +462,7 @@ impl NodeCore {
         self.newest_stamp_s = None;
         self.scan.header = None;
         self.pipeline.reset();
+        self.pipeline.forget_perception();
         // Their receive times are on the old clock too: they would look fresh for too long.
         self.odom = None;
         self.cmd_in = None;
@@ -598,13 +630,19 @@ impl NodeCore {
                 self.pipeline.stop(now_s, nominal, StopCause::Rejected(stale))
             }
             (Some(header), None) => {
-                let scan = LaserScan {
-                    header,
-                    ranges_m: &self.scan.ranges_m,
-                    intensities: &self.scan.intensities,
-                };
-                self.pipeline
-                    .step_with_pose(&scan, now_s, nominal, v_now, odom.map(|o| o.pose))
+                // A scan is perceived once; every tick, with or without a new one,
+                // decides on that perception predicted to its own time (§5c).
+                let pose = odom.map(|o| o.pose);
+                if self.scan.new || self.pipeline.scan_rejected() {
+                    let scan = LaserScan {
+                        header,
+                        ranges_m: &self.scan.ranges_m,
+                        intensities: &self.scan.intensities,
+                    };
+                    self.pipeline.perceive(&scan, now_s, pose);
+                    self.scan.new = false;
+                }
+                self.pipeline.decide(now_s, nominal, v_now, pose)
             }
         };
         let scan_stamp_s = self.scan.header.map_or(f64::NAN, |h| h.stamp_s);
@@ -1042,6 +1080,68 @@ mod tests {
         }
     }
 
+    /// 360 beams from −π: free, but for a disc of `radius` m centred at `centre` (robot frame).
+    fn disc_scan(centre: (f64, f64), radius: f64) -> Vec<f32> {
+        let mut ranges = open();
+        for (i, r) in ranges.iter_mut().enumerate() {
+            let a = -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / 360.0;
+            let along = centre.0 * a.cos() + centre.1 * a.sin();
+            let off2 = centre.0 * centre.0 + centre.1 * centre.1 - along * along;
+            if along > 0.0 && off2 <= radius * radius {
+                *r = (along - (radius * radius - off2).sqrt()) as f32;
+            }
+        }
+        ranges
+    }
+
+    /// §5c: a command computed between two scans (here a planner at 50 Hz
+    /// beside a 10 Hz LiDAR) sees that scan's whole perception, predicted to
+    /// its own time. A person (radius 0.2 m) walks straight at the robot,
+    /// which stands at the origin (odometry), at 0.5 m/s from 4 m. Once the
+    /// track is a threat, every tick reports it, and 40 ms after a scan the
+    /// nearest point is 0.5 · 0.04 = 0.02 m nearer than at the scan's tick:
+    /// the person's points were carried along the track.
+    #[test]
+    fn ticks_between_scans_see_the_movers_predicted_to_their_time() {
+        let mut n = node(NominalSource::CmdVelIn);
+        let mut first_threat = None;
+        let mut checked = 0;
+        for k in 0..50 {
+            let stamp = 1.0 + 0.1 * f64::from(k);
+            let x = 4.0 - 0.5 * 0.1 * f64::from(k);
+            n.on_scan(meta(stamp), &disc_scan((x, 0.0), 0.2), &[]);
+            let mut at_scan = None;
+            for j in 0..5 {
+                let now = stamp + 0.02 * f64::from(j);
+                n.on_odom(Pose2::default(), Twist::ZERO, now);
+                n.on_cmd_in(Twist::new(0.1, 0.0), now);
+                let t = n.tick(now);
+                if t.record.threats > 0 && first_threat.is_none() {
+                    first_threat = Some((k, j));
+                }
+                if first_threat.is_some() {
+                    assert_eq!(t.record.threats, 1, "scan {k}, tick {j}: {:?}", t.record);
+                    assert!(t.record.tracked_obstacles >= 1);
+                    match (j, at_scan) {
+                        (0, _) => at_scan = Some(t.record),
+                        (2, Some(s)) => {
+                            let nearer = s.d_min_m - t.record.d_min_m;
+                            assert!((nearer - 0.02).abs() < 2e-3, "scan {k}: {nearer} m nearer 40 ms on");
+                            let sooner = s.min_time_to_collision_s - t.record.min_time_to_collision_s;
+                            assert!((sooner - 0.04).abs() < 0.01, "scan {k}: contact {sooner} s sooner");
+                            checked += 1;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        let (k, _) = first_threat.expect("the person became a threat");
+        // Confirmed, and moving once it has travelled min_travel_m (0.3 m): 0.6 s of walking.
+        assert!(k < 20, "a threat from scan {k} on");
+        assert!(checked > 25, "{checked} scans checked");
+    }
+
     #[test]
     fn new_params_apply_to_the_next_tick_and_invalid_ones_change_nothing() {
         let mut n = node(NominalSource::Constant);
@@ -1087,6 +1187,33 @@ mod tests {
         p.barrier.d_safe_m = 0.3;
         n.set_params(p).unwrap();
         assert_eq!(n.pipeline.tracker().tracks(), &tracks[..]);
+    }
+
+    /// The log's status lines say what was sent: a step without an
+    /// admissible command whose least-bad command moves the robot is not "a stop".
+    #[test]
+    fn the_status_line_says_what_was_sent() {
+        let mut n = node(NominalSource::Constant);
+        n.on_scan(meta(1.0), &open(), &[]);
+        let mut t = n.tick(1.05);
+        assert_eq!(t.status_line(), "filtering (constant)");
+        t.record.stop_cause = Some(StopCause::Infeasible);
+        t.cmd = Twist::new(0.0, -0.3);
+        assert_eq!(
+            t.status_line(),
+            "no admissible command (DTCBF infeasible): sending the least-bad command, v = 0.000 m/s, ω = -0.300 rad/s"
+        );
+        t.cmd = Twist::ZERO;
+        assert_eq!(
+            t.status_line(),
+            "commanding a stop: no admissible command (DTCBF infeasible)"
+        );
+        let t = n.tick(1.8); // no scan for 0.75 s: stale
+        assert!(
+            t.status_line().starts_with("commanding a stop: scan rejected: "),
+            "{}",
+            t.status_line()
+        );
     }
 
     #[test]

@@ -1,36 +1,24 @@
-//! The control loop's period. rosrust's `Rate` sleeps until the next grid
-//! point on the ROS clock: after the wall clock steps back by J seconds it
-//! sleeps J seconds, and the node goes silent while the robot still moves
-//! on its last command. Under wall-clock time this paces on the monotonic
-//! clock instead; with `/use_sim_time` it keeps following /clock.
+//! The watchdog loop's period, on the monotonic clock. rosrust's `Rate`
+//! sleeps until the next grid point on the ROS clock: after the wall clock
+//! steps back by J seconds it sleeps J seconds, and under `/use_sim_time` it
+//! sleeps until /clock advances, so a node whose simulator has stopped
+//! cannot even see Ctrl-C. The watchdog polls on this clock and decides on
+//! the ROS one ([`crate::node_core::NodeCore::watchdog_due`]).
 
 use std::time::{Duration, Instant};
 
-/// Sleeps to the next period boundary.
-pub enum Pacer {
-    /// Monotonic: a late loop skips to the next boundary, never bursts.
-    Monotonic { period: Duration, next: Instant },
-    /// Simulated time (/clock).
-    Ros(rosrust::api::Rate),
+/// Sleeps to the next period boundary; a late loop skips to the next
+/// boundary, never bursts.
+pub struct Pacer {
+    period: Duration,
+    next: Instant,
 }
 
 impl Pacer {
-    /// A pacer at `rate_hz` (positive, checked by the config), choosing the clock as above.
-    pub fn new(rate_hz: f64) -> Self {
-        let sim_time = rosrust::param("/use_sim_time")
-            .and_then(|p| p.get::<bool>().ok())
-            .unwrap_or(false);
-        if sim_time {
-            Self::Ros(rosrust::rate(rate_hz))
-        } else {
-            Self::monotonic(rate_hz)
-        }
-    }
-
-    /// A monotonic pacer (no ROS needed).
+    /// A pacer at `rate_hz` (clamped to [1e-3, 1e6] Hz).
     pub fn monotonic(rate_hz: f64) -> Self {
         let period = Duration::from_secs_f64(1.0 / rate_hz.clamp(1e-3, 1e6));
-        Self::Monotonic {
+        Self {
             period,
             next: Instant::now() + period,
         }
@@ -38,20 +26,15 @@ impl Pacer {
 
     /// Sleeps until the next boundary.
     pub fn sleep(&mut self) {
-        match self {
-            Self::Monotonic { period, next } => {
-                let now = Instant::now();
-                if *next <= now {
-                    // Late: the next boundary after now, on the same grid.
-                    let late = now - *next;
-                    let skip = (late.as_nanos() / period.as_nanos().max(1)) as u32;
-                    *next += *period * (skip + 1);
-                }
-                std::thread::sleep(*next - now);
-                *next += *period;
-            }
-            Self::Ros(rate) => rate.sleep(),
+        let now = Instant::now();
+        if self.next <= now {
+            // Late: the next boundary after now, on the same grid.
+            let late = now - self.next;
+            let skip = (late.as_nanos() / self.period.as_nanos().max(1)) as u32;
+            self.next += self.period * (skip + 1);
         }
+        std::thread::sleep(self.next - now);
+        self.next += self.period;
     }
 }
 

@@ -67,7 +67,7 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
         braking_held: r.braking_held,
         infeasible: r.infeasibility.map(|i| i.code().to_string()).unwrap_or_default(),
         e_stop: tick.e_stop,
-        stop_reason: stop_reason(tick),
+        stop_reason: tick.stop_reason(),
         nominal: twist_to_msg(r.nominal),
         cmd: twist_to_msg(tick.cmd),
         beams: r.beams as u32,
@@ -82,15 +82,6 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
     m.header.frame_id = frame.into();
     m.header.stamp = time_from_s(now);
     m
-}
-
-/// Why the robot is stopped, with the scan-order fault when that is the cause.
-pub fn stop_reason(tick: &Tick) -> String {
-    match (tick.record.stop_cause, tick.scan_fault) {
-        (Some(_), Some(f)) => f.to_string(),
-        (Some(c), None) => c.to_string(),
-        (None, _) => String::new(),
-    }
 }
 
 /// Why the node's configuration could not be loaded (the text is theirs).
@@ -152,8 +143,12 @@ struct Node {
     name: String,
     activity: Activity,
     last_diag: f64,
-    /// The stop status last logged (None: nothing logged yet, so the first tick's is).
-    last_status: Option<Option<&'static str>>,
+    /// The stop status last logged, and whether the robot was sent motion
+    /// (None: nothing logged yet, so the first tick's is).
+    last_status: Option<(Option<&'static str>, bool)>,
+    /// When a scan and odometry last arrived (s, [`mono_s`]).
+    scan_heard: Option<f64>,
+    odom_heard: Option<f64>,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
 }
@@ -190,18 +185,27 @@ impl Node {
             self.last_diag = now;
         }
         // Log changes of stop status once (by kind: the details change every tick).
-        let status = tick
+        let code = tick
             .scan_fault
             .map(|f| f.code())
             .or(tick.record.stop_cause.map(|c| c.code()));
+        let status = (code, tick.cmd != crate::algo::Twist::ZERO);
         if self.last_status != Some(status) {
             match tick.record.stop_cause {
-                Some(_) => log::warn!("commanding a stop: {}", stop_reason(&tick)),
-                None => log::info!("filtering ({})", tick.nominal_used),
+                Some(_) => log::warn!("{}", tick.status_line()),
+                None => log::info!("{}", tick.status_line()),
             }
             self.last_status = Some(status);
         }
     }
+}
+
+/// Seconds on the monotonic clock since the node started: for timing that
+/// must not follow the ROS clock (simulated time stands still at 0 until
+/// /clock arrives, and may stop altogether).
+fn mono_s() -> f64 {
+    static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
 }
 
 /// The node's lock. A panic elsewhere while holding it leaves consistent
@@ -231,6 +235,8 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         activity: Activity::default(),
         last_diag: f64::NEG_INFINITY,
         last_status: None,
+        scan_heard: None,
+        odom_heard: None,
         stopping: false,
     }));
 
@@ -238,10 +244,13 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     let subscribe_scan = || {
         let n = node.clone();
         rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
-            let now = now_s();
+            // The clock is read under the lock: ticks then come in time order, and the
+            // node never takes a callback that waited for the lock for a clock jump.
             let mut node = lock(&n);
+            let now = now_s();
             node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
             node.activity.scan_arrived(now);
+            node.scan_heard = Some(mono_s());
             node.tick(now);
         })
         .map_err(RosError::doing("subscribing to scan"))
@@ -250,21 +259,26 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         let n = node.clone();
         rosrust::subscribe("odom", 1, move |m: nav_msgs::Odometry| {
             let (pose, twist) = odom_from_msg(&m);
-            lock(&n).core.on_odom(pose, twist, now_s());
+            let mut node = lock(&n);
+            let now = now_s();
+            node.core.on_odom(pose, twist, now);
+            node.odom_heard = Some(mono_s());
         })
         .map_err(RosError::doing("subscribing to odom"))
     };
     let mut scan_sub = Some(subscribe_scan()?);
     let mut odom_sub = Some(subscribe_odom()?);
     // rosrust does not retry a failed connection: quiet subscriptions are made again.
-    let started_s = now_s();
+    // On the monotonic clock: simulated time stands at 0 until /clock first
+    // arrives, and a jump from there must not look like a quiet topic.
+    let started_s = mono_s();
     let mut scan_retry = Resubscribe::standard(started_s);
     let mut odom_retry = Resubscribe::standard(started_s);
     // So is a new upstream command, against the latest scan.
     let n = node.clone();
     let _cmd_in_sub = rosrust::subscribe("cmd_vel_in", 1, move |m: geometry_msgs::Twist| {
-        let now = now_s();
         let mut node = lock(&n);
+        let now = now_s();
         node.core.on_cmd_in(twist_from_msg(&m), now);
         node.tick(now);
     })
@@ -275,7 +289,8 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         let mut node = lock(&n);
         node.core.on_e_stop(m.data);
         if m.data {
-            node.tick(now_s());
+            let now = now_s();
+            node.tick(now);
         }
     })
     .map_err(RosError::doing("subscribing to e_stop"))?;
@@ -339,24 +354,27 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     let name = rosrust::name();
     // The watchdog: polls a few times a period and ticks when nothing has
     // gone out for about a period (node_core::NodeCore::watchdog_due).
-    let mut pacer = Pacer::new(params.control.rate_hz * f64::from(WATCHDOG_POLLS_PER_PERIOD));
+    // Paced on the monotonic clock even under /use_sim_time: a loop that slept on
+    // /clock would not see a signal while the simulated clock stands still.
+    let mut pacer = Pacer::monotonic(params.control.rate_hz * f64::from(WATCHDOG_POLLS_PER_PERIOD));
     let watch = MasterWatch::start(&name);
     while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
-        let now = now_s();
         let mut node = lock(&node);
+        let now = now_s();
         if node.core.watchdog_due(now) {
             node.tick(now);
         }
-        let (last_scan_s, last_odom_s) = (node.activity.last_scan_s(), node.core.odom().map(|o| o.received_s));
+        let (last_scan_s, last_odom_s) = (node.scan_heard, node.odom_heard);
         drop(node);
+        let mono = mono_s();
         // Only with the master up: rosrust's calls fail or block while it is away, and
         // a subscription that could not be made again is tried again at the next due time.
         if watch.health() == MasterHealth::Up {
-            if scan_retry.due(now, last_scan_s) {
+            if scan_retry.due(mono, last_scan_s) {
                 log::warn!("{name}: no scan for a while: subscribing to scan again");
                 scan_sub = super::resubscribe(scan_sub, &subscribe_scan);
             }
-            if odom_retry.due(now, last_odom_s) {
+            if odom_retry.due(mono, last_odom_s) {
                 log::debug!("{name}: no odometry for a while: subscribing to odom again");
                 odom_sub = super::resubscribe(odom_sub, &subscribe_odom);
             }

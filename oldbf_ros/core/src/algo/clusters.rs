@@ -87,6 +87,22 @@ impl Clusters {
         self.clusters[k].len = 0;
     }
 
+    /// Maps every cluster's centroid and centre by `f` (the points moved into
+    /// another robot frame).
+    pub fn map_points(&mut self, f: impl Fn(Vec2) -> Vec2) {
+        for c in &mut self.clusters {
+            c.centroid = f(c.centroid);
+            c.centre = f(c.centre);
+        }
+    }
+
+    /// Moves cluster `k`'s centroid and centre by `shift` (m).
+    pub fn shift(&mut self, k: usize, shift: Vec2) {
+        let c = &mut self.clusters[k];
+        c.centroid += shift;
+        c.centre += shift;
+    }
+
     /// Rebuilds the clusters of `points` (robot frame, beam order) whose beam
     /// indices are `beam_index`, out of a scan of `beams` beams;
     /// `full_circle` tells whether beam `beams − 1` neighbours beam 0.

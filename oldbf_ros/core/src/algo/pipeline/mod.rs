@@ -31,15 +31,16 @@ use super::dtcbf::{DtcbfFilter, InputBox};
 use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
 use super::obstacle_tracker::ObstacleTracker;
-use super::params::{Params, RangeSemantics};
+use super::params::Params;
 use super::passive::{ClosingContact, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
-use super::scan::{check_scan, fill_points, BeamStatus, LaserMount, LaserScan, ScanPoints};
-use super::unicycle::arc_step;
+use super::scan::{LaserMount, LaserScan, ScanPoints, ScanRejection};
 use super::unstuck::{Guidance, Situation, Unstuck, UnstuckDecision};
 
 mod admissible;
+mod perceive;
 use admissible::{Lazy, PASSIVE_SPEEDS};
+use perceive::{Frame, Perceived};
 
 /// The goal is short of what is ahead when nearer by this (m).
 const GOAL_SHORT_M: f64 = 0.05;
@@ -112,6 +113,10 @@ pub struct SafetyPipeline {
     minimiser_beams: [u32; 4],
     /// Robot pose in the tracking frame, whether it came from odometry, and its stamp (s).
     ego: Option<(Pose2, bool, f64)>,
+    /// What the last scan gave: nothing yet, a reason to stop, or a perception.
+    perceived: Perceived,
+    /// Unknown fraction of the front sector of the last scan (blind watch).
+    blind_fraction: f64,
     threats: Vec<Threat>,
     /// The last steps' unexplained changes of h: measured h minus the h(k+1)
     /// predicted a step before for the command sent (m), a ring.
@@ -184,6 +189,8 @@ impl SafetyPipeline {
             any_advanced: false,
             minimiser_beams: [u32::MAX; 4],
             ego: None,
+            perceived: Perceived::Nothing,
+            blind_fraction: f64::NAN,
             threats: Vec::with_capacity(max_tracks),
             surprise: [0.0; SURPRISE_STEPS],
             surprise_next: 0,
@@ -266,6 +273,18 @@ impl SafetyPipeline {
         self.forget_surprise();
     }
 
+    /// Drops the last scan's perception (the clock jumped: it cannot be
+    /// aged): ticks stop for want of a scan until the next one.
+    pub fn forget_perception(&mut self) {
+        self.perceived = Perceived::Nothing;
+    }
+
+    /// Whether the last scan given to [`Self::perceive`] was rejected (it may
+    /// be accepted later: one stamped ahead of the clock).
+    pub fn scan_rejected(&self) -> bool {
+        matches!(self.perceived, Perceived::Unusable(StopCause::Rejected(_)))
+    }
+
     fn forget_surprise(&mut self) {
         self.surprise = [0.0; SURPRISE_STEPS];
         self.last_h_next = f64::NAN;
@@ -278,6 +297,12 @@ impl SafetyPipeline {
         let change = h - self.last_h_next;
         self.surprise[self.surprise_next] = if change.is_finite() { change } else { 0.0 };
         self.surprise_next = (self.surprise_next + 1) % SURPRISE_STEPS;
+        self.closing_in_now()
+    }
+
+    /// Whether the unexplained falls of h recorded so far add up beyond δ
+    /// ([`Self::closing_in_unexplained`] without a new measurement).
+    fn closing_in_now(&self) -> bool {
         self.surprise.iter().sum::<f64>() < -self.params.dtcbf.noise_margin_m
     }
 
@@ -337,75 +362,27 @@ impl SafetyPipeline {
         self.step_with_pose(scan, now_s, nominal, current_v_mps, None)
     }
 
-    /// The robot's pose in the tracking frame at the scan's stamp: odometry when
-    /// given, else dead-reckoned from the last command since the previous scan.
-    /// When the frame changes (odometry appears or goes), the tracks and the
-    /// beam memory, which live in it, are dropped.
-    fn ego_pose(&mut self, stamp_s: f64, odom: Option<Pose2>) -> Pose2 {
-        let (pose, frame_changed) = match (odom, self.ego) {
-            (Some(p), Some((_, true, _))) | (Some(p), None) => (p, false),
-            (Some(p), Some((_, false, _))) => (p, true),
-            (None, Some((prev, false, t))) if stamp_s > t => {
-                (arc_step(prev, self.last_cmd, (stamp_s - t).min(1.0)), false)
-            }
-            (None, Some((prev, false, _))) => (prev, false),
-            (None, Some((_, true, _))) => (Pose2::default(), true),
-            (None, None) => (Pose2::default(), false),
-        };
-        if frame_changed {
-            self.tracker.reset(); // old tracks are meaningless in the new frame
-            self.memory.reset();
-        }
-        self.ego = Some((pose, odom.is_some(), stamp_s));
-        pose
-    }
-
-    /// Clusters, tracks, and for every moving track on a collision course with
-    /// a time to collision within `lookahead_s`: its points advanced by v_o Δt
-    /// in `points_next`, and its side's clearance lowered to its clearance
-    /// predicted at the time to collision. Every moving track also becomes a
-    /// [`Mover`] for the passive-safety check.
-    fn predict_obstacles(&mut self, c: &mut Clearances, v_now: f64, stamp_s: f64, pose: Pose2, full_circle: bool) {
+    /// For every moving track (predicted to the tick's time, in the robot
+    /// frame then): a [`Mover`] for the passive-safety check; and for one on
+    /// a collision course with a time to collision within `lookahead_s`: its
+    /// points advanced by v_o Δt in `points_next`, and its side's clearance
+    /// lowered to its clearance predicted at the time to collision.
+    fn predict_threats(&mut self, c: &mut Clearances, v_now: f64, frame: &Frame) {
         self.any_advanced = false;
         self.threats.clear();
         self.passive.set_movers(std::iter::empty());
-        // Clusters for tracking, or for a consumer that asked for them.
-        self.clusters.clear();
-        if !self.params.obstacles.enabled && !self.keep_clusters {
-            return;
-        }
-        self.clusters.build(
-            &self.points.points,
-            &self.points.beam_index,
-            self.points.beams,
-            full_circle,
-            self.params.obstacles.cluster_gap_m,
-        );
         if !self.params.obstacles.enabled {
             return;
         }
-        // Held points are where something was, not measurements: a cluster of mostly
-        // held points does not update a track, so a mover that steps inside range_min
-        // coasts on its velocity instead of seeming to stop where it was last seen.
-        let n_points = self.points.points.len();
-        for k in 0..self.clusters.len() {
-            let cluster = self.clusters.as_slice()[k];
-            let held = cluster
-                .indices(n_points)
-                .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
-                .count();
-            if 2 * held >= cluster.len && held > 0 {
-                self.clusters.exclude(k);
-            }
-        }
         let p = &self.params;
         let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
+        let robot = frame.pose.frame_map();
+        let ahead_s = self.tracker.last_stamp_s().map_or(0.0, |t| (frame.at_s - t).max(0.0));
         let pts = &self.points.points;
-        self.tracker.update(self.clusters.as_slice(), stamp_s, pose, o);
         let tracker = &self.tracker;
         self.passive
             .set_movers(tracker.tracks().iter().filter(|t| t.is_moving(o)).map(|t| {
-                let (position, velocity) = tracker.disc_in_robot_frame(t);
+                let (position, velocity) = ObstacleTracker::predicted_disc(t, ahead_s, &robot);
                 Mover {
                     position,
                     velocity,
@@ -414,17 +391,18 @@ impl SafetyPipeline {
             }));
         let n = pts.len();
         for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {
-            let Some(ti) = self.tracker.cluster_track()[ci] else {
+            let Some(ti) = self.tracker.cluster_track().get(ci).copied().flatten() else {
                 continue;
             };
             let track = self.tracker.tracks()[ti];
             if !track.is_moving(o) {
                 continue;
             }
-            let (pos, vel) = self.tracker.in_robot_frame(&track);
+            let (pos, vel) = ObstacleTracker::predicted(&track, ahead_s, &robot);
             let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
             log::trace!(
-                "t {stamp_s:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}",
+                "t {:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}",
+                frame.at_s,
                 track.id,
                 pos.x,
                 pos.y,
@@ -476,16 +454,6 @@ impl SafetyPipeline {
         }
     }
 
-    /// Whether the last scan lets the robot back up: its rear sector is
-    /// covered by beams and not mostly unknown.
-    fn rear_seen(&self, scan: &LaserScan<'_>) -> bool {
-        let pts = &self.points;
-        let expected = ((2.0 * REAR_HALF_ANGLE_RAD / (scan.header.angle_increment_rad as f64).abs()).floor() as usize)
-            .saturating_sub(1)
-            .max(1);
-        pts.rear_beams >= expected && 2 * pts.unknown_rear <= pts.rear_beams
-    }
-
     /// The first closing contact `cmd` would make braking to rest from the
     /// last step's points and movers (§5b); `None`: passively safe.
     pub fn braking_check(&mut self, cmd: Twist) -> Option<ClosingContact> {
@@ -493,7 +461,8 @@ impl SafetyPipeline {
     }
 
     /// As `step`, with the robot's odometry pose when there is one (tracks
-    /// are then kept in the odometry frame).
+    /// are then kept in the odometry frame): [`Self::perceive`], then
+    /// [`Self::decide`].
     pub fn step_with_pose(
         &mut self,
         scan: &LaserScan<'_>,
@@ -502,43 +471,43 @@ impl SafetyPipeline {
         current_v_mps: f64,
         odom_pose: Option<Pose2>,
     ) -> StepRecord {
+        self.perceive(scan, now_s, odom_pose);
+        self.decide(now_s, nominal, current_v_mps, odom_pose)
+    }
+
+    /// One command at `now_s` from the last scan's perception, predicted to
+    /// `now_s` (§5c): at a scan's own tick, and at every tick between scans
+    /// (an upstream command, an e-stop, the watchdog). `odom_pose` is the
+    /// robot's odometry pose now, when there is odometry.
+    pub fn decide(&mut self, now_s: f64, nominal: Twist, current_v_mps: f64, odom_pose: Option<Pose2>) -> StepRecord {
         if !nominal.is_finite() {
             return self.stop(now_s, nominal, StopCause::BadNominal);
         }
-        if let Err(reason) = check_scan(scan, now_s, &self.params.laser) {
-            self.points.clear();
-            return self.stop(now_s, nominal, StopCause::Rejected(reason));
-        }
-        let pose = self.ego_pose(scan.header.stamp_s, odom_pose);
-        self.memory.begin_scan(scan.ranges_m.len(), pose, scan.header.stamp_s);
-        fill_points(
-            scan,
-            &self.params.laser,
-            &self.derived.mount,
-            &mut self.points,
-            &mut self.memory,
-            REAR_HALF_ANGLE_RAD,
-        );
-        let unknown_front_fraction = if self.params.laser.range_semantics == RangeSemantics::Rep117 {
-            let verdict = self.blind.update(
-                self.points.unknown_front,
-                self.points.front_beams,
-                scan.header.stamp_s,
-                &self.params.laser,
-            );
-            if verdict.blind {
+        match self.perceived {
+            Perceived::Nothing => return self.stop(now_s, nominal, StopCause::NoScan),
+            Perceived::Unusable(StopCause::SensorBlind) => {
                 let mut rec = self.stop(now_s, nominal, StopCause::SensorBlind);
                 rec.beams = self.points.beams;
                 rec.valid_beams = self.points.valid_count();
                 rec.unknown_beams = self.points.unknown;
                 rec.held_beams = self.points.held;
-                rec.unknown_front_fraction = verdict.unknown_fraction;
+                rec.unknown_front_fraction = self.blind_fraction;
                 return rec;
             }
-            verdict.unknown_fraction
-        } else {
-            0.0
+            Perceived::Unusable(cause) => return self.stop(now_s, nominal, cause),
+            Perceived::Usable(f) => {
+                let age_s = now_s - f.stamp_s;
+                let timeout_s = self.params.laser.scan_timeout_s;
+                if age_s > timeout_s {
+                    let stale = ScanRejection::Stale { age_s, timeout_s };
+                    return self.stop(now_s, nominal, StopCause::Rejected(stale));
+                }
+            }
+        }
+        let Some(frame) = self.advance_to(now_s, odom_pose) else {
+            return self.stop(now_s, nominal, StopCause::NoScan);
         };
+        let unknown_front_fraction = frame.unknown_front_fraction;
         let d = self.derived;
         let mut c = match &d.fade {
             Some(fade) => {
@@ -559,9 +528,7 @@ impl SafetyPipeline {
         } else {
             self.last_cmd.v_mps
         };
-        let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
-        let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
-        self.predict_obstacles(&mut c, v_now, scan.header.stamp_s, pose, full_circle);
+        self.predict_threats(&mut c, v_now, &frame);
         // The faded pass leaves the crowding sums out: they only break a tie between the
         // sides (both +inf: no point counts for either side, and both sums are 0).
         if let Some(fade) = &d.fade {
@@ -573,7 +540,7 @@ impl SafetyPipeline {
         let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
         self.passive.prepare(next, &self.params);
         self.last_clearances = c;
-        let bx = InputBox::for_scan(&self.params, self.rear_seen(scan));
+        let bx = InputBox::for_scan(&self.params, frame.rear_seen);
         self.last_box = bx;
         // The planner's points only when unstuck may plan this step (it plans only then).
         let plans = self.params.unstuck.enabled && self.unstuck.may_plan(now_s, &self.params);
@@ -594,7 +561,7 @@ impl SafetyPipeline {
                 now_s,
                 nominal: nominal_boxed,
                 points: if plans { &self.plan_points } else { &self.points.points },
-                ego: pose,
+                ego: frame.pose,
                 movers_near,
             };
             self.unstuck.step(guidance, &now, p)
@@ -631,7 +598,12 @@ impl SafetyPipeline {
             doaa_cmd.omega_radps = doaa_cmd.omega_radps.clamp(last - step, last + step);
         }
         // Part of the defence against movers (§5b): off with the braking check.
-        let closing_in = self.closing_in_unexplained(c.d_min_m - p.barrier.d_safe_m);
+        // Measured against the last scan's prediction: only a new scan measures anything.
+        let closing_in = if frame.fresh {
+            self.closing_in_unexplained(c.d_min_m - p.barrier.d_safe_m)
+        } else {
+            self.closing_in_now()
+        };
         self.filter.set_closing_in(closing_in && self.params.passive.enabled);
         let p = &self.params;
         let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
@@ -672,7 +644,10 @@ impl SafetyPipeline {
         // Last line of defence: nothing non-finite leaves this function.
         let cmd = if cmd.is_finite() { bx.clamp(cmd) } else { Twist::ZERO };
         self.last_cmd = cmd;
-        self.last_h_next = out.h_next_m;
+        if frame.fresh {
+            // The next scan's h is measured against this (one scan period on).
+            self.last_h_next = out.h_next_m;
+        }
         let p = &self.params;
         StepRecord {
             stamp_s: now_s,

@@ -1,0 +1,225 @@
+//! Perception, once per scan, and its prediction to each tick (ALGORITHM
+//! §1, §6, §5c "every command sees the last scan's whole perception").
+//!
+//! [`SafetyPipeline::perceive`] turns a new scan into points, beam memory,
+//! the blind verdict, clusters and tracks. A tick, with or without a new
+//! scan, then [`SafetyPipeline::advance_to`]s that perception to its own
+//! time: static points are re-expressed in the robot frame of the tick (the
+//! robot has moved since the scan: odometry, or dead reckoning from the
+//! commands sent), and the points of moving tracks are carried along their
+//! tracks' velocities. So a command computed on an upstream command between
+//! two scans sees the movers where they are predicted to be, not nowhere.
+
+use super::{SafetyPipeline, REAR_HALF_ANGLE_RAD};
+use crate::algo::geometry::{FrameMap, Pose2, Vec2};
+use crate::algo::obstacle_tracker::ObstacleTracker;
+use crate::algo::params::RangeSemantics;
+use crate::algo::record::StopCause;
+use crate::algo::scan::{check_scan, fill_points, BeamStatus, LaserScan};
+use crate::algo::unicycle::arc_step;
+
+/// What the last scan gave the pipeline.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Perceived {
+    /// No scan yet (or none since a reset of the clock).
+    Nothing,
+    /// The last scan was rejected, or its sensor is blind: every tick stops for this.
+    Unusable(StopCause),
+    /// A usable scan's perception, expressed as of `frame`.
+    Usable(Frame),
+}
+
+/// A usable scan's perception and the robot pose and time it is expressed at.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Frame {
+    /// The scan's stamp (s).
+    pub stamp_s: f64,
+    /// Whether the robot pose came from odometry (else dead reckoning).
+    pub odom: bool,
+    /// The robot pose (tracking frame) the points are expressed in now, and when (s).
+    pub pose: Pose2,
+    pub at_s: f64,
+    /// Unknown fraction of the front sector watched for blindness.
+    pub unknown_front_fraction: f64,
+    /// The scan covers the rear (reversing allowed).
+    pub rear_seen: bool,
+    /// The scan covers a full turn.
+    pub full_circle: bool,
+    /// No tick has used this scan yet.
+    pub fresh: bool,
+}
+
+impl SafetyPipeline {
+    /// Takes a new scan: points (REP 117, beam memory), the blind verdict,
+    /// clusters and tracks, at the robot's pose at the scan's stamp
+    /// (`odom_pose`, else dead-reckoned). A rejected scan, or a blind sensor,
+    /// makes every following tick stop with that cause until a usable scan
+    /// arrives; `now_s` only ages the stamp.
+    pub fn perceive(&mut self, scan: &LaserScan<'_>, now_s: f64, odom_pose: Option<Pose2>) {
+        if let Err(reason) = check_scan(scan, now_s, &self.params.laser) {
+            self.points.clear();
+            self.perceived = Perceived::Unusable(StopCause::Rejected(reason));
+            return;
+        }
+        let stamp_s = scan.header.stamp_s;
+        let pose = self.ego_pose(stamp_s, odom_pose);
+        self.memory.begin_scan(scan.ranges_m.len(), pose, stamp_s);
+        fill_points(
+            scan,
+            &self.params.laser,
+            &self.derived.mount,
+            &mut self.points,
+            &mut self.memory,
+            REAR_HALF_ANGLE_RAD,
+        );
+        let unknown_front_fraction = if self.params.laser.range_semantics == RangeSemantics::Rep117 {
+            let verdict = self.blind.update(
+                self.points.unknown_front,
+                self.points.front_beams,
+                stamp_s,
+                &self.params.laser,
+            );
+            self.blind_fraction = verdict.unknown_fraction;
+            if verdict.blind {
+                self.perceived = Perceived::Unusable(StopCause::SensorBlind);
+                return;
+            }
+            verdict.unknown_fraction
+        } else {
+            0.0
+        };
+        let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
+        let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
+        self.track_obstacles(stamp_s, pose, full_circle);
+        self.perceived = Perceived::Usable(Frame {
+            stamp_s,
+            odom: odom_pose.is_some(),
+            pose,
+            at_s: stamp_s,
+            unknown_front_fraction,
+            rear_seen: self.rear_seen(scan),
+            full_circle,
+            fresh: true,
+        });
+    }
+
+    /// The robot's pose in the tracking frame at `stamp_s`: odometry when
+    /// given, else dead-reckoned from the last command sent since the last
+    /// scan or tick. When the frame changes (odometry appears or goes), the
+    /// tracks and the beam memory, which live in it, are dropped.
+    fn ego_pose(&mut self, stamp_s: f64, odom: Option<Pose2>) -> Pose2 {
+        let (pose, frame_changed) = match (odom, self.ego) {
+            (Some(p), Some((_, true, _))) | (Some(p), None) => (p, false),
+            (Some(p), Some((_, false, _))) => (p, true),
+            // A scan stamped a little before the last tick is reckoned back to its stamp.
+            (None, Some((prev, false, t))) if stamp_s != t => {
+                (arc_step(prev, self.last_cmd, (stamp_s - t).clamp(-1.0, 1.0)), false)
+            }
+            (None, Some((prev, false, _))) => (prev, false),
+            (None, Some((_, true, _))) => (Pose2::default(), true),
+            (None, None) => (Pose2::default(), false),
+        };
+        if frame_changed {
+            self.tracker.reset(); // old tracks are meaningless in the new frame
+            self.memory.reset();
+        }
+        self.ego = Some((pose, odom.is_some(), stamp_s));
+        pose
+    }
+
+    /// Clusters of the scan's points and the tracker's update with them
+    /// (clusters of mostly held points excluded: held points are where
+    /// something was, not measurements, so a mover that steps inside
+    /// range_min coasts on its velocity instead of seeming to stop).
+    fn track_obstacles(&mut self, stamp_s: f64, pose: Pose2, full_circle: bool) {
+        self.clusters.clear();
+        if !self.params.obstacles.enabled && !self.keep_clusters {
+            return;
+        }
+        self.clusters.build(
+            &self.points.points,
+            &self.points.beam_index,
+            self.points.beams,
+            full_circle,
+            self.params.obstacles.cluster_gap_m,
+        );
+        if !self.params.obstacles.enabled {
+            return;
+        }
+        let n_points = self.points.points.len();
+        for k in 0..self.clusters.len() {
+            let cluster = self.clusters.as_slice()[k];
+            let held = cluster
+                .indices(n_points)
+                .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
+                .count();
+            if 2 * held >= cluster.len && held > 0 {
+                self.clusters.exclude(k);
+            }
+        }
+        self.tracker
+            .update(self.clusters.as_slice(), stamp_s, pose, &self.params.obstacles);
+    }
+
+    /// Whether the scan lets the robot back up: its rear sector is covered
+    /// by beams and not mostly unknown.
+    fn rear_seen(&self, scan: &LaserScan<'_>) -> bool {
+        let pts = &self.points;
+        let expected = ((2.0 * REAR_HALF_ANGLE_RAD / (scan.header.angle_increment_rad as f64).abs()).floor() as usize)
+            .saturating_sub(1)
+            .max(1);
+        pts.rear_beams >= expected && 2 * pts.unknown_rear <= pts.rear_beams
+    }
+
+    /// Moves the usable perception to time `now_s` and the robot pose then
+    /// (`odom_pose` when the perception is in the odometry frame, else dead
+    /// reckoning from the last command sent): every point, phantom and
+    /// cluster is re-expressed in the robot frame at `now_s`, and those of
+    /// moving tracks are carried by their velocity for the time elapsed.
+    /// Returns the frame, or `None` when there is no usable perception.
+    pub(super) fn advance_to(&mut self, now_s: f64, odom_pose: Option<Pose2>) -> Option<Frame> {
+        let Perceived::Usable(mut frame) = self.perceived else {
+            return None;
+        };
+        let elapsed_s = (now_s - frame.at_s).max(0.0);
+        let pose = match odom_pose {
+            Some(p) if frame.odom => p,
+            _ => arc_step(frame.pose, self.last_cmd, elapsed_s.min(1.0)),
+        };
+        if elapsed_s > 0.0 || pose != frame.pose {
+            let (from, to) = (frame.pose.frame_map(), pose.frame_map());
+            let re_express = |q: &mut Vec2| *q = to.inverse_point(from.point(*q));
+            self.points.points.iter_mut().for_each(re_express);
+            self.points.phantoms.iter_mut().for_each(re_express);
+            self.clusters.map_points(|q| to.inverse_point(from.point(q)));
+            self.carry_movers(elapsed_s, &to);
+            frame.pose = pose;
+            frame.at_s = now_s;
+            self.ego = Some((pose, frame.odom, now_s));
+        }
+        self.perceived = Perceived::Usable(Frame { fresh: false, ..frame });
+        Some(frame)
+    }
+
+    /// Carries the points and clusters of moving tracks by their tracked
+    /// velocity over `elapsed_s` (robot frame at the pose whose map is `to`).
+    fn carry_movers(&mut self, elapsed_s: f64, to: &FrameMap) {
+        if elapsed_s <= 0.0 || !self.params.obstacles.enabled {
+            return;
+        }
+        let n = self.points.points.len();
+        let o = &self.params.obstacles;
+        for (k, track) in self.tracker.cluster_track().iter().enumerate() {
+            let Some(track) = track.map(|t| self.tracker.tracks()[t]).filter(|t| t.is_moving(o)) else {
+                continue;
+            };
+            let (_, velocity) = ObstacleTracker::predicted(&track, 0.0, to);
+            let shift = velocity * elapsed_s;
+            let cluster = self.clusters.as_slice()[k];
+            for i in cluster.indices(n) {
+                self.points.points[i] += shift;
+            }
+            self.clusters.shift(k, shift);
+        }
+    }
+}
