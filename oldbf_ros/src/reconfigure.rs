@@ -76,8 +76,13 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
         "passive motion safety: brake to rest without a closing contact; evasion",
     ),
     (
-        "passive.brake_decel_mps2",
-        "deceleration the robot can always achieve braking to rest (m/s²)",
+        "control.decel_mps2",
+        "the base's deceleration: the window's and the braking check's (m/s²)",
+    ),
+    ("control.accel_mps2", "the base's acceleration limit (m/s²)"),
+    (
+        "control.angular_accel_radps2",
+        "the base's angular acceleration limit (rad/s²)",
     ),
     (
         "passive.mover_margin_m",

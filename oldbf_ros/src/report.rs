@@ -52,12 +52,32 @@ pub fn summary_text(s: &RunSummary) -> String {
         s.figures.blind_steps,
         s.figures.driven_blind_steps
     );
+    let m = &s.figures.motion;
     let _ = writeln!(
         out,
-        "  steering flips {} ({:.2} % of steps) | stalled {:.1} s",
-        s.figures.steering_flips,
-        100.0 * s.figures.steering_flips as f64 / s.steps.max(1) as f64,
+        "  motion: variation v {:.3} m/s per s, ω {:.3} rad/s per s | reversals Δv {} ({:.2} %), Δω {} ({:.2} %) | \
+         state switches {:.1}/min | outside the window {} | stalled {:.1} s",
+        m.variation_v_per_s(),
+        m.variation_omega_per_s(),
+        m.v_reversals,
+        100.0 * m.per_step(m.v_reversals),
+        m.omega_reversals,
+        100.0 * m.per_step(m.omega_reversals),
+        m.per_minute(m.state_switches),
+        m.window_exceeded,
         s.figures.stalled_s
+    );
+    let _ = writeln!(
+        out,
+        "  added to the upstream: faster {} steps | reversing {} (escape {}, evasion {}, other {}) | v sign changes {} | \
+         moving tracks on {:.1} % of steps",
+        m.above_upstream_steps,
+        m.reverse_unasked_steps(),
+        m.reverse_escape_steps,
+        m.reverse_evade_steps,
+        m.reverse_other_steps,
+        m.v_sign_changes,
+        100.0 * m.per_step(m.moving_track_steps)
     );
     let _ = writeln!(
         out,

@@ -9,6 +9,7 @@
 //! (`None`, `null` in JSON).
 
 use super::WorldOutcome;
+use crate::sim::figures::MotionQuality;
 use crate::sim::run::Controller;
 use serde::Serialize;
 
@@ -108,8 +109,29 @@ pub struct ControllerStats {
     /// free, and steps stopped for a blind sensor.
     pub driven_blind_steps_total: usize,
     pub blind_steps_total: usize,
-    /// Steering flips (|ω(k) − ω(k−1)| > ω_max) as a fraction of all steps.
-    pub steering_flip_rate: f64,
+    /// Mean over worlds of the total variation of v and of ω per second
+    /// (m/s per s, rad/s per s; [`MotionQuality`](crate::sim::figures::MotionQuality)).
+    pub mean_variation_v_per_s: Option<f64>,
+    pub mean_variation_omega_per_s: Option<f64>,
+    /// Sign reversals of Δω (both steps above ω_max/6) and of Δv (both above
+    /// 0.02 m/s), as fractions of all steps.
+    pub omega_reversal_rate: f64,
+    pub v_reversal_rate: f64,
+    /// Steps whose change left the dynamic window (fault stops aside).
+    pub window_exceeded_total: usize,
+    /// State switches per minute over all worlds' time.
+    pub state_switches_per_min: f64,
+    /// Steps faster than the upstream command (beyond braking to it).
+    pub above_upstream_steps_total: usize,
+    /// Steps reversing while the upstream does not: escape, evasion, other.
+    pub reverse_escape_steps_total: usize,
+    pub reverse_evade_steps_total: usize,
+    pub reverse_other_steps_total: usize,
+    /// Sign changes of v, summed over worlds.
+    pub v_sign_changes_total: usize,
+    /// Steps with a moving track, as a fraction of all steps; steps in `evade`.
+    pub moving_track_step_rate: f64,
+    pub evade_steps_total: usize,
     /// Mean over worlds of the time stalled (s).
     pub mean_stalled_s: Option<f64>,
     /// Control steps over all worlds.
@@ -118,6 +140,8 @@ pub struct ControllerStats {
     /// every step of every world (µs, wall clock).
     pub mean_step_us: Option<f64>,
     pub p99_step_us: Option<f64>,
+    /// The slowest step (µs, wall clock).
+    pub max_step_us: Option<f64>,
 }
 
 impl ControllerStats {
@@ -134,6 +158,9 @@ impl ControllerStats {
             .filter(|t| !t.is_nan())
             .collect();
         steps_us.sort_by(f64::total_cmp);
+        let motion = outcomes
+            .iter()
+            .fold(MotionQuality::default(), |acc, o| acc.sum(&o.figures.motion));
         ControllerStats {
             controller,
             worlds: n,
@@ -168,14 +195,24 @@ impl ControllerStats {
             infeasible_steps_total: outcomes.iter().map(|o| o.figures.infeasible_steps.total()).sum(),
             driven_blind_steps_total: outcomes.iter().map(|o| o.figures.driven_blind_steps).sum(),
             blind_steps_total: outcomes.iter().map(|o| o.figures.blind_steps).sum(),
-            steering_flip_rate: rate(
-                outcomes.iter().map(|o| o.figures.steering_flips).sum(),
-                outcomes.iter().map(|o| o.steps).sum(),
-            ),
+            mean_variation_v_per_s: mean(outcomes.iter().map(|o| o.figures.motion.variation_v_per_s())),
+            mean_variation_omega_per_s: mean(outcomes.iter().map(|o| o.figures.motion.variation_omega_per_s())),
+            omega_reversal_rate: motion.per_step(motion.omega_reversals),
+            v_reversal_rate: motion.per_step(motion.v_reversals),
+            window_exceeded_total: motion.window_exceeded,
+            state_switches_per_min: motion.per_minute(motion.state_switches),
+            above_upstream_steps_total: motion.above_upstream_steps,
+            reverse_escape_steps_total: motion.reverse_escape_steps,
+            reverse_evade_steps_total: motion.reverse_evade_steps,
+            reverse_other_steps_total: motion.reverse_other_steps,
+            v_sign_changes_total: motion.v_sign_changes,
+            moving_track_step_rate: motion.per_step(motion.moving_track_steps),
+            evade_steps_total: motion.evade_steps,
             mean_stalled_s: mean(outcomes.iter().map(|o| o.figures.stalled_s)),
             steps_total: outcomes.iter().map(|o| o.steps).sum(),
             mean_step_us: mean(steps_us.iter().copied()),
             p99_step_us: percentile_of_sorted(&steps_us, 99.0),
+            max_step_us: steps_us.last().copied(),
         }
     }
 }
@@ -253,7 +290,13 @@ mod tests {
                 },
                 driven_blind_steps: usize::from(world == 3),
                 blind_steps: 0,
-                steering_flips: world % 2,
+                motion: MotionQuality {
+                    steps: steps_us.len(),
+                    duration_s: 0.1 * steps_us.len() as f64,
+                    omega_reversals: world % 2,
+                    variation_omega_radps: 0.01 * world as f64,
+                    ..MotionQuality::default()
+                },
                 stalled_s: 1.5 * world as f64,
                 filter_changed_steps: 0,
                 steps_by_state: StateCounts::default(),
@@ -285,8 +328,11 @@ mod tests {
         assert_eq!((s.cbf_violations_feasible_total, s.braking_violations_total), (2, 12));
         assert_eq!((s.braking_violations_feasible_total, s.infeasible_steps_total), (6, 10));
         assert_eq!((s.driven_blind_steps_total, s.blind_steps_total), (1, 0));
-        // Flips in worlds 1 and 3 over 5 steps; stalled 0, 1.5, 3, 4.5 s.
-        assert_eq!(s.steering_flip_rate, 0.4);
+        // Δω reversals in worlds 1 and 3 over 5 steps; stalled 0, 1.5, 3, 4.5 s.
+        assert_eq!(s.omega_reversal_rate, 0.4);
+        // Variation of ω per second, world by world: 0/0.2, 0.01/0.1, 0.02/0.2, none (no time).
+        assert!(close(s.mean_variation_omega_per_s, 0.05));
+        assert!(close(s.max_step_us, 100.0));
         assert!(close(s.mean_stalled_s, 2.25));
         assert!(close(s.min_clearance_min_m, -0.02));
         // Sorted −0.02 0.05 0.2 0.4, rank 0.15: −0.02 + 0.15 · 0.07.

@@ -17,7 +17,7 @@ fn rate(r: f64, count: usize, total: usize) -> String {
 }
 
 /// The header of the text table, two lines per column (name, unit).
-const TEXT_HEADER: [(&str, &str); 14] = [
+const TEXT_HEADER: [(&str, &str); 15] = [
     ("controller", ""),
     ("worlds", ""),
     ("collision", "rate"),
@@ -27,14 +27,15 @@ const TEXT_HEADER: [(&str, &str); 14] = [
     ("goal", "rate"),
     ("time to", "goal (s)"),
     ("stalled", "mean (s)"),
-    ("steering", "flips"),
+    ("TV v / ω", "per s"),
+    ("rev. Δv / Δω", "% steps"),
     ("CBF viol. logged", "all / feasible"),
     ("braking viol.", "all / feasible"),
     ("infeasible", "steps"),
     ("step (µs)", "mean / p99"),
 ];
 
-fn text_cells(r: &ControllerStats) -> [String; 14] {
+fn text_cells(r: &ControllerStats) -> [String; 15] {
     [
         controller_name(r.controller),
         r.worlds.to_string(),
@@ -49,7 +50,16 @@ fn text_cells(r: &ControllerStats) -> [String; 14] {
         rate(r.goal_rate_with_path, r.worlds_reached_with_path, r.worlds_with_path),
         opt(r.mean_time_to_goal_s, 1),
         opt(r.mean_stalled_s, 1),
-        format!("{:.2} %", 100.0 * r.steering_flip_rate),
+        format!(
+            "{} / {}",
+            opt(r.mean_variation_v_per_s, 3),
+            opt(r.mean_variation_omega_per_s, 3)
+        ),
+        format!(
+            "{:.2} / {:.2}",
+            100.0 * r.v_reversal_rate,
+            100.0 * r.omega_reversal_rate
+        ),
         format!("{} / {}", r.cbf_violations_total, r.cbf_violations_feasible_total),
         format!(
             "{} / {}",
@@ -63,7 +73,7 @@ fn text_cells(r: &ControllerStats) -> [String; 14] {
 /// The readable comparison: a title line, the aligned table (one row per
 /// controller) and a legend of the columns.
 pub fn text(report: &BatchReport) -> String {
-    let mut rows: Vec<[String; 14]> = vec![
+    let mut rows: Vec<[String; 15]> = vec![
         TEXT_HEADER.map(|(name, _)| name.to_string()),
         TEXT_HEADER.map(|(_, unit)| unit.to_string()),
     ];
@@ -106,7 +116,8 @@ pub fn text(report: &BatchReport) -> String {
         "min clear.: each world's least body-to-obstacle distance; median and 5th percentile over worlds.",
         "goal rate: over the worlds where a path keeps r + d_safe from the static obstacles (reached / those).",
         "time to goal: mean over the worlds reached. stalled: |v| < 0.02 m/s before the goal, mean over worlds.",
-        "steering flips: steps whose omega differs from the previous step's by more than omega_max.",
+        "TV v / ω: total variation of the command (sum of |dv|, |domega|) per second, mean over worlds.",
+        "rev. dv / domega: sign reversals of the command's change (both steps above 0.02 m/s, omega_max/6).",
         "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command (from the scan);",
         "  feasible: of those, steps the filter did not mark infeasible. braking viol.: steps whose command",
         "  could not brake to rest without a predicted closing contact (ALGORITHM.md 5b), all / feasible.",
@@ -119,7 +130,7 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 36] = [
+pub const CSV_COLUMNS: [&str; 49] = [
     "controller",
     "worlds",
     "worlds_with_collision",
@@ -150,11 +161,24 @@ pub const CSV_COLUMNS: [&str; 36] = [
     "infeasible_steps_total",
     "driven_blind_steps_total",
     "blind_steps_total",
-    "steering_flip_rate",
+    "mean_variation_v_per_s",
+    "mean_variation_omega_per_s",
+    "omega_reversal_rate",
+    "v_reversal_rate",
+    "window_exceeded_total",
+    "state_switches_per_min",
+    "above_upstream_steps_total",
+    "reverse_escape_steps_total",
+    "reverse_evade_steps_total",
+    "reverse_other_steps_total",
+    "v_sign_changes_total",
+    "moving_track_step_rate",
+    "evade_steps_total",
     "mean_stalled_s",
     "steps_total",
     "mean_step_us",
     "p99_step_us",
+    "max_step_us",
     "template",
 ];
 
@@ -199,11 +223,24 @@ pub fn csv(report: &BatchReport) -> String {
             r.infeasible_steps_total.to_string(),
             r.driven_blind_steps_total.to_string(),
             r.blind_steps_total.to_string(),
-            r.steering_flip_rate.to_string(),
+            num(r.mean_variation_v_per_s),
+            num(r.mean_variation_omega_per_s),
+            r.omega_reversal_rate.to_string(),
+            r.v_reversal_rate.to_string(),
+            r.window_exceeded_total.to_string(),
+            r.state_switches_per_min.to_string(),
+            r.above_upstream_steps_total.to_string(),
+            r.reverse_escape_steps_total.to_string(),
+            r.reverse_evade_steps_total.to_string(),
+            r.reverse_other_steps_total.to_string(),
+            r.v_sign_changes_total.to_string(),
+            r.moving_track_step_rate.to_string(),
+            r.evade_steps_total.to_string(),
             num(r.mean_stalled_s),
             r.steps_total.to_string(),
             num(r.mean_step_us),
             num(r.p99_step_us),
+            num(r.max_step_us),
             report.name.clone(),
         ];
         out.push_str(&cells.join(","));
@@ -218,12 +255,15 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
         "world,controller,sensor_seed,path_exists,label,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
          reached_goal,time_to_goal_s,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
          cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
-         driven_blind_steps,blind_steps,steering_flips,stalled_s,mean_step_us\n",
+         driven_blind_steps,blind_steps,variation_v_per_s,variation_omega_per_s,omega_reversals,v_reversals,\
+         window_exceeded,state_switches,above_upstream_steps,reverse_escape_steps,reverse_evade_steps,\
+         reverse_other_steps,v_sign_changes,moving_track_steps,evade_steps,stalled_s,mean_step_us\n",
     );
     for o in outcomes {
+        let m = &o.figures.motion;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
@@ -246,7 +286,19 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
             o.figures.infeasible_steps.total(),
             o.figures.driven_blind_steps,
             o.figures.blind_steps,
-            o.figures.steering_flips,
+            m.variation_v_per_s(),
+            m.variation_omega_per_s(),
+            m.omega_reversals,
+            m.v_reversals,
+            m.window_exceeded,
+            m.state_switches,
+            m.above_upstream_steps,
+            m.reverse_escape_steps,
+            m.reverse_evade_steps,
+            m.reverse_other_steps,
+            m.v_sign_changes,
+            m.moving_track_steps,
+            m.evade_steps,
             o.figures.stalled_s,
             o.mean_step_us
         );
@@ -291,11 +343,24 @@ mod tests {
             infeasible_steps_total: 5,
             driven_blind_steps_total: 0,
             blind_steps_total: 0,
-            steering_flip_rate: 0.0125,
+            mean_variation_v_per_s: Some(0.0125),
+            mean_variation_omega_per_s: Some(0.25),
+            omega_reversal_rate: 0.0125,
+            v_reversal_rate: 0.0,
+            window_exceeded_total: 0,
+            state_switches_per_min: 3.0,
+            above_upstream_steps_total: 0,
+            reverse_escape_steps_total: 1,
+            reverse_evade_steps_total: 0,
+            reverse_other_steps_total: 0,
+            v_sign_changes_total: 1,
+            moving_track_step_rate: 0.0,
+            evade_steps_total: 0,
             mean_stalled_s: Some(2.5),
             steps_total: 4000,
             mean_step_us: Some(6.25),
             p99_step_us: Some(40.0),
+            max_step_us: Some(80.0),
         };
         BatchReport {
             template: "t.yaml".into(),
@@ -323,7 +388,10 @@ mod tests {
         assert!(none.contains("1 (1)") && none.contains("2 (2)"), "{t}");
         assert!(oldbf.contains("0.200 / 0.010") && oldbf.contains("6.2 / 40.0"), "{t}");
         assert!(
-            oldbf.contains("1.25 %") && oldbf.contains("7 / 0") && oldbf.contains("3 / 0"),
+            oldbf.contains("0.013 / 0.250")
+                && oldbf.contains("0.00 / 1.25")
+                && oldbf.contains("7 / 0")
+                && oldbf.contains("3 / 0"),
             "{t}"
         );
         // A missing mean time to goal is a dash, not NaN.

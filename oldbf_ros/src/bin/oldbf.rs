@@ -104,8 +104,8 @@ enum Command {
     /// point above 0.02 m/s) and passive ones (it was at rest or moving
     /// away), with the worlds having any; least clearance (m), median and
     /// 5th percentile over worlds; goal-reach rate; mean time to goal over
-    /// the worlds reached (s); mean time stalled (s); steering flips (% of
-    /// steps whose ω jumps by more than ω_max); DTCBF condition and braking
+    /// the worlds reached (s); mean time stalled (s); total variation of v and
+    /// ω per second and sign reversals of Δv and Δω (% of steps); DTCBF condition and braking
     /// check violations (steps, all and on steps not marked infeasible);
     /// infeasible steps; compute per control step, mean and 99th percentile
     /// (µs). `oldbf-paper` is OLDBF with this project's checks beyond the

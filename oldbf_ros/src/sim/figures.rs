@@ -4,6 +4,7 @@
 
 use crate::algo::doaa::DoaaState;
 use crate::algo::record::Infeasibility;
+pub use crate::sim::motion_quality::MotionQuality;
 use serde::Serialize;
 
 /// What a closed-loop run measured, for one robot or summed over all of them
@@ -36,9 +37,9 @@ pub struct RunFigures {
     /// Steps driven while an unknown beam whose true range was within
     /// r + d_act was taken as free.
     pub driven_blind_steps: usize,
-    /// Steps whose yaw-rate command differs from the previous step's by more
-    /// than ω_max (steering flips).
-    pub steering_flips: usize,
+    /// How smoothly it was commanded, and what the filter added to the
+    /// upstream command ([`MotionQuality`]).
+    pub motion: MotionQuality,
     /// Time with |v| < 0.02 m/s while the goal was not reached (s).
     pub stalled_s: f64,
     pub reached_goal: bool,
@@ -77,7 +78,7 @@ impl RunFigures {
             infeasible_steps: each().fold(InfeasibleCounts::default(), |acc, s| acc.sum(&s.infeasible_steps)),
             blind_steps: sum(|s| s.blind_steps),
             driven_blind_steps: sum(|s| s.driven_blind_steps),
-            steering_flips: sum(|s| s.steering_flips),
+            motion: each().fold(MotionQuality::default(), |acc, s| acc.sum(&s.motion)),
             stalled_s: each().map(|s| s.stalled_s).sum(),
             reached_goal,
             time_to_goal_s: if reached_goal {
@@ -188,7 +189,11 @@ mod tests {
             },
             blind_steps: 0,
             driven_blind_steps: 0,
-            steering_flips: 1,
+            motion: MotionQuality {
+                steps: 10,
+                omega_reversals: 1,
+                ..MotionQuality::default()
+            },
             stalled_s: 1.5,
             reached_goal: goal_s.is_some(),
             time_to_goal_s: goal_s,
@@ -214,6 +219,7 @@ mod tests {
         assert_eq!((t.collisions, t.closing_contacts, t.braking_violations), (3, 3, 6));
         assert_eq!(t.infeasible_steps.total(), 6);
         assert_eq!(t.steps_by_state.forward, 20);
+        assert_eq!((t.motion.steps, t.motion.omega_reversals), (20, 2));
         assert_eq!((t.min_clearance_m, t.stalled_s, t.path_length_m), (0.2, 3.0, 8.0));
         assert!((t.min_h_m - 0.1).abs() < 1e-12);
         // Both reached: at the later time; the mean of the means, the worst max.

@@ -12,6 +12,8 @@
 //! * [`lidar`] — a ray-cast 2-D LiDAR with `LaserScan` conventions, noise
 //!   and dropouts;
 //! * [`figures`] — what a closed-loop run measured, per robot and in total;
+//! * [`motion_quality`] — how smoothly the robot was commanded (variation,
+//!   reversals, the dynamic window, what the filter added);
 //! * [`robot`] — a unicycle with speed and acceleration limits, presets for
 //!   the TurtleBot3 Burger and the Quanser QBot 2e, collision check.
 //!
@@ -24,6 +26,8 @@ pub mod figures;
 pub mod fleet;
 pub mod lidar;
 pub mod motion;
+#[cfg(feature = "eval")]
+pub mod motion_quality;
 pub mod robot;
 #[cfg(feature = "eval")]
 pub mod run;

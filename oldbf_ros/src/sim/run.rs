@@ -19,6 +19,7 @@
 
 use super::figures::{InfeasibleCounts, RunFigures, StateCounts};
 use super::fleet::{Contact, Fleet, FleetError, CLOSING_SPEED_MPS};
+use super::motion_quality::{MeteredStep, MotionMeter};
 use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
 use crate::algo::doaa::DoaaState;
@@ -180,9 +181,8 @@ struct AgentLoop {
     infeasible: InfeasibleCounts,
     blind_steps: usize,
     driven_blind_steps: usize,
-    steering_flips: usize,
+    motion: MotionMeter,
     stalled_steps: usize,
-    last_omega: Option<f64>,
     changed_steps: usize,
     max_err: f64,
     sum_err: f64,
@@ -243,9 +243,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             infeasible: InfeasibleCounts::default(),
             blind_steps: 0,
             driven_blind_steps: 0,
-            steering_flips: 0,
+            motion: MotionMeter::new(params, dt),
             stalled_steps: 0,
-            last_omega: None,
             changed_steps: 0,
             max_err: 0.0,
             sum_err: 0.0,
@@ -379,12 +378,13 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                     params,
                 );
             a.driven_blind_steps += usize::from(driven_blind);
-            if let Some(w) = a.last_omega {
-                if (cmd.omega_radps - w).abs() > params.control.omega_max_radps + 1e-9 {
-                    a.steering_flips += 1;
-                }
-            }
-            a.last_omega = Some(cmd.omega_radps);
+            a.motion.add(MeteredStep {
+                cmd,
+                nominal: input_box.clamp(nominal),
+                state: rec.state,
+                fault_stop: !rec.measured() || rec.stop_cause == Some(StopCause::EStop),
+                moving_tracks: rec.tracked_obstacles,
+            });
             if rec.measured() {
                 a.min_h = a.min_h.min(rec.h_m);
             }
@@ -498,7 +498,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                         infeasible_steps: a.infeasible,
                         blind_steps: a.blind_steps,
                         driven_blind_steps: a.driven_blind_steps,
-                        steering_flips: a.steering_flips,
+                        motion: a.motion.figures(),
                         stalled_s: a.stalled_steps as f64 * dt,
                         reached_goal: a.time_to_goal.is_some(),
                         time_to_goal_s: a.time_to_goal,

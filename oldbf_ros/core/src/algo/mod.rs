@@ -22,6 +22,7 @@ pub mod pipeline;
 pub mod record;
 pub mod reference;
 pub mod scan;
+pub mod select;
 pub mod tracking;
 pub mod unicycle;
 pub mod unstuck;

@@ -6,7 +6,7 @@
 //! "passive motion safety"): if a collision happens, the robot was not
 //! driving into it. So a command is admissible only if the robot, applying
 //! it for one control step and then braking to rest at
-//! `passive.brake_decel_mps2` (both wheels together: the curvature is kept),
+//! `control.decel_mps2` (both wheels together: the curvature is kept),
 //! makes no *closing contact* on the way:
 //! * with a static point: its body (radius r) reaches the point while moving
 //!   towards it faster than half of `passive.closing_speed_mps`;
@@ -300,7 +300,7 @@ impl PassiveSafety {
             return; // turning in place moves no part of a circular robot
         }
         let dt = p.control.dt_s();
-        let decel = p.passive.brake_decel_mps2;
+        let decel = p.control.decel_mps2;
         let speed = v.abs();
         let n1 = ((speed * dt / SAMPLE_SPACING_M).ceil() as usize).clamp(1, MAX_STEP_SAMPLES);
         let mut walk = ArcWalk::new(cmd, dt / n1 as f64);
@@ -345,7 +345,7 @@ impl PassiveSafety {
     /// after [`Self::set_phantoms`].
     pub fn prepare(&mut self, points: &[Vec2], p: &Params) {
         let speed = p.control.v_max_mps.max(p.control.v_reverse_max_mps);
-        let travel = speed * (p.control.dt_s() + speed / p.passive.brake_decel_mps2);
+        let travel = speed * (p.control.dt_s() + speed / p.control.decel_mps2);
         let reach = p.robot_radius_m() + UNSEEN_MARGIN_M + travel + 2.0 * SAMPLE_SPACING_M;
         let reach2 = reach * reach;
         self.near_seen.clear();
@@ -358,7 +358,7 @@ impl PassiveSafety {
         // from where it is while the robot travels its longest path, it stays beyond
         // its grown disc for the path's whole duration: at every sample
         // `first_closing_contact` would skip it (`surely_beyond`).
-        let duration = p.control.dt_s() + speed / p.passive.brake_decel_mps2;
+        let duration = p.control.dt_s() + speed / p.control.decel_mps2;
         let (r, pp) = (p.robot_radius_m(), &p.passive);
         self.brake_movers.clear();
         self.brake_movers.extend(self.movers.iter().filter(|m| {
@@ -642,7 +642,7 @@ mod tests {
         assert!(c.closing_speed_mps > 0.05 && c.closing_speed_mps <= 0.1 + 1e-9, "{c:?}");
         // Stronger brakes: stops after 2 cm + 1 cm and does not reach it.
         let mut strong = params();
-        strong.passive.brake_decel_mps2 = 2.0;
+        strong.control.decel_mps2 = 2.0;
         assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &strong), None);
         // Standing still and turning in place are always passively safe.
         assert_eq!(contact(&mut ps, Twist::new(0.0, 0.3), &[Vec2::new(0.1, 0.0)], &p), None);

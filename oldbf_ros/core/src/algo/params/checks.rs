@@ -60,6 +60,13 @@ impl Validate for Params {
             Interval::open_closed(0.0, 10.0).unit("rad/s"),
         );
         c.range("control.v_reverse_max_mps", ctl.v_reverse_max_mps, SPEED);
+        c.range("control.accel_mps2", ctl.accel_mps2, ACCEL);
+        c.range("control.decel_mps2", ctl.decel_mps2, ACCEL);
+        c.range(
+            "control.angular_accel_radps2",
+            ctl.angular_accel_radps2,
+            Interval::open_closed(0.0, 1000.0).unit("rad/s²"),
+        );
 
         let fp = &self.footprint;
         c.range("footprint.semi_axis_1_m", fp.semi_axis_1_m, SEMI_AXIS);
@@ -228,7 +235,6 @@ impl Validate for Params {
         c.range("unstuck.ahead_m", u.ahead_m, Interval::closed(0.0, 20.0).unit("m"));
 
         let pa = &self.passive;
-        c.range("passive.brake_decel_mps2", pa.brake_decel_mps2, ACCEL);
         c.range(
             "passive.mover_margin_m",
             pa.mover_margin_m,

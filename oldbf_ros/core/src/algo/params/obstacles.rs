@@ -66,8 +66,6 @@ impl Default for ObstacleParams {
 pub struct PassiveParams {
     /// The braking check and evasion; false = the paper's one-step condition only.
     pub enabled: bool,
-    /// Deceleration the robot can always achieve when braking to rest (m/s²).
-    pub brake_decel_mps2: f64,
     /// A moving obstacle's predicted disc is inflated by this at once (m)…
     pub mover_margin_m: f64,
     /// …and grows by this per second of prediction (m/s): unmodelled turns
@@ -90,7 +88,6 @@ impl Default for PassiveParams {
     fn default() -> Self {
         Self {
             enabled: true,
-            brake_decel_mps2: 1.0,
             mover_margin_m: 0.05,
             mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,

@@ -20,6 +20,17 @@ pub struct ControlParams {
     pub allow_reverse: bool,
     /// Largest reverse speed when `allow_reverse` (m/s, given as a positive number).
     pub v_reverse_max_mps: f64,
+    /// The base's linear acceleration limit (m/s²): how fast |v| may grow
+    /// from the command last sent (the dynamic window, §5c).
+    pub accel_mps2: f64,
+    /// The base's linear deceleration (m/s²): how fast |v| may fall in the
+    /// window, and what the braking check (§5b) assumes the robot can always
+    /// brake at. One number for both, so the filter never sends a command
+    /// the braking check did not assume.
+    pub decel_mps2: f64,
+    /// The base's angular acceleration limit (rad/s²): how fast ω may change
+    /// from the command last sent, either way.
+    pub angular_accel_radps2: f64,
 }
 
 impl Default for ControlParams {
@@ -31,6 +42,9 @@ impl Default for ControlParams {
             omega_max_radps: 0.3,
             allow_reverse: true,
             v_reverse_max_mps: 0.15,
+            accel_mps2: 0.5,
+            decel_mps2: 1.0,
+            angular_accel_radps2: 1.0,
         }
     }
 }
