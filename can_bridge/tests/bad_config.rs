@@ -39,6 +39,7 @@ const ROWS: &[(&str, &str)] = &[
     ("odrive.left_node_id", "64"),
     ("odrive.right_node_id", "0"),
     ("odrive.torque_ff_nm", "101"),
+    ("odrive.firmware", "\"0.4\""),
     ("cia402.left_node_id", "0"),
     ("cia402.right_node_id", "128"),
     ("cia402.counts_per_motor_rev", "0"),

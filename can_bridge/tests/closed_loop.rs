@@ -5,8 +5,9 @@
 mod common;
 
 use can_bridge::diagnostics::BridgeState;
+use can_bridge::protocol::odrive;
 use can_bridge::virtual_drive::FaultKind;
-use can_bridge::{ProtocolKind, Twist, Wheel};
+use can_bridge::{ProtocolKind, SendError, Twist, Wheel};
 use common::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
@@ -233,6 +234,110 @@ fn the_odrive_startup_never_asks_for_closed_loop_with_a_nonzero_input() {
     }
     assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
     assert!(sim.drive.stats().estops >= 6);
+}
+
+// ------------------------------------------------------------------ ODrive 0.6
+
+/// A blocked transmit queue for 0.8 s (ENOBUFS): the bridge sees the loss
+/// (`tx_blocked`) and the ODrive's own watchdog disarms the axes. When the
+/// bus is back, the bridge clears the error by its restart only if it reads
+/// it as the watchdog's in the drive's firmware numbering: 0x01000000 in
+/// 0.6. A bridge configured for 0.5 (watchdog 0x800) latches the same code.
+fn odrive_watchdog_after_a_blocked_bus(bridge_fw: odrive::Firmware) -> Sim {
+    let mut c = bridge_config(ProtocolKind::Odrive);
+    c.odrive.firmware = odrive::Firmware::V0_6;
+    let d = drive_config(&c);
+    c.odrive.firmware = bridge_fw;
+    let mut sim = Sim::new(c, d);
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    sim.bridge.bus().set_send_error(Some(SendError::QueueFull));
+    sim.stream(Twist::new(0.2, 0.0), 0.8);
+    assert!(sim.has_reason("tx_blocked"), "{:?}", sim.bridge.reasons());
+    let a = sim.drive.axis(Wheel::Left);
+    assert!(!a.running && a.error_code == 0x0100_0000, "{a:?}");
+    sim.bridge.bus().set_send_error(None);
+    sim.stream(Twist::new(0.2, 0.0), 1.5);
+    sim
+}
+
+#[test]
+fn odrive_0_6_watchdog_error_after_a_loss_is_cleared_by_the_restart() {
+    let sim = odrive_watchdog_after_a_blocked_bus(odrive::Firmware::V0_6);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    assert!(sim.drive.axis(Wheel::Left).running);
+}
+
+#[test]
+fn odrive_0_6_watchdog_code_read_as_0_5_is_latched() {
+    let sim = odrive_watchdog_after_a_blocked_bus(odrive::Firmware::V0_5);
+    assert_eq!(sim.bridge.state(), BridgeState::Stopped, "{:?}", sim.bridge.reasons());
+    assert!(
+        sim.bridge.reasons().iter().any(|r| matches!(
+            r,
+            can_bridge::diagnostics::StopReason::DriveFault {
+                error_code: 0x0100_0000,
+                ..
+            }
+        )),
+        "{:?}",
+        sim.bridge.reasons()
+    );
+}
+
+/// The whole 0.6 chain: the square corner's pose, the axis error latched and
+/// named in the report, e-stop with 0.6's ESTOP_REQUESTED and recovery.
+#[test]
+fn odrive_0_6_drives_latches_names_and_recovers() {
+    let mut c = bridge_config(ProtocolKind::Odrive);
+    c.odrive.firmware = odrive::Firmware::V0_6;
+    let d = drive_config(&c);
+    let mut sim = Sim::new(c, d);
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    assert!(sim.bridge.odometry().pose.x_m > 0.1, "{:?}", sim.bridge.odometry());
+    let t = sim.t;
+    sim.drive.inject(
+        FaultKind::AxisError {
+            code: 0x20,
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
+    sim.stream(Twist::new(0.2, 0.0), 0.3);
+    let events = sim.bridge.drain_events();
+    let latched = events.iter().find_map(|e| match &e.event {
+        BridgeEvent::DriveFaultLatched { wheel, error_code, .. } => Some((*wheel, *error_code)),
+        _ => None,
+    });
+    assert_eq!(latched, Some((Wheel::Right, 0x20)));
+    let reports: Vec<String> = events
+        .iter()
+        .filter_map(|e| match &e.event {
+            BridgeEvent::DriveReport { message, .. } => Some(message.clone()),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        reports.contains(&"node 5 axis error 0x00000020 (DRV_FAULT), firmware 0.6".to_string())
+            && reports.contains(&"node 5 procedure result 3 (DISARMED)".to_string()),
+        "{reports:?}"
+    );
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let t = sim.t;
+    sim.bridge.estop(t);
+    sim.run_s(0.2);
+    assert_eq!(sim.drive.axis(Wheel::Left).error_code, 0x0200_0000);
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    assert_wire_is_clean(&sim.tap.wire_log(), ProtocolKind::Odrive);
 }
 
 // ------------------------------------------------------------------ CiA 402

@@ -175,16 +175,24 @@ proptest! {
         let f = CanFrame { id, extended: false, data, len };
         let mut g = generic::GenericProtocol::new(0x100);
         let mut o = odrive::OdriveProtocol::new(0, 1, 0.0);
+        let mut o6 = odrive::OdriveProtocol::new(0, 1, 0.0).with_firmware(odrive::Firmware::V0_6);
         let mut co = cia402::Cia402Protocol::new(can_bridge::config::default_config().cia402.settings());
-        for p in [&mut g as &mut dyn Protocol, &mut o, &mut co] {
+        for p in [&mut g as &mut dyn Protocol, &mut o, &mut o6, &mut co] {
             if let Ok(Some(DriveMessage::Feedback { motor_pos_rad, motor_vel_radps, .. })) = p.decode(&f) {
                 prop_assert!(motor_pos_rad.is_finite() && motor_vel_radps.is_finite());
             }
         }
         // The virtual drive swallows garbage too.
-        for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive, ProtocolKind::Cia402] {
+        for (protocol, odrive_firmware) in [
+            (ProtocolKind::Generic, odrive::Firmware::V0_5),
+            (ProtocolKind::Odrive, odrive::Firmware::V0_5),
+            (ProtocolKind::Odrive, odrive::Firmware::V0_6),
+            (ProtocolKind::Cia402, odrive::Firmware::V0_5),
+        ] {
             let (left_node_id, right_node_id) = if protocol == ProtocolKind::Cia402 { (1, 2) } else { (0, 1) };
-            let cfg = can_bridge::virtual_drive::VirtualDriveConfig { protocol, left_node_id, right_node_id, ..Default::default() };
+            let cfg = can_bridge::virtual_drive::VirtualDriveConfig {
+                protocol, left_node_id, right_node_id, odrive_firmware, ..Default::default()
+            };
             let mut d = VirtualDrive::new(cfg, can_bridge::Timestamp::ZERO);
             d.handle_frame(&f, can_bridge::Timestamp::from_secs_f64(0.01));
             let mut out = Vec::new();

@@ -68,6 +68,9 @@ def motor_speeds(v, w):
     return DIR_L * GEAR * wl, DIR_R * GEAR * wr
 
 
+ODRIVE_FIRMWARE = "0.5"
+
+
 def write_config(path, protocol):
     with open(path, "w") as f:
         f.write(f"""interface: vcan0
@@ -97,6 +100,7 @@ odrive:
   left_node_id: 3
   right_node_id: 5
   torque_ff_nm: 0.05
+  firmware: "{ODRIVE_FIRMWARE}"
 cia402:
   left_node_id: {CO_NODES[0]}
   right_node_id: {CO_NODES[1]}

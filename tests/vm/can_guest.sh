@@ -67,6 +67,16 @@ else
 fi
 TIMES+=("can_checks.py $(( $(ms) - t0 ))")
 
+# ------------------------------------------------------------------ drive variants
+# ODrive 0.6, the two-axis CANopen node, SDO at run time (tests/can/drive_variant_checks.py).
+t0=$(ms)
+if python3 tests/can/drive_variant_checks.py --bin-dir "$BIN_DIR"; then
+  pass "drive variant checks"
+else
+  fail "drive variant checks"
+fi
+TIMES+=("drive_variant_checks.py $(( $(ms) - t0 ))")
+
 echo "guest timings (ms):"
 for t in "${TIMES[@]}"; do echo "  $t"; done
 if [ "$fails" -eq 0 ]; then echo "can_guest: all checks passed"; exit 0; fi

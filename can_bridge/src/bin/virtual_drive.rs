@@ -33,6 +33,9 @@ use std::time::Duration;
 ///   sdo_silence@T[+D]                       cia402: SDO requests get no answer
 ///   reboot@T[:left|right|both]              cia402: the node(s) reboot (boot-up, defaults)
 ///
+/// odrive: the firmware generation (0.5 or 0.6: heartbeat layout, error numbering, Get_Error) comes
+/// from --config (`odrive.firmware`).
+///
 /// cia402: the axis error CODE is the 0x603F error code (e.g. 0x2310, overcurrent); the watchdog is
 /// an RPDO timeout (0x8250); --heartbeat-rate-hz and --feedback-rate-hz are the defaults of 0x1017
 /// and of the TPDO event timers; node ids, units and the bridge's node id come from --config.
@@ -160,6 +163,7 @@ fn run(args: Args) -> Result<i32> {
         };
         cfg.cia402_scaling = b.cia402.scaling();
         cfg.cia402_bridge_node_id = u8::try_from(b.cia402.bridge_node_id).unwrap_or(0);
+        cfg.odrive_firmware = b.odrive.firmware;
     }
     if let Some(p) = args.protocol {
         cfg.protocol = p;

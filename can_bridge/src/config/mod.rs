@@ -18,7 +18,7 @@ pub use oldbf::config::{ConfigError, ParamError, Validate};
 use crate::kinematics::DiffDrive;
 use crate::protocol::cia402::Cia402Protocol;
 use crate::protocol::generic::GenericProtocol;
-use crate::protocol::odrive::OdriveProtocol;
+use crate::protocol::odrive::{Firmware, OdriveProtocol};
 use crate::protocol::{Protocol, ProtocolKind};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -119,6 +119,8 @@ pub struct OdriveConfig {
     pub right_node_id: u32,
     /// Torque feed-forward sent while moving (Nm).
     pub torque_ff_nm: f64,
+    /// The drives' firmware generation: message layouts and error numbering.
+    pub firmware: Firmware,
 }
 
 impl BridgeConfig {
@@ -143,11 +145,14 @@ impl BridgeConfig {
     pub fn make_protocol(&self) -> Box<dyn Protocol> {
         match self.protocol {
             ProtocolKind::Generic => Box::new(GenericProtocol::new(self.generic.base_id)),
-            ProtocolKind::Odrive => Box::new(OdriveProtocol::new(
-                self.odrive.left_node_id,
-                self.odrive.right_node_id,
-                self.odrive.torque_ff_nm,
-            )),
+            ProtocolKind::Odrive => Box::new(
+                OdriveProtocol::new(
+                    self.odrive.left_node_id,
+                    self.odrive.right_node_id,
+                    self.odrive.torque_ff_nm,
+                )
+                .with_firmware(self.odrive.firmware),
+            ),
             ProtocolKind::Cia402 => Box::new(Cia402Protocol::new(self.cia402.settings())),
         }
     }

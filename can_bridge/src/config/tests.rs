@@ -41,7 +41,7 @@ fn shipped_file_is_valid_and_documented() {
             "no range: {line}"
         );
     }
-    assert_eq!(leaves, 38, "every key of BridgeConfig is in the shipped file");
+    assert_eq!(leaves, 39, "every key of BridgeConfig is in the shipped file");
 }
 
 #[test]
@@ -66,6 +66,24 @@ fn wrong_type_and_bad_enum_are_named() {
         e.to_string().contains("generic") && e.to_string().contains("odrive"),
         "{e}"
     );
+}
+
+#[test]
+fn odrive_firmware_is_0_5_or_0_6_quoted_or_not() {
+    assert_eq!(default_config().odrive.firmware, Firmware::V0_5);
+    for (text, want) in [
+        ("\"0.6\"", Firmware::V0_6),
+        ("0.6", Firmware::V0_6),
+        ("'0.5'", Firmware::V0_5),
+    ] {
+        let c = load_config_str(&with("odrive.firmware", text), "f.yaml").unwrap();
+        assert_eq!(c.odrive.firmware, want, "{text}");
+    }
+    for bad in ["\"0.7\"", "0.60001", "6", "\"v0.6\""] {
+        let e = load_config_str(&with("odrive.firmware", bad), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["odrive.firmware"], "{bad}: {e}");
+        assert!(e.to_string().contains("\"0.5\" or \"0.6\""), "{bad}: {e}");
+    }
 }
 
 #[test]

@@ -247,10 +247,7 @@ impl VirtualDrive {
                         ProtocolKind::Odrive => {
                             for w in Wheel::BOTH {
                                 if wheel.is_none_or(|x| x == w) {
-                                    let a = &mut self.axes[w.index()];
-                                    a.error |= code;
-                                    a.running = false;
-                                    a.input = 0.0;
+                                    self.axes[w.index()].disarm(code);
                                 }
                             }
                         }

@@ -15,11 +15,15 @@
 //!   and the watchdog is not fed). Enable=1 enables (from disabled, without
 //!   error); Estop=1 latches e-stop; Enable=0, Estop=0 disables and clears a
 //!   latched e-stop or error.
-//! * odrive: one node per wheel. Clear_Errors, Set_Controller_Mode,
-//!   Set_Input_Vel (feeds the watchdog), Set_Axis_State (closed loop only
-//!   without error and in velocity mode), Estop (error ESTOP_REQUESTED,
-//!   idle). A closed-loop request while the input velocity is non-zero is
-//!   counted as a start-up order violation.
+//! * odrive: one node per wheel, firmware 0.5 or 0.6 (heartbeat layout and
+//!   error numbering of [`crate::protocol::odrive::firmware`]). Clear_Errors,
+//!   Set_Controller_Mode, Set_Input_Vel (feeds the watchdog), Set_Axis_State
+//!   (closed loop only without error and in velocity mode), Estop (error
+//!   ESTOP_REQUESTED, idle). An error that ends closed loop sets 0.6's
+//!   procedure result DISARMED; Clear_Errors clears both. 0.6 sends
+//!   Get_Error (active errors 0, disarm reason = the error) with each
+//!   heartbeat. A closed-loop request while the input velocity is non-zero
+//!   is counted as a start-up order violation.
 //! * cia402: one CANopen node per wheel ([`cia402`]): SDO server, NMT,
 //!   heartbeat producer and consumer, PDOs from the mapped dictionary,
 //!   SYNC, the CiA 402 state machine and profile velocity ramps. The
@@ -101,6 +105,8 @@ struct Axis {
     feedback_counter: u8,
     control_mode: u32,
     input_mode: u32,
+    /// ODrive 0.6 procedure result (Heartbeat byte 5).
+    procedure_result: u8,
 }
 
 /// The simulated drive.
@@ -368,9 +374,7 @@ impl VirtualDrive {
                     if a.running && a.last_setpoint.is_none_or(|t| now - t > wd) {
                         log::warn!("{} axis watchdog expired, idle", w.name());
                         self.stats.watchdog_trips += 1;
-                        a.running = false;
-                        a.input = 0.0;
-                        a.error |= odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED;
+                        a.disarm(self.cfg.odrive_firmware.watchdog_error());
                     }
                 }
             }
@@ -469,12 +473,26 @@ impl VirtualDrive {
             ProtocolKind::Odrive => {
                 for w in Wheel::BOTH {
                     let a = &self.axes[w.index()];
+                    let node = self.node(w);
                     let state = if a.running {
                         odrive::AXIS_STATE_CLOSED_LOOP
                     } else {
                         odrive::AXIS_STATE_IDLE
-                    };
-                    out.push(odrive::heartbeat(self.node(w), a.error, state as u8));
+                    } as u8;
+                    match self.cfg.odrive_firmware {
+                        odrive::Firmware::V0_5 => out.push(odrive::heartbeat(node, a.error, state)),
+                        odrive::Firmware::V0_6 => {
+                            // Velocity control runs no trajectory: it is always "done".
+                            let h = odrive::Heartbeat {
+                                axis_error: a.error,
+                                axis_state: state,
+                                procedure_result: Some(a.procedure_result),
+                                trajectory_done: Some(true),
+                            };
+                            out.push(odrive::heartbeat_0_6(node, &h));
+                            out.push(odrive::get_error(node, 0, a.error));
+                        }
+                    }
                     self.stats.heartbeats_sent += 1;
                 }
             }
@@ -514,6 +532,18 @@ impl VirtualDrive {
             t = t.min(*due);
         }
         t
+    }
+}
+
+impl Axis {
+    /// ODrive: an error ends closed loop (0.6 records the disarm).
+    fn disarm(&mut self, error: u32) {
+        if self.running {
+            self.procedure_result = odrive::firmware::procedure_result::DISARMED;
+        }
+        self.running = false;
+        self.input = 0.0;
+        self.error |= error;
     }
 }
 

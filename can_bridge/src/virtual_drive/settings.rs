@@ -4,7 +4,7 @@
 use super::FaultSpec;
 use crate::protocol::cia402::units::{Scaling, VelocityUnit};
 use crate::protocol::generic;
-use crate::protocol::odrive;
+use crate::protocol::odrive::{self, Firmware};
 use crate::protocol::ProtocolKind;
 use oldbf::config::{Checker, Interval, Validate};
 
@@ -37,6 +37,9 @@ pub struct VirtualDriveConfig {
     pub cia402_scaling: Scaling,
     /// CiA 402: the bridge's node id (whose heartbeat 0x1016:01 may watch).
     pub cia402_bridge_node_id: u8,
+    /// ODrive: the firmware generation it plays (heartbeat layout, error
+    /// numbering; 0.6 also sends Get_Error with every heartbeat).
+    pub odrive_firmware: Firmware,
 }
 
 impl Default for VirtualDriveConfig {
@@ -55,6 +58,7 @@ impl Default for VirtualDriveConfig {
             faults: Vec::new(),
             cia402_scaling: Scaling::new(VelocityUnit::Rpm, 1.0, 4096),
             cia402_bridge_node_id: 127,
+            odrive_firmware: Firmware::V0_5,
         }
     }
 }

@@ -38,6 +38,7 @@ pub fn drive_config(c: &BridgeConfig) -> VirtualDriveConfig {
         right_node_id,
         cia402_scaling: c.cia402.scaling(),
         cia402_bridge_node_id: c.cia402.bridge_node_id as u8,
+        odrive_firmware: c.odrive.firmware,
         ..Default::default()
     }
 }
