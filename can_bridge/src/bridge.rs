@@ -119,7 +119,12 @@ impl<B: CanBus> Bridge<B> {
         bus.set_rx_filters(&protocol.rx_filters())?;
         let kin = cfg.diff_drive();
         let period = cfg.tx_period();
-        let odom = Odometry::new(kin, protocol.position_modulus_rad(), cfg.limits.max_wheel_speed_radps);
+        let odom = Odometry::new(
+            kin,
+            protocol.position_modulus_rad(),
+            cfg.limits.max_wheel_speed_radps,
+            cfg.odometry.noise(),
+        );
         let t = &cfg.timing;
         let mut b = Self {
             kin,

@@ -4,9 +4,13 @@
 //! Topics (relative names): subscribes `cmd_vel` (geometry_msgs/Twist) and
 //! `e_stop` (std_msgs/Bool: true latches the bridge's e-stop); publishes
 //! `odom` (nav_msgs/Odometry from the wheels' measured speeds and positions,
-//! `node/odom_rate_hz`), optionally `/tf` odom → base_link
-//! (`node/publish_tf`), and `/diagnostics` (1 Hz: bus state, drive state,
-//! stop reasons, last command age, frames sent, tx drops, error counters).
+//! with the covariance of the `odometry:` noise model, `node/odom_rate_hz`),
+//! `joint_states` (sensor_msgs/JointState: the two wheel joints' angles and
+//! speeds at the wheel, names `node/left_wheel_joint`, `node/right_wheel_joint`,
+//! same rate and stamp), optionally `/tf` odom → base_link
+//! (`node/publish_tf`, the same pose and stamp as `odom`), and `/diagnostics`
+//! (1 Hz: bus state, drive state, stop reasons, last command age, frames
+//! sent, tx drops, error counters).
 //! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
 //! faults (a drive error, a drive whose heartbeat was lost on a working bus)
 //! once the `e_stop` input is false; motion then needs a fresh command.
@@ -27,6 +31,9 @@ use crate::bus::BusError;
 use crate::config::{default_config, BridgeConfig};
 use crate::diagnostics::{BridgeState, BridgeStatus};
 use crate::kinematics::Twist;
+use crate::odometry::covariance::{ros_pose_covariance, ros_twist_covariance};
+use crate::odometry::OdometryState;
+use crate::ros_msgs::sensor_msgs::JointState;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
 use oldbf::config::{load_value, merge, Checker, ConfigError, Interval, Validate};
@@ -52,8 +59,12 @@ pub struct NodeSettings {
     pub base_frame: String,
     /// Publish odom → base_link on /tf.
     pub publish_tf: bool,
-    /// Odometry publication rate (Hz).
+    /// Odometry (and joint state) publication rate (Hz).
     pub odom_rate_hz: f64,
+    /// The left wheel's joint in `joint_states` (the URDF's name).
+    pub left_wheel_joint: String,
+    /// The right wheel's joint in `joint_states`.
+    pub right_wheel_joint: String,
 }
 
 impl Default for NodeSettings {
@@ -63,8 +74,15 @@ impl Default for NodeSettings {
             base_frame: "base_link".into(),
             publish_tf: false,
             odom_rate_hz: 50.0,
+            left_wheel_joint: "wheel_left_joint".into(),
+            right_wheel_joint: "wheel_right_joint".into(),
         }
     }
+}
+
+/// A joint name robot_state_publisher can match: non-empty, no whitespace.
+fn joint_name_ok(n: &str) -> bool {
+    !n.is_empty() && !n.chars().any(char::is_whitespace)
 }
 
 impl Validate for NodeSettings {
@@ -74,7 +92,51 @@ impl Validate for NodeSettings {
             self.odom_rate_hz,
             Interval::open_closed(0.0, 1000.0).unit("Hz"),
         );
+        for (key, n) in [
+            ("left_wheel_joint", &self.left_wheel_joint),
+            ("right_wheel_joint", &self.right_wheel_joint),
+        ] {
+            c.rule(
+                joint_name_ok(n),
+                key,
+                format_args!("{n:?}"),
+                "a non-empty name without whitespace",
+            );
+        }
+        c.rule(
+            self.left_wheel_joint != self.right_wheel_joint,
+            "right_wheel_joint",
+            format_args!("{:?}", self.right_wheel_joint),
+            "different from left_wheel_joint",
+        );
     }
+}
+
+/// The wheels' joint states: angle (rad) and speed (rad/s) at the wheel,
+/// forward positive, in the order of the names.
+pub fn joint_state_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> JointState {
+    let mut m = JointState::default();
+    m.header.stamp = stamp;
+    m.name = vec![s.left_wheel_joint.clone(), s.right_wheel_joint.clone()];
+    m.position = vec![o.wheel_angles.left_rad, o.wheel_angles.right_rad];
+    m.velocity = vec![o.wheels.left_radps, o.wheels.right_radps];
+    m
+}
+
+/// nav_msgs/Odometry with the model's covariance (ROS's 6×6 layout).
+pub fn odometry_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> nav_msgs::Odometry {
+    let mut m = nav_msgs::Odometry::default();
+    m.header.stamp = stamp;
+    m.header.frame_id = s.odom_frame.clone();
+    m.child_frame_id = s.base_frame.clone();
+    m.pose.pose.position.x = o.pose.x_m;
+    m.pose.pose.position.y = o.pose.y_m;
+    m.pose.pose.orientation = quaternion_from_yaw(o.pose.theta_rad);
+    m.pose.covariance = ros_pose_covariance(&o.pose_covariance);
+    m.twist.twist.linear.x = o.twist.linear_mps;
+    m.twist.twist.angular.z = o.twist.angular_radps;
+    m.twist.covariance = ros_twist_covariance(&o.twist_covariance);
+    m
 }
 
 /// The bridge and node configuration from the private namespace `ns`
@@ -268,6 +330,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     })
     .map_err(ros_err("advertising ~reset"))?;
     let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(ros_err("advertising odom"))?;
+    let joints_pub = rosrust::publish::<JointState>("joint_states", 10).map_err(ros_err("advertising joint_states"))?;
     let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(ros_err("advertising /tf"))?;
     let diag_pub =
         rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(ros_err("advertising /diagnostics"))?;
@@ -324,17 +387,10 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         if now >= next_odom {
             next_odom = now + odom_period;
             let o = bridge.odometry();
+            // One stamp for odom, joint_states and tf: the same instant.
             let stamp = time_from_s(now_s());
-            let mut m = nav_msgs::Odometry::default();
-            m.header.stamp = stamp;
-            m.header.frame_id = settings.odom_frame.clone();
-            m.child_frame_id = settings.base_frame.clone();
-            m.pose.pose.position.x = o.pose.x_m;
-            m.pose.pose.position.y = o.pose.y_m;
-            m.pose.pose.orientation = quaternion_from_yaw(o.pose.theta_rad);
-            m.twist.twist.linear.x = o.twist.linear_mps;
-            m.twist.twist.angular.z = o.twist.angular_radps;
-            let _ = odom_pub.send(m);
+            let _ = odom_pub.send(odometry_msg(stamp, &settings, &o));
+            let _ = joints_pub.send(joint_state_msg(stamp, &settings, &o));
             if settings.publish_tf {
                 let mut t = geometry_msgs::TransformStamped::default();
                 t.header.stamp = stamp;
@@ -381,6 +437,47 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
 mod tests {
     use super::*;
 
+    /// What goes out on `odom` and `joint_states`, from a hand-made state:
+    /// the covariance in ROS's indices, the joints in the names' order.
+    #[test]
+    fn odometry_and_joint_state_messages() {
+        use crate::odometry::{PoseCovariance, TwistCovariance, WheelAngles};
+        let o = OdometryState {
+            pose_covariance: PoseCovariance([[1e-4, 2e-5, 3e-5], [2e-5, 4e-4, 5e-5], [3e-5, 5e-5, 6e-3]]),
+            twist_covariance: TwistCovariance([[7e-4, 0.0], [0.0, 9e-3]]),
+            wheel_angles: WheelAngles {
+                left_rad: 12.5,
+                right_rad: -3.0,
+            },
+            wheels: crate::kinematics::WheelSpeeds {
+                left_radps: 4.0,
+                right_radps: 6.0,
+            },
+            ..OdometryState::default()
+        };
+        let s = NodeSettings::default();
+        let stamp = rosrust::Time { sec: 7, nsec: 5 };
+        let m = odometry_msg(stamp, &s, &o);
+        assert_eq!(m.pose.covariance[0], 1e-4);
+        assert_eq!(m.pose.covariance[7], 4e-4);
+        assert_eq!(m.pose.covariance[35], 6e-3);
+        assert_eq!(m.pose.covariance[11], 5e-5);
+        assert_eq!(m.pose.covariance[14], crate::odometry::covariance::UNMEASURED_VARIANCE);
+        assert_eq!((m.twist.covariance[0], m.twist.covariance[35]), (7e-4, 9e-3));
+        assert_eq!(
+            (m.header.frame_id.as_str(), m.child_frame_id.as_str()),
+            ("odom", "base_link")
+        );
+        let j = joint_state_msg(stamp, &s, &o);
+        assert_eq!(j.name, ["wheel_left_joint", "wheel_right_joint"]);
+        assert_eq!(
+            (j.position.clone(), j.velocity.clone()),
+            (vec![12.5, -3.0], vec![4.0, 6.0])
+        );
+        assert!(j.effort.is_empty());
+        assert_eq!((j.header.stamp.sec, m.header.stamp.nsec), (7, 5));
+    }
+
     #[test]
     fn parameters_merge_over_the_defaults_and_bad_ones_are_named() {
         let ns: Value =
@@ -399,6 +496,16 @@ mod tests {
         assert_eq!(
             config_from_params(node, "P").unwrap_err().to_string(),
             "P: key `node.odom_rate_hz` = 0 is out of range; allowed: (0, 1000] Hz"
+        );
+        let same: Value = serde_yaml::from_str("node: {right_wheel_joint: wheel_left_joint}").unwrap();
+        assert_eq!(
+            config_from_params(same, "P").unwrap_err().keys(),
+            ["node.right_wheel_joint"]
+        );
+        let blank: Value = serde_yaml::from_str("node: {left_wheel_joint: \"left wheel\"}").unwrap();
+        assert_eq!(
+            config_from_params(blank, "P").unwrap_err().keys(),
+            ["node.left_wheel_joint"]
         );
         let node_unknown: Value = serde_yaml::from_str("node: {publish_tf_typo: true}").unwrap();
         let e = config_from_params(node_unknown, "P").unwrap_err();

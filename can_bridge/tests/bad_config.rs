@@ -56,6 +56,10 @@ const ROWS: &[(&str, &str)] = &[
     ("cia402.bridge_heartbeat_ms", "-1"),
     ("cia402.drive_consumer_heartbeat_ms", "50"),
     ("cia402.sdo_timeout_s", "0"),
+    ("odometry.left_travel_variance_m2_per_m", "0"),
+    ("odometry.right_travel_variance_m2_per_m", "1.5"),
+    ("odometry.left_speed_sigma_radps", "-0.1"),
+    ("odometry.right_speed_sigma_radps", "0"),
 ];
 
 fn tmp(name: &str, doc: &Value) -> PathBuf {

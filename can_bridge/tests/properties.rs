@@ -284,4 +284,48 @@ proptest! {
             last = w;
         }
     }
+
+    /// The odometry covariance stays a covariance whatever the wheel
+    /// travels and the noise: finite, symmetric, positive semi-definite
+    /// (principal minors ≥ 0 up to rounding), the heading's variance never
+    /// shrinking; the twist covariance likewise.
+    #[test]
+    fn odometry_covariance_stays_symmetric_psd_and_finite(
+        steps in proptest::collection::vec((-0.05..0.05f64, -0.05..0.05f64), 1..300),
+        theta in -10.0..10.0f64,
+        k in (1e-9..1.0f64, 1e-9..1.0f64),
+        sigma in (1e-6..100.0f64, 1e-6..100.0f64),
+        track in 0.05..2.0f64,
+    ) {
+        use can_bridge::odometry::{PoseCovariance, TwistCovariance, WheelNoise};
+        let noise = WheelNoise {
+            left_travel_variance_m2_per_m: k.0,
+            right_travel_variance_m2_per_m: k.1,
+            left_speed_sigma_radps: sigma.0,
+            right_speed_sigma_radps: sigma.1,
+        };
+        let mut p = PoseCovariance::default();
+        let mut th = theta;
+        for (sl, sr) in steps {
+            let before = p.0[2][2];
+            p.step(th, sl, sr, track, &noise);
+            th += (sr - sl) / track;
+            let m = p.0;
+            prop_assert!(m.iter().flatten().all(|v| v.is_finite()));
+            for a in 0..3 {
+                for b in 0..3 {
+                    prop_assert_eq!(m[a][b], m[b][a]);
+                }
+            }
+            let scale = m[0][0].max(m[1][1]).max(m[2][2]).max(1e-300);
+            let tol = 1e-9 * scale * scale;
+            prop_assert!(m[0][0] >= 0.0 && m[1][1] >= 0.0 && m[2][2] >= before);
+            prop_assert!(m[0][0] * m[1][1] - m[0][1] * m[0][1] >= -tol);
+            prop_assert!(m[0][0] * m[2][2] - m[0][2] * m[0][2] >= -tol);
+            prop_assert!(m[1][1] * m[2][2] - m[1][2] * m[1][2] >= -tol);
+        }
+        let t = TwistCovariance::of(&noise, 0.05, track).0;
+        prop_assert!(t[0][0] > 0.0 && t[1][1] > 0.0 && t[0][1] == t[1][0]);
+        prop_assert!(t[0][0] * t[1][1] - t[0][1] * t[0][1] >= -1e-12 * t[0][0] * t[1][1]);
+    }
 }

@@ -118,6 +118,11 @@ cia402:
   bridge_heartbeat_ms: {CO_BRIDGE_HB_MS}
   drive_consumer_heartbeat_ms: {CO_CONSUMER_MS}
   sdo_timeout_s: 0.5
+odometry:
+  left_travel_variance_m2_per_m: 0.0004
+  right_travel_variance_m2_per_m: 0.0004
+  left_speed_sigma_radps: 0.2
+  right_speed_sigma_radps: 0.2
 """)
 
 

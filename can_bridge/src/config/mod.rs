@@ -7,12 +7,15 @@
 //! binaries run from any directory.
 //!
 //! One concept per file: the sections and loading here, the value rules in
-//! `checks.rs`, the `cia402:` section (settings and rules) in `cia402.rs`.
+//! `checks.rs`, the `cia402:` section (settings and rules) in `cia402.rs`,
+//! the `odometry:` noise model in `odometry.rs`.
 
 mod checks;
 mod cia402;
+mod odometry;
 
 pub use cia402::Cia402Config;
+pub use odometry::OdometryConfig;
 pub use oldbf::config::{ConfigError, ParamError, Validate};
 
 use crate::kinematics::DiffDrive;
@@ -49,6 +52,8 @@ pub struct BridgeConfig {
     pub odrive: OdriveConfig,
     /// CANopen CiA 402 node ids, units and timings.
     pub cia402: Cia402Config,
+    /// The wheels' measurement noise (odometry covariance).
+    pub odometry: OdometryConfig,
 }
 
 /// Rates and timeouts.
