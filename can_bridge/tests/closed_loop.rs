@@ -393,7 +393,10 @@ fn cia402_startup_writes_the_configuration_and_enables_only_at_zero() {
     assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
     for w in Wheel::BOTH {
         let n = sim.drive.cia402_node(w).unwrap();
-        assert_eq!(n.machine.state, DriveState::OperationEnabled);
+        assert_eq!(
+            sim.drive.cia402_axis(w).unwrap().machine.state,
+            DriveState::OperationEnabled
+        );
         // Values by hand: 1000 rad/s² = 9549 rpm/s, 2000 → 19099; 127 << 16 | 300.
         let want = [
             (obj::MODES_OF_OPERATION, 3),
@@ -484,7 +487,7 @@ fn cia402_estop_quick_stops_the_drive_at_0x6085() {
     assert!(s < bound, "{s} s from {v0} rad/s, bound {bound}");
     assert!(sim.drive.stats().estops >= 2);
     assert_eq!(
-        sim.drive.cia402_node(Wheel::Left).unwrap().machine.state,
+        sim.drive.cia402_axis(Wheel::Left).unwrap().machine.state,
         DriveState::SwitchOnDisabled
     );
 }
@@ -624,4 +627,143 @@ fn cia402_without_sync_and_with_a_preconfigured_mapping() {
         .filter(|f| f.id == 0x601)
         .any(|f| (0x1400..=0x1BFF).contains(&u16::from_le_bytes([f.data[1], f.data[2]]))));
     assert!(sim.bridge.odometry().updates > 250, "TPDO2 every 10 ms");
+}
+
+// ------------------------------------------------------------------ one node, two axes
+
+/// Both wheels on node 1: the left on axis 1, the right on axis 2 (+0x800),
+/// as a Roboteq dual-channel controller carries them.
+fn two_axis_sim(faults: Vec<can_bridge::virtual_drive::FaultSpec>) -> Sim {
+    let mut c = bridge_config(ProtocolKind::Cia402);
+    c.cia402.right_node_id = 1;
+    c.cia402.right_axis = 2;
+    c.limits.wheel_accel_radps2 = 30.0;
+    c.limits.wheel_decel_radps2 = 30.0;
+    cia402_sim_with(c, faults)
+}
+
+#[test]
+fn two_axis_node_starts_both_axes_and_drives_the_square_corner() {
+    let mut sim = two_axis_sim(Vec::new());
+    sim.run_s(0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
+    let node = sim.drive.cia402_node(Wheel::Left).unwrap();
+    assert_eq!(node.id, sim.drive.cia402_node(Wheel::Right).unwrap().id);
+    // Each axis's objects hold the start-up's values: 0x6060/0x6860 = 3, 0x6083/0x6883 = 9549 rpm/s;
+    // axis 2's RPDO2 maps 0x6840/0x68FF, its TPDO4 0x6864/0x686C.
+    for (index, want) in [
+        (0x6060, 3),
+        (0x6860, 3),
+        (0x6083, 9549),
+        (0x6883, 9549),
+        (0x6885, 19099),
+        (0x1401, 0x301),
+        (0x1803, 0x481),
+    ] {
+        let sub = if index < 0x6000 { 1 } else { 0 };
+        assert_eq!(node.object(ObjectAddr::new(index, sub)), Some(want), "0x{index:04X}");
+    }
+    assert_eq!(node.object(ObjectAddr::new(0x1601, 2)), Some(0x68FF_0020));
+    assert_eq!(node.object(ObjectAddr::new(0x1A03, 2)), Some(0x686C_0020));
+    for w in Wheel::BOTH {
+        assert_eq!(
+            sim.drive.cia402_axis(w).unwrap().machine.state,
+            DriveState::OperationEnabled
+        );
+    }
+    // One NMT start for the node.
+    let starts = sim
+        .tap
+        .wire_log()
+        .iter()
+        .filter(|f| f.id == 0 && f.data[0] == 1)
+        .count();
+    assert_eq!(starts, 1);
+    sim.stream(Twist::new(0.2, 0.0), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    sim.stream(Twist::new(0.0, FRAC_PI_4), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    sim.stream(Twist::new(0.2, 0.0), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    let p = sim.bridge.odometry().pose;
+    assert!(
+        (p.x_m - 0.4).abs() < 2e-3 && (p.y_m - 0.4).abs() < 2e-3 && (p.theta_rad - FRAC_PI_2).abs() < 5e-3,
+        "{p:?}"
+    );
+    // The right wheel's targets travel on RPDO2 (0x301), the left's on RPDO1 (0x201).
+    let log = sim.tap.wire_log();
+    assert!(log
+        .iter()
+        .any(|f| f.id == 0x301 && co_pdo::decode_rpdo1(f).unwrap().target_velocity != 0));
+    assert!(!log.iter().any(|f| f.id == 0x202), "no second node");
+    assert_wire_is_clean(&log, ProtocolKind::Cia402);
+}
+
+/// A fault on axis 2 alone (0x2310 on the right wheel): both wheels stop,
+/// the fault is latched with the right wheel and its code, the report names
+/// node 1 axis 2; after reset only axis 2 gets the fault reset, both run again.
+#[test]
+fn two_axis_node_fault_on_axis_2_stops_both_names_it_and_recovers() {
+    let mut sim = two_axis_sim(Vec::new());
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+    reports(&mut sim);
+    let t = sim.t;
+    sim.drive.inject(
+        FaultKind::AxisError {
+            code: 0x2310,
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
+    sim.stream(Twist::new(0.2, 0.0), 0.1);
+    assert_eq!(sim.bridge.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
+    assert!(
+        sim.bridge.reasons().iter().any(|r| matches!(
+            r,
+            can_bridge::diagnostics::StopReason::DriveFault {
+                wheel: Wheel::Right,
+                error_code: 0x2310,
+                ..
+            }
+        )),
+        "{:?}",
+        sim.bridge.reasons()
+    );
+    assert_eq!(
+        sim.drive.cia402_axis(Wheel::Left).unwrap().machine.state,
+        DriveState::OperationEnabled,
+        "axis 1 itself is healthy"
+    );
+    let r = reports(&mut sim);
+    assert!(
+        r.iter()
+            .any(|m| m == "node 1 axis 2 (right wheel) fault, error code 0x2310 (current)"),
+        "{r:?}"
+    );
+    // Both wheels at zero on the wire while latched.
+    let n = sim.tap.wire_log().len();
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    let after: Vec<CanFrame> = sim.tap.wire_log()[n..].to_vec();
+    assert!(after
+        .iter()
+        .filter(|f| f.id == 0x201 || f.id == 0x301)
+        .all(|f| co_pdo::decode_rpdo1(f).unwrap().target_velocity == 0));
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.8);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let log = sim.tap.wire_log();
+    let resets: Vec<u32> = log[n..]
+        .iter()
+        .filter(|f| (f.id == 0x201 || f.id == 0x301) && co_pdo::decode_rpdo1(f).unwrap().controlword == 0x0080)
+        .map(|f| f.id)
+        .collect();
+    assert!(
+        !resets.is_empty() && resets.iter().all(|id| *id == 0x301),
+        "{resets:x?}"
+    );
+    assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
 }

@@ -312,10 +312,8 @@ proptest! {
             th += (sr - sl) / track;
             let m = p.0;
             prop_assert!(m.iter().flatten().all(|v| v.is_finite()));
-            for a in 0..3 {
-                for b in 0..3 {
-                    prop_assert_eq!(m[a][b], m[b][a]);
-                }
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                prop_assert_eq!(m[a][b], m[b][a]);
             }
             let scale = m[0][0].max(m[1][1]).max(m[2][2]).max(1e-300);
             let tol = 1e-9 * scale * scale;

@@ -103,7 +103,10 @@ odrive:
   firmware: "{ODRIVE_FIRMWARE}"
 cia402:
   left_node_id: {CO_NODES[0]}
+  left_axis: 1
   right_node_id: {CO_NODES[1]}
+  right_axis: 1
+  axis_offset: 0x800
   counts_per_motor_rev: {CO_COUNTS}
   velocity_unit: rpm
   velocity_resolution: 1.0

@@ -91,12 +91,10 @@ impl PoseCovariance {
             }
         }
         // Exactly symmetric whatever the rounding.
-        for i in 0..3 {
-            for j in 0..i {
-                let m = 0.5 * (out[i][j] + out[j][i]);
-                out[i][j] = m;
-                out[j][i] = m;
-            }
+        for (i, j) in [(1, 0), (2, 0), (2, 1)] {
+            let m = 0.5 * (out[i][j] + out[j][i]);
+            out[i][j] = m;
+            out[j][i] = m;
         }
         self.0 = out;
     }
@@ -268,10 +266,8 @@ mod tests {
             p.step(th, sl, sr, L, &n);
             th += (sr - sl) / L;
             let m = p.0;
-            for a in 0..3 {
-                for b in 0..3 {
-                    assert_eq!(m[a][b], m[b][a]);
-                }
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                assert_eq!(m[a][b], m[b][a]);
             }
             let det2 = m[0][0] * m[1][1] - m[0][1] * m[0][1];
             let det3 = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[1][2])

@@ -150,6 +150,19 @@ impl Wheels {
     }
 }
 
+/// One wheel's drive state in a status that covers several wheels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisStatus {
+    /// Drive error bits; 0 = none.
+    pub error_code: u32,
+    /// The axis follows velocity setpoints.
+    pub running: bool,
+    /// The axis itself is in e-stop (CiA 402 quick stop active).
+    pub estopped: bool,
+    /// The raw state value, for reports.
+    pub raw_state: u8,
+}
+
 /// A decoded message from the drive, protocol-neutral.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DriveMessage {
@@ -175,6 +188,10 @@ pub enum DriveMessage {
         estopped: bool,
         raw_state: u8,
     },
+    /// A heartbeat of a node that drives several wheels (a CiA 402 node
+    /// with two axes): a sign of life for each wheel present, with its own
+    /// state (by wheel index: left, right).
+    Heartbeat { axes: [Option<AxisStatus>; 2] },
     /// A frame the protocol consumed itself (an SDO response, an EMCY):
     /// traffic from the drive, nothing for the bridge's state.
     Handled { wheel: Wheel },

@@ -436,6 +436,27 @@ fn config_validation_names_the_option() {
         ..Default::default()
     };
     assert_eq!(keys(&c), ["left_node_id"], "CANopen ids start at 1");
+    // One CANopen node may carry both wheels on two axes; not on the same axis.
+    let two = VirtualDriveConfig {
+        protocol: ProtocolKind::Cia402,
+        left_node_id: 1,
+        right_node_id: 1,
+        right_axis: 2,
+        ..Default::default()
+    };
+    assert!(two.validate().is_ok());
+    let same = VirtualDriveConfig {
+        right_axis: 1,
+        ..two.clone()
+    };
+    assert_eq!(keys(&same), ["right_node_id"]);
+    let odrive = VirtualDriveConfig {
+        protocol: ProtocolKind::Odrive,
+        ..two.clone()
+    };
+    assert_eq!(keys(&odrive), ["right_node_id"], "an ODrive node is one axis");
+    let far = VirtualDriveConfig { right_axis: 3, ..two };
+    assert_eq!(keys(&far), ["right_axis"]);
     let c = VirtualDriveConfig {
         right_node_id: 64,
         ..Default::default()
