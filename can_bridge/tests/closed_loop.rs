@@ -767,3 +767,191 @@ fn two_axis_node_fault_on_axis_2_stops_both_names_it_and_recovers() {
     );
     assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
 }
+
+// ------------------------------------------------------------------ SDO at run time
+
+use can_bridge::protocol::cia402::sdo_jobs::{SdoJob, SdoRefusal};
+use can_bridge::virtual_drive::cia402::{DEVICE_NAME, NOTE};
+
+/// Runs until the request `id` ends (at most 2 s); its result.
+fn sdo_result(sim: &mut Sim, id: u64) -> can_bridge::protocol::cia402::sdo_jobs::SdoJobResult {
+    for _ in 0..2000 {
+        sim.step();
+        if let Some(r) = sim.bridge.take_sdo_results().into_iter().find(|r| r.id == id) {
+            return r;
+        }
+    }
+    panic!("SDO request {id} did not end");
+}
+
+/// While driving: the drive's 27-byte device name (0x1008) comes by
+/// segmented upload (4 segments) and the setpoints keep their period; a
+/// write to 0x6083 or to a manufacturer object is refused with 0x08000022
+/// and nothing goes on the wire. Stopped (e-stop): a 21-byte segmented write
+/// of 0x2100 and a 4-byte write of 0x6083 reach the drive; the drive's own
+/// refusal of a read-only object comes back decoded.
+#[test]
+fn sdo_at_run_time_reads_segmented_and_refuses_motion_writes_while_enabled() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+    let t = sim.t;
+    let id = sim.bridge.sdo_request(SdoJob::read(2, 0x1008, 0), t).unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert!(r.ok, "{r:?}");
+    assert_eq!(r.data, DEVICE_NAME.as_bytes());
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "the loop kept running");
+    // 27 bytes = 4 segments: request + 4 segment requests on 0x602.
+    let reqs = sim.tap.wire_log().iter().filter(|f| f.id == 0x602).count();
+    assert!(reqs >= 5, "{reqs}");
+    // Motion-changing writes while enabled: refused, nothing sent.
+    let n_sdo = sim.tap.wire_log().iter().filter(|f| f.id == 0x601).count();
+    for job in [
+        SdoJob::write(1, 0x6083, 0, 1000u32.to_le_bytes().to_vec()),
+        SdoJob::write(1, 0x2100, 0, b"hello".to_vec()),
+        SdoJob::write(1, 0x1017, 0, 50u16.to_le_bytes().to_vec()),
+    ] {
+        let e = sim.bridge.sdo_request(job.clone(), sim.t).unwrap_err();
+        assert!(matches!(e, SdoRefusal::ChangesMotion { node: 1, .. }), "{job:?}: {e}");
+        assert_eq!(e.abort_code(), 0x0800_0022);
+    }
+    assert_eq!(sim.tap.wire_log().iter().filter(|f| f.id == 0x601).count(), n_sdo);
+    // Not a drive of ours, and nothing to write: refused too.
+    assert!(matches!(
+        sim.bridge.sdo_request(SdoJob::read(9, 0x1000, 0), sim.t),
+        Err(SdoRefusal::UnknownNode { node: 9, .. })
+    ));
+    assert_eq!(
+        sim.bridge.sdo_request(SdoJob::write(1, 0x1003, 0, vec![]), sim.t),
+        Err(SdoRefusal::Empty)
+    );
+    // Still braking in quick stop (the motor model settles in about 0.6 s): refused.
+    let t = sim.t;
+    sim.bridge.estop(t);
+    sim.run_s(0.1);
+    assert!(matches!(
+        sim.bridge
+            .sdo_request(SdoJob::write(1, 0x2100, 0, b"x".to_vec()), sim.t),
+        Err(SdoRefusal::ChangesMotion { .. })
+    ));
+    // Stopped (switch on disabled): the writes go through.
+    sim.run_s(1.0);
+    let note = b"commissioned 2026-11-2".to_vec();
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x2100, 0, note.clone()), sim.t)
+        .unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert!(r.ok && r.write, "{r:?}");
+    assert_eq!(
+        sim.drive.cia402_node(Wheel::Left).unwrap().long_object(NOTE),
+        Some(&note[..])
+    );
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x6083, 0, 5000u32.to_le_bytes().to_vec()), sim.t)
+        .unwrap();
+    assert!(sdo_result(&mut sim, id).ok);
+    assert_eq!(
+        sim.drive
+            .cia402_node(Wheel::Left)
+            .unwrap()
+            .object(obj::PROFILE_ACCELERATION),
+        Some(5000)
+    );
+    // The drive refuses: 0x1000 is read only.
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x1000, 0, vec![0, 0, 0, 0]), sim.t)
+        .unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert_eq!(
+        (r.ok, r.abort_code, r.message.as_str()),
+        (
+            false,
+            0x0601_0002,
+            "aborted by node 1: 0x06010002 (attempt to write a read only object)"
+        )
+    );
+    // Each request is an event too.
+    let events = sim.bridge.drain_events();
+    let done = events
+        .iter()
+        .filter(|e| matches!(e.event, BridgeEvent::SdoDone { .. }))
+        .count();
+    let refused = events
+        .iter()
+        .filter(|e| matches!(e.event, BridgeEvent::SdoRefused { .. }))
+        .count();
+    assert_eq!((done, refused), (4, 6));
+}
+
+/// A node that stops answering: the request ends after sdo_timeout_s with
+/// 0x05040000 and the bridge's abort frame; the start-up waits for the
+/// channel and still completes after a reset.
+#[test]
+fn sdo_at_run_time_times_out_with_the_abort_and_shares_the_channel_with_the_startup() {
+    let c = bridge_config(ProtocolKind::Cia402);
+    let silence = can_bridge::virtual_drive::FaultSpec {
+        kind: FaultKind::SdoSilence,
+        start_s: 1.5,
+        duration_s: Some(0.5),
+    };
+    let mut sim = cia402_sim_with(c, vec![silence]);
+    sim.run_s(1.6);
+    let id = sim.bridge.sdo_request(SdoJob::read(1, 0x1008, 0), sim.t).unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert_eq!(r.abort_code, 0x0504_0000, "{r:?}");
+    assert!(r.message.contains("within 200 ms"), "{}", r.message);
+    let abort = sim
+        .tap
+        .wire_log()
+        .into_iter()
+        .rev()
+        .find(|f| f.id == 0x601 && f.data[0] == 0x80)
+        .unwrap();
+    assert_eq!(abort.data, [0x80, 0x08, 0x10, 0x00, 0x00, 0x00, 0x04, 0x05]);
+    // A reset runs the start-up over SDO; requests made during it wait their turn.
+    sim.run_s(0.5);
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.step();
+    let ids: Vec<u64> = (0..3)
+        .map(|_| sim.bridge.sdo_request(SdoJob::read(1, 0x1000, 0), sim.t).unwrap())
+        .collect();
+    for id in ids {
+        let r = sdo_result(&mut sim, id);
+        assert_eq!((r.ok, r.data.as_slice()), (true, &0x0002_0192u32.to_le_bytes()[..]));
+    }
+    sim.stream(Twist::new(0.1, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let r = reports(&mut sim);
+    assert!(!r.iter().any(|m| m.contains("start-up failed")), "{r:?}");
+    // Never two requests in flight on a node's channel: each request to 0x601
+    // is answered on 0x581 before the next (CiA 301).
+    let mut waiting = false;
+    for f in sim.tap.wire_log() {
+        if f.id == 0x601 && f.data[0] != 0x80 {
+            assert!(!waiting, "a second request in flight: {f:?}");
+            waiting = true;
+        } else if f.id == 0x581 || (f.id == 0x601 && f.data[0] == 0x80) {
+            waiting = false;
+        }
+    }
+}
+
+#[test]
+fn sdo_is_refused_on_protocols_without_it() {
+    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+        let c = bridge_config(protocol);
+        let d = drive_config(&c);
+        let mut sim = Sim::new(c, d);
+        let e = sim.bridge.sdo_request(SdoJob::read(1, 0x1000, 0), sim.t).unwrap_err();
+        assert_eq!(e, SdoRefusal::NotCanopen(protocol.name()));
+        assert_eq!(
+            e.to_string(),
+            format!("SDO is CANopen's; the bridge speaks {}", protocol.name())
+        );
+    }
+}

@@ -326,4 +326,40 @@ proptest! {
         prop_assert!(t[0][0] > 0.0 && t[1][1] > 0.0 && t[0][1] == t[1][0]);
         prop_assert!(t[0][0] * t[1][1] - t[0][1] * t[0][1] >= -1e-12 * t[0][0] * t[1][1]);
     }
+
+    /// A run-time SDO transfer fed arbitrary server frames never panics,
+    /// never holds more than its bound, and always either waits, or ends
+    /// (data, an abort, a timeout) after which it sends nothing more but the
+    /// one abort frame it may owe.
+    #[test]
+    fn sdo_transfer_survives_any_server(
+        frames in proptest::collection::vec(any::<[u8; 8]>(), 0..40),
+        write_len in 0usize..40,
+        read in any::<bool>(),
+    ) {
+        use can_bridge::protocol::cia402::sdo::ObjectAddr;
+        use can_bridge::protocol::cia402::sdo_transfer::{SdoTransfer, TransferEnd, TransferKind, MAX_TRANSFER_BYTES};
+        use std::time::Duration;
+        let kind = if read { TransferKind::Read } else { TransferKind::Write(vec![0xA5; write_len.max(1)]) };
+        let mut x = SdoTransfer::new(1, ObjectAddr::new(0x1008, 0), kind, Duration::from_millis(200));
+        let mut now = can_bridge::Timestamp::ZERO;
+        for d in frames {
+            if let Some(f) = x.poll(now) {
+                prop_assert!(f.is_valid() && f.id == 0x601);
+            }
+            let f = CanFrame { id: 0x581, extended: false, data: d, len: 8 };
+            if let Some(a) = x.on_response(&f) {
+                prop_assert_eq!(a.data[0], 0x80);
+            }
+            now = now + Duration::from_millis(5);
+            if !x.busy() {
+                let end = x.end().cloned();
+                if let Some(TransferEnd::Done(data)) = &end {
+                    prop_assert!(data.len() <= MAX_TRANSFER_BYTES);
+                }
+                prop_assert!(end.is_some());
+                prop_assert_eq!(x.poll(now), None);
+            }
+        }
+    }
 }

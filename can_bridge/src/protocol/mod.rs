@@ -14,6 +14,7 @@ pub mod odrive;
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::{MotorSpeeds, Wheel};
 use crate::time::Timestamp;
+use cia402::sdo_jobs::{SdoJob, SdoJobId, SdoJobResult, SdoRefusal};
 use serde::{Deserialize, Serialize};
 
 /// Which protocol a configuration selects.
@@ -255,6 +256,17 @@ pub trait Protocol: Send {
 
     /// Moves the pending reports to `out`.
     fn drain_reports(&mut self, _out: &mut Vec<ProtocolReport>) {}
+
+    /// Starts an SDO read or write at run time (CANopen only,
+    /// [`cia402::sdo_jobs`]): its id, or why it is refused (nothing sent).
+    /// The transfer runs in [`poll`](Self::poll); its end comes out of
+    /// [`drain_sdo_results`](Self::drain_sdo_results).
+    fn sdo_request(&mut self, _job: SdoJob) -> Result<SdoJobId, SdoRefusal> {
+        Err(SdoRefusal::not_canopen(self.kind()))
+    }
+
+    /// Moves the finished SDO requests to `out`.
+    fn drain_sdo_results(&mut self, _out: &mut Vec<SdoJobResult>) {}
 
     /// Decodes a received frame: `Ok(None)` if the id is not one of ours.
     fn decode(&mut self, frame: &CanFrame) -> Result<Option<DriveMessage>, DecodeError>;

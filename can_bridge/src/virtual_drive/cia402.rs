@@ -11,8 +11,12 @@
 //! 0x1800/0x1A00, 0x1801/0x1A01; axis 2: 0x1401/0x1601, 0x1802/0x1A02,
 //! 0x1803/0x1A03; comm. sub 1, 2, 3, 5, mapping sub 0–4), 0x603F, 0x6040,
 //! 0x6041, 0x605A (2: quick stop then switch on disabled), 0x6060 (3 only),
-//! 0x6061, 0x6064, 0x606C, 0x6083, 0x6084, 0x6085, 0x60FF. Anything else
-//! aborts with 0x06020000 / 0x06090011.
+//! 0x6061, 0x6064, 0x606C, 0x6083, 0x6084, 0x6085, 0x60FF; and two longer
+//! than 4 bytes, moved by segmented SDO: 0x1008 (device name, read only)
+//! and 0x2100 (a note, writable, up to 64 bytes). Anything else aborts with
+//! 0x06020000 / 0x06090011. The SDO server answers expedited and segmented
+//! transfers (CiA 301: toggle checked, size checked, 0x05030000 /
+//! 0x06070010 otherwise).
 
 use crate::bus::CanFrame;
 use crate::kinematics::Wheel;
@@ -29,6 +33,28 @@ use std::time::Duration;
 
 /// 0x1000: CiA 402, servo drive (type bits 16–23 = 2).
 pub const DEVICE_TYPE: u32 = 0x0002_0192;
+/// 0x1008: the manufacturer device name.
+pub const DEVICE_NAME: &str = "oldbf virtual CiA 402 drive";
+/// 0x2100: a writable note, for segmented writes.
+pub const NOTE: ObjectAddr = ObjectAddr::new(0x2100, 0);
+/// The longest note 0x2100 takes (bytes).
+pub const NOTE_MAX: usize = 64;
+
+/// A segmented SDO transfer the server is in.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Segmented {
+    Upload {
+        data: Vec<u8>,
+        offset: usize,
+        toggle: bool,
+    },
+    Download {
+        addr: ObjectAddr,
+        buf: Vec<u8>,
+        size: Option<usize>,
+        toggle: bool,
+    },
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Entry {
@@ -202,6 +228,9 @@ pub struct CoNode {
     pub axes: Vec<CoAxis>,
     od: Od,
     defaults: Od,
+    /// Objects longer than 4 bytes: (value, writable).
+    long: BTreeMap<ObjectAddr, (Vec<u8>, bool)>,
+    segmented: Option<Segmented>,
     pdos: Vec<Pdo>,
     last_bridge_heartbeat: Option<Timestamp>,
     next_heartbeat: Timestamp,
@@ -237,6 +266,8 @@ impl CoNode {
             axes: axes.iter().map(|(w, l)| CoAxis::new(*w, *l, now)).collect(),
             defaults: od.clone(),
             od,
+            long: BTreeMap::new(),
+            segmented: None,
             pdos,
             last_bridge_heartbeat: None,
             next_heartbeat: now,
@@ -256,6 +287,11 @@ impl CoNode {
     /// Power-on or NMT reset node: dictionary defaults, boot-up, pre-operational.
     pub fn boot(&mut self, now: Timestamp) {
         self.od = self.defaults.clone();
+        self.long = BTreeMap::from([
+            (ObjectAddr::new(0x1008, 0), (DEVICE_NAME.as_bytes().to_vec(), false)),
+            (NOTE, (b"none".to_vec(), true)),
+        ]);
+        self.segmented = None;
         self.nmt = NmtState::PreOperational;
         for a in &mut self.axes {
             a.machine = DriveMachine::new();
@@ -298,6 +334,11 @@ impl CoNode {
     /// A value the bridge wrote (for tests), as its type's signed value.
     pub fn object(&self, a: ObjectAddr) -> Option<i64> {
         self.od.0.get(&a).map(|e| sign_extend(e.value, e.len))
+    }
+
+    /// The bytes of an object longer than 4 bytes (0x1008, 0x2100).
+    pub fn long_object(&self, a: ObjectAddr) -> Option<&[u8]> {
+        self.long.get(&a).map(|(v, _)| v.as_slice())
     }
 
     /// The target axis `k`'s profile generator heads for (motor rad/s) and
@@ -534,8 +575,171 @@ impl CoNode {
         self.outbox.push(sdo::encode_response(self.id, &r));
     }
 
+    fn segment_frame(&self, cmd: u8, payload: &[u8]) -> CanFrame {
+        let mut data = [0u8; 8];
+        data[0] = cmd;
+        data[1..1 + payload.len()].copy_from_slice(payload);
+        CanFrame {
+            id: sdo::COB_TX_BASE + u32::from(self.id),
+            extended: false,
+            data,
+            len: 8,
+        }
+    }
+
+    /// The segmented part of the SDO server (CiA 301 §7.2.4.3.3–.3.8):
+    /// `true` if the frame was one of its requests.
+    fn on_segmented_sdo(&mut self, f: &CanFrame) -> bool {
+        let d = f.data;
+        let cmd = d[0];
+        let addr = ObjectAddr::new(u16::from_le_bytes([d[1], d[2]]), d[3]);
+        match cmd >> 5 {
+            // Upload initiate of a long object: segmented if over 4 bytes.
+            2 if self.long.contains_key(&addr) => {
+                let value = self.long[&addr].0.clone();
+                if value.len() <= 4 {
+                    let mut bytes = [0u8; 4];
+                    bytes[..value.len()].copy_from_slice(&value);
+                    let len = value.len().max(1) as u8;
+                    self.respond(SdoResponse::Uploaded {
+                        addr,
+                        value: SdoValue { bytes, len },
+                    });
+                } else {
+                    let size = (value.len() as u32).to_le_bytes();
+                    let i = addr.index.to_le_bytes();
+                    let frame = CanFrame {
+                        id: sdo::COB_TX_BASE + u32::from(self.id),
+                        extended: false,
+                        data: [0x41, i[0], i[1], addr.sub, size[0], size[1], size[2], size[3]],
+                        len: 8,
+                    };
+                    self.outbox.push(frame);
+                    self.segmented = Some(Segmented::Upload {
+                        data: value,
+                        offset: 0,
+                        toggle: false,
+                    });
+                }
+                true
+            }
+            // Upload segment request.
+            3 => {
+                let t = cmd & 0x10 != 0;
+                match self.segmented.take() {
+                    Some(Segmented::Upload { data, offset, toggle }) if toggle == t => {
+                        let chunk = data[offset..(offset + 7).min(data.len())].to_vec();
+                        let last = offset + chunk.len() >= data.len();
+                        let n = (7 - chunk.len()) as u8;
+                        let f = self.segment_frame((u8::from(t) << 4) | (n << 1) | u8::from(last), &chunk);
+                        self.outbox.push(f);
+                        if !last {
+                            self.segmented = Some(Segmented::Upload {
+                                data,
+                                offset: offset + 7,
+                                toggle: !toggle,
+                            });
+                        }
+                    }
+                    Some(Segmented::Upload { .. }) => self.abort_seg(addr, abort::TOGGLE_BIT),
+                    _ => self.abort_seg(addr, abort::COMMAND_SPECIFIER),
+                }
+                true
+            }
+            // Download initiate without e: segmented.
+            1 if cmd & 0x02 == 0 => {
+                match self.long.get(&addr) {
+                    None => self.respond(SdoResponse::Abort {
+                        addr,
+                        code: if self.od.find(addr).is_ok() {
+                            abort::LENGTH_TOO_HIGH
+                        } else {
+                            abort::NO_OBJECT
+                        },
+                    }),
+                    Some((_, false)) => self.respond(SdoResponse::Abort {
+                        addr,
+                        code: abort::READ_ONLY,
+                    }),
+                    Some(_) => {
+                        let size = (cmd & 0x01 != 0).then(|| u32::from_le_bytes([d[4], d[5], d[6], d[7]]) as usize);
+                        if size.is_some_and(|s| s > NOTE_MAX) {
+                            self.respond(SdoResponse::Abort {
+                                addr,
+                                code: abort::LENGTH_TOO_HIGH,
+                            });
+                        } else {
+                            self.respond(SdoResponse::DownloadDone { addr });
+                            self.segmented = Some(Segmented::Download {
+                                addr,
+                                buf: Vec::new(),
+                                size,
+                                toggle: false,
+                            });
+                        }
+                    }
+                }
+                true
+            }
+            // Download segment.
+            0 => {
+                let t = cmd & 0x10 != 0;
+                match self.segmented.take() {
+                    Some(Segmented::Download {
+                        addr: target,
+                        mut buf,
+                        size,
+                        toggle,
+                    }) if toggle == t => {
+                        let n = usize::from((cmd >> 1) & 0x07);
+                        buf.extend_from_slice(&d[1..8 - n]);
+                        if buf.len() > NOTE_MAX {
+                            self.abort_seg(target, abort::LENGTH_TOO_HIGH);
+                            return true;
+                        }
+                        if cmd & 0x01 != 0 {
+                            if size.is_some_and(|s| s != buf.len()) {
+                                self.abort_seg(target, abort::LENGTH_MISMATCH);
+                                return true;
+                            }
+                            if let Some(e) = self.long.get_mut(&target) {
+                                e.0 = buf;
+                            }
+                        } else {
+                            self.segmented = Some(Segmented::Download {
+                                addr: target,
+                                buf,
+                                size,
+                                toggle: !toggle,
+                            });
+                        }
+                        let f = self.segment_frame(0x20 | (u8::from(t) << 4), &[]);
+                        self.outbox.push(f);
+                    }
+                    Some(Segmented::Download { addr: target, .. }) => self.abort_seg(target, abort::TOGGLE_BIT),
+                    _ => self.abort_seg(addr, abort::COMMAND_SPECIFIER),
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+
+    fn abort_seg(&mut self, addr: ObjectAddr, code: u32) {
+        self.segmented = None;
+        self.respond(SdoResponse::Abort { addr, code });
+    }
+
     fn on_sdo(&mut self, f: &CanFrame, now: Timestamp) {
         self.stats.sdo_requests += 1;
+        if f.len == 8 && f.data[0] >> 5 == 4 {
+            // The client gave up: forget any segmented transfer.
+            self.segmented = None;
+            return;
+        }
+        if f.len == 8 && self.on_segmented_sdo(f) {
+            return;
+        }
         let req = match sdo::decode_request(f) {
             Ok(r) => r,
             Err(_) => {
@@ -567,6 +771,13 @@ impl CoNode {
 
     /// An SDO download, with the dictionary's and CiA 301's rules.
     fn write(&mut self, a: ObjectAddr, v: SdoValue, now: Timestamp) -> Result<(), u32> {
+        if let Some((value, writable)) = self.long.get_mut(&a) {
+            if !*writable {
+                return Err(abort::READ_ONLY);
+            }
+            *value = v.bytes[..usize::from(v.len.clamp(1, 4))].to_vec();
+            return Ok(());
+        }
         let e = self.od.find(a)?;
         if !e.writable {
             return Err(abort::READ_ONLY);

@@ -51,6 +51,8 @@ pub mod axis;
 pub mod nmt;
 pub mod pdo;
 pub mod sdo;
+pub mod sdo_jobs;
+pub mod sdo_transfer;
 pub mod state_machine;
 pub mod units;
 
@@ -64,8 +66,11 @@ use axis::AxisLayout;
 use nmt::{NmtCommand, NmtState};
 use pdo::{obj, PdoPlan, Rpdo1};
 use sdo::{ObjectAddr, SdoError, SdoRequest, SdoResponse, SdoValue};
+use sdo_jobs::{changes_motion, SdoJob, SdoJobId, SdoJobResult, SdoRefusal, MAX_QUEUED_JOBS};
+use sdo_transfer::{SdoTransfer, TransferKind, MAX_TRANSFER_BYTES};
 use serde::{Deserialize, Serialize};
 use state_machine::{cw, enabling_controlword, DriveState};
+use std::collections::VecDeque;
 use std::time::Duration;
 use units::Scaling;
 
@@ -270,6 +275,19 @@ impl Axis {
     }
 }
 
+/// An SDO job on the bus.
+#[derive(Clone, Debug)]
+struct ActiveJob {
+    id: SdoJobId,
+    /// Index into the protocol's nodes.
+    node: usize,
+    job: SdoJob,
+    transfer: SdoTransfer,
+}
+
+/// Finished jobs kept until drained (bounded: nobody draining cannot grow memory).
+const MAX_JOB_RESULTS: usize = 64;
+
 /// The bridge's side of CiA 402 for the two wheels' axes on one or two nodes.
 #[derive(Clone, Debug)]
 pub struct Cia402Protocol {
@@ -279,6 +297,13 @@ pub struct Cia402Protocol {
     axes: [Axis; 2],
     next_heartbeat: Option<Timestamp>,
     reports: Vec<ProtocolReport>,
+    /// Run-time SDO jobs waiting for a free channel, in order.
+    jobs: VecDeque<(SdoJobId, SdoJob)>,
+    active: Option<ActiveJob>,
+    job_results: Vec<SdoJobResult>,
+    next_job: SdoJobId,
+    /// Frames decided while decoding (a client abort), sent at the next poll.
+    outbox: Vec<CanFrame>,
 }
 
 impl Cia402Protocol {
@@ -316,6 +341,111 @@ impl Cia402Protocol {
             s,
             next_heartbeat: None,
             reports: Vec::new(),
+            jobs: VecDeque::new(),
+            active: None,
+            job_results: Vec::new(),
+            next_job: 1,
+            outbox: Vec::new(),
+        }
+    }
+
+    /// Whether node `i` is powered or being enabled: a write that could
+    /// change motion is refused then.
+    fn node_in_operation(&self, i: usize) -> bool {
+        self.nodes[i].wheels.iter().any(|&k| {
+            let a = &self.axes[k];
+            a.phase == AxisPhase::Enabling || a.drive_state.is_some_and(DriveState::powered)
+        })
+    }
+
+    /// The rule a job must pass, now: Err if it would be refused.
+    fn check_job(&self, job: &SdoJob) -> Result<usize, SdoRefusal> {
+        let Some(i) = self.node_of(u32::from(job.node)) else {
+            let known: Vec<String> = self.nodes.iter().map(|n| n.id.to_string()).collect();
+            return Err(SdoRefusal::UnknownNode {
+                node: job.node,
+                known: known.join(", "),
+            });
+        };
+        if let TransferKind::Write(d) = &job.kind {
+            if d.is_empty() {
+                return Err(SdoRefusal::Empty);
+            }
+            if d.len() > MAX_TRANSFER_BYTES {
+                return Err(SdoRefusal::TooLong { len: d.len() });
+            }
+            if changes_motion(job.addr.index) && self.node_in_operation(i) {
+                return Err(SdoRefusal::ChangesMotion {
+                    node: job.node,
+                    addr: job.addr,
+                });
+            }
+        }
+        Ok(i)
+    }
+
+    fn push_job_result(&mut self, r: SdoJobResult) {
+        if self.job_results.len() < MAX_JOB_RESULTS {
+            self.job_results.push(r);
+        }
+    }
+
+    /// The active job: its next frame, its end; or the next job started.
+    fn poll_jobs(&mut self, now: Timestamp, out: &mut FrameBatch) {
+        for f in self.outbox.drain(..) {
+            out.push(f);
+        }
+        if self.active.is_none() {
+            let Some((id, job)) = self.jobs.front().cloned() else {
+                return;
+            };
+            let Some(i) = self.node_of(u32::from(job.node)) else {
+                self.jobs.pop_front();
+                return;
+            };
+            if self.nodes[i].sdo.busy() {
+                return; // the start-up's transfer first
+            }
+            self.jobs.pop_front();
+            // The drive may have been enabled since the request: ask again.
+            if let Err(refusal) = self.check_job(&job) {
+                let r = SdoJobResult {
+                    id,
+                    node: job.node,
+                    index: job.addr.index,
+                    sub: job.addr.sub,
+                    write: job.is_write(),
+                    ok: false,
+                    data: Vec::new(),
+                    abort_code: refusal.abort_code(),
+                    message: format!("refused by the bridge: {refusal}"),
+                };
+                self.push_job_result(r);
+                return;
+            }
+            let transfer = SdoTransfer::new(job.node, job.addr, job.kind.clone(), self.s.sdo_timeout);
+            self.active = Some(ActiveJob {
+                id,
+                node: i,
+                job,
+                transfer,
+            });
+        }
+        if let Some(a) = &mut self.active {
+            if let Some(f) = a.transfer.poll(now) {
+                out.push(f);
+            }
+        }
+        self.finish_active_job();
+    }
+
+    fn finish_active_job(&mut self) {
+        let done = self.active.as_mut().and_then(|a| a.transfer.take_end());
+        if let Some(end) = done {
+            if let Some(a) = self.active.take() {
+                let r = SdoJobResult::of(a.id, &a.job, end, self.s.sdo_timeout.as_millis() as u64);
+                self.push_job_result(r);
+            }
         }
     }
 
@@ -586,14 +716,17 @@ impl Protocol for Cia402Protocol {
                 self.next_heartbeat = Some(next);
             }
         }
+        self.poll_jobs(now, out);
         for i in 0..self.nodes.len() {
             if let Some((e, abort)) = self.nodes[i].sdo.poll_timeout(now) {
                 out.push(abort);
                 self.fail_startup(i, e);
             }
+            // One transfer at a time on a node's channel: a run-time job's first.
+            let job_here = self.active.as_ref().is_some_and(|a| a.node == i);
             let n = &mut self.nodes[i];
             if let NodePhase::Configuring { next } = n.phase {
-                if n.sdo.busy() {
+                if n.sdo.busy() || job_here {
                     continue;
                 }
                 match n.steps.get(next) {
@@ -711,6 +844,14 @@ impl Protocol for Cia402Protocol {
                 Ok(Some(self.heartbeat_msg(i)))
             }
             sdo::COB_TX_BASE => {
+                if let Some(a) = self.active.as_mut().filter(|a| a.node == i) {
+                    // A run-time job's answer (segments included).
+                    if let Some(abort) = a.transfer.on_response(f) {
+                        self.outbox.push(abort);
+                    }
+                    self.finish_active_job();
+                    return Ok(Some(DriveMessage::Handled { wheel: first_wheel }));
+                }
                 let r = sdo::decode_response(f).map_err(|_| DecodeError::Invalid {
                     id: f.id,
                     what: "SDO response",
@@ -771,6 +912,21 @@ impl Protocol for Cia402Protocol {
 
     fn drain_reports(&mut self, out: &mut Vec<ProtocolReport>) {
         out.append(&mut self.reports);
+    }
+
+    fn sdo_request(&mut self, job: SdoJob) -> Result<SdoJobId, SdoRefusal> {
+        self.check_job(&job)?;
+        if self.jobs.len() + usize::from(self.active.is_some()) >= MAX_QUEUED_JOBS {
+            return Err(SdoRefusal::Busy);
+        }
+        let id = self.next_job;
+        self.next_job += 1;
+        self.jobs.push_back((id, job));
+        Ok(id)
+    }
+
+    fn drain_sdo_results(&mut self, out: &mut Vec<SdoJobResult>) {
+        out.append(&mut self.job_results);
     }
 }
 
