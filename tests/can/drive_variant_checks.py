@@ -8,6 +8,17 @@
             start-up order, Set_Input_Vel = kinematics, the 0.6 heartbeat
             (Procedure_Result, Trajectory_Done_Flag), Get_Error, e-stop with
             0.6's ESTOP_REQUESTED (0x02000000) and the bridge's report naming it.
+  two_axis  the bridge against ONE CANopen node with TWO CiA 402 axes
+            (tests/can/cia402_dual_drive.py: python-canopen, from
+            can_bridge/eds/oldbf_cia402_dual_drive.eds), frames decoded by
+            hand (struct) after CiA 301/402: one NMT per node, both axes'
+            start-up writes (axis 2 at +0x800, RPDO2/TPDO3/TPDO4), enabling
+            per axis at zero target, targets = kinematics per wheel, a fault
+            on axis 2 alone (both stop, latched and named), recovery with the
+            fault reset on axis 2 only; SDO at run time through the CLI
+            against python-canopen's SDO server: a segmented read (0x1008), a
+            write refused while enabled (0x08000022, nothing sent), a
+            segmented write accepted after the e-stop and read back.
 
 Shares can_checks.py's helpers (candump session, PASS/FAIL lines, the test
 geometry). Prints PASS/FAIL per check; exits 1 if any failed.
@@ -16,8 +27,10 @@ geometry). Prints PASS/FAIL per check; exits 1 if any failed.
 """
 
 import argparse
+import json
 import math
 import os
+import struct
 import sys
 import tempfile
 
@@ -161,10 +174,222 @@ def check_odrive06(bins, tmp):
              f"reports {reports[:4]}; moving frames {len(moving)}")
 
 
+# ----------------------------------------------------------------- two axes on one node
+DUAL_NODE = 1
+NOTE = "commissioned by the oldbf bridge"
+TWO_AXIS_SCRIPT = f"""# one CANopen node, two axes: the right wheel is axis 2 (+0x800)
+0.0 0.2 0.5 every 0.05 until 2.5
+2.5 0 0 every 0.05 until 3.0
+3.0 sdo_read {DUAL_NODE} 0x1008 0
+3.1 sdo_write {DUAL_NODE} 0x6883 0 {struct.pack('<I', 1000).hex()}
+3.2 reset
+3.6 -0.1 0.3 every 0.05 until 4.6
+4.6 0 0 every 0.05 until 4.8
+4.8 estop
+5.4 sdo_write {DUAL_NODE} 0x2100 0 {NOTE.encode().hex()}
+5.6 sdo_read {DUAL_NODE} 0x2100 0
+5.9 quit
+"""
+
+
+def two_axis_config(path, protocol):
+    """can_checks.py's configuration with both wheels on node 1: axis 1 left, axis 2 right."""
+    ORIGINAL_WRITE_CONFIG(path, protocol)
+    text = open(path).read()
+    for old, new in ((f"  left_node_id: {cc.CO_NODES[0]}\n", f"  left_node_id: {DUAL_NODE}\n"),
+                     (f"  right_node_id: {cc.CO_NODES[1]}\n  right_axis: 1\n", f"  right_node_id: {DUAL_NODE}\n  right_axis: 2\n")):
+        if old not in text:
+            raise RuntimeError(f"can_checks.write_config changed: no {old!r}")
+        text = text.replace(old, new, 1)
+    open(path, "w").write(text)
+
+
+ORIGINAL_WRITE_CONFIG = cc.write_config
+
+
+def check_two_axis(bins, tmp):
+    import canopen  # noqa: F401 (the independent drive's library)
+    eds = os.path.join(cc.ROOT, "can_bridge", "eds", "oldbf_cia402_dual_drive.eds")
+    report = os.path.join(tmp, "cia402_dual_drive.json")
+    drive_cmd = [sys.executable, os.path.join(cc.ROOT, "tests", "can", "cia402_dual_drive.py"), "--channel", "vcan0",
+                 "--eds", eds, "--node", str(DUAL_NODE), "--out", report,
+                 "--fault-axis", "2", "--fault-code", hex(cc.CO_FAULT_CODE), "--fault-after-s", "0.6"]
+    cc.write_config = two_axis_config
+    try:
+        frames, lines, wall = cc.run_session(bins, "cia402", TWO_AXIS_SCRIPT, [], tmp, drive_cmd=drive_cmd)
+    finally:
+        cc.write_config = ORIGINAL_WRITE_CONFIG
+    cc.RESULTS["two_axis_session_s"] = round(wall, 2)
+    rep = json.load(open(report)) if os.path.exists(report) else None
+    cc.check(rep is not None, "two_axis: the python-canopen two-axis node ran and wrote its report",
+             f"python-canopen {canopen.__version__}, EDS can_bridge/eds/oldbf_cia402_dual_drive.eds")
+    if rep is None:
+        return
+    node = rep["node"]
+    n = DUAL_NODE
+
+    # 1. Every frame: NMT, SYNC, the bridge's heartbeat, or node 1's service with its length.
+    kinds = {(0x700 + n, 1): "hb", (0x600 + n, 8): "sdo_req", (0x580 + n, 8): "sdo_resp", (0x080 + n, 8): "emcy",
+             (0x200 + n, 6): "rpdo1", (0x300 + n, 6): "rpdo2", (0x180 + n, 5): "tpdo1", (0x280 + n, 8): "tpdo2",
+             (0x380 + n, 5): "tpdo3", (0x480 + n, 8): "tpdo4"}
+    ev, bad = [], []
+    for ts, ident, ext, data in frames:
+        if ext:
+            kind = None
+        elif ident == 0x000 and len(data) == 2:
+            kind = "nmt"
+        elif ident == 0x080 and len(data) == 0:
+            kind = "sync"
+        elif ident == 0x700 + cc.CO_BRIDGE_ID and len(data) == 1:
+            kind = "bridge_hb"
+        else:
+            kind = kinds.get((ident, len(data)))
+        if kind is None:
+            bad.append(f"0x{ident:X}#{data.hex()}")
+            continue
+        ev.append((ts, kind, data))
+    cc.check(not bad and len(ev) > 500, "two_axis: every frame is NMT, SYNC, a heartbeat, SDO, EMCY, RPDO1/RPDO2 or "
+             "TPDO1-4 of node 1 with its length; nothing for a second node", f"{len(ev)} frames; unexpected {bad[:5]}")
+
+    def u16(d, at):
+        return struct.unpack_from("<H", d, at)[0]
+
+    def i32(d, at):
+        return struct.unpack_from("<i", d, at)[0]
+
+    rpdo = {k: [(t, u16(d, 0), i32(d, 2)) for t, kk, d in ev if kk == k] for k in ("rpdo1", "rpdo2")}
+    tpdo = {k: [(t, u16(d, 0), u16(d, 2)) for t, kk, d in ev if kk == k] for k in ("tpdo1", "tpdo3")}
+    nmt = [(t, d[0], d[1]) for t, k, d in ev if k == "nmt"]
+
+    # 2. Start-up: per start-up one NMT pre-operational and one start for the node; both axes' writes.
+    pre = [t for t, c, m in nmt if c == 0x80 and m == n]
+    start = [t for t, c, m in nmt if c == 0x01 and m == n]
+    first_start = start[0] if start else None
+    writes = {}
+    for t, k, d in ev:
+        if k == "sdo_req" and first_start and t <= first_start and d[0] in (0x23, 0x27, 0x2B, 0x2F):
+            size = 4 - ((d[0] >> 2) & 3)
+            writes[(u16(d, 1), d[3])] = int.from_bytes(d[4:4 + size], "little")
+    accel = cc.round_half_away(cc.CO_ACCEL * cc.CO_RPM_PER_RADPS)
+    qs = cc.round_half_away(cc.CO_QS * cc.CO_RPM_PER_RADPS)
+    want = {(0x6060, 0): 3, (0x6083, 0): accel, (0x6085, 0): qs,
+            (0x6860, 0): 3, (0x6883, 0): accel, (0x6884, 0): accel, (0x6885, 0): qs,
+            (0x1600, 1): 0x60400010, (0x1600, 2): 0x60FF0020,
+            (0x1401, 1): 0x300 + n, (0x1601, 1): 0x68400010, (0x1601, 2): 0x68FF0020, (0x1601, 0): 2,
+            (0x1802, 1): 0x380 + n, (0x1A02, 1): 0x68410010, (0x1A02, 2): 0x683F0010, (0x1A02, 3): 0x68610008,
+            (0x1803, 1): 0x480 + n, (0x1A03, 1): 0x68640020, (0x1A03, 2): 0x686C0020,
+            (0x1016, 1): (cc.CO_BRIDGE_ID << 16) | cc.CO_CONSUMER_MS, (0x1017, 0): cc.CO_DRIVE_HB_MS}
+    wrong = {f"0x{i:04X}:{s:02X}": (writes.get((i, s)), v) for (i, s), v in want.items() if writes.get((i, s)) != v}
+    held = {f"0x{i:04X}:{s:02X}": (node["written"].get(f"0x{i:04X}:{s:02X}"), v) for (i, s), v in want.items()
+            if node["written"].get(f"0x{i:04X}:{s:02X}") != v}
+    ok = len(pre) >= 2 and len(start) == len(pre) and not wrong and not held and node["counters"]["pdo_reads"] >= 1
+    cc.check(ok, "two_axis: start-up = one NMT pre-operational and start for the node; SDO writes of both axes "
+             "(0x6060/0x6860 = 3, 0x6083/0x6883 = 9549 rpm/s, RPDO2 0x301 -> 0x6840/0x68FF, TPDO3 0x381, TPDO4 0x481) "
+             "held by python-canopen's dictionary",
+             f"{len(pre)} pre-op, {len(start)} start; written mismatches {wrong}; dictionary mismatches {held}; "
+             f"python-canopen's RPDO maps {node['counters']['rpdo_maps']}")
+
+    # 3. Each axis enabled by its own RPDO: 0x0006 -> 0x0007 -> 0x000F at zero target, no motion
+    #    before its own statusword (TPDO1 / TPDO3) says operation enabled.
+    ok, details = True, []
+    for rk, tk in (("rpdo1", "tpdo1"), ("rpdo2", "tpdo3")):
+        r = rpdo[rk]
+        enables = [j for j in range(len(r)) if r[j][1] == 0x000F and (j == 0 or r[j - 1][1] != 0x000F)]
+        for j in enables:
+            k = max([m for m in range(j) if r[m][1] in (0x0002, 0x0080, 0x000F)], default=-1)
+            seq = [x[1] for x in r[k + 1:j]]
+            good = 0x0006 in seq and 0x0007 in seq and all(x[2] == 0 for x in r[k + 1:j + 1])
+            t_on = next((t for t, sw, _ in tpdo[tk] if t > r[j][0] and cc.co_state(sw) == "operation_enabled"), None)
+            early = [x for x in r[j:] if x[2] != 0 and (t_on is None or x[0] < t_on)]
+            good &= not early
+            ok &= good
+            details.append(f"{rk} enable #{enables.index(j) + 1}: early motion {len(early)}")
+        ok &= len(enables) >= 2
+    nonzero = sum(a["counters"]["enabled_with_nonzero_target"] for a in node["axes"])
+    cc.check(ok and nonzero == 0, "two_axis: each axis 0x0006 -> 0x0007 -> 0x000F on its own RPDO at zero target; "
+             "no motion before its own statusword says operation enabled (boot, after the fault reset)",
+             "; ".join(details) + f"; enabled with a non-zero target {nonzero}")
+
+    # 4. Targets: RPDO1 carries the left wheel's rpm, RPDO2 the right wheel's.
+    ok, details = True, []
+    for rk, wheel in (("rpdo1", 0), ("rpdo2", 1)):
+        vals = [x[2] for x in rpdo[rk]]
+        got = [k for k, c, _ in cc.runs(vals) if k != 0 and c >= 5]
+        exp = [cc.round_half_away(cc.motor_speeds(v, w)[wheel] * cc.CO_RPM_PER_RADPS) for v, w in ((0.2, 0.5), (-0.1, 0.3))]
+        good = exp[0] in got and exp[1] in got and set(got) <= set(exp)
+        ok &= good
+        details.append(f"{rk}: runs {got}, want {exp} rpm")
+    cc.check(ok, "two_axis: RPDO1 target = left wheel, RPDO2 target = right wheel, direction x gear x wheel speed "
+             "x 60/2pi rpm, rounded", "; ".join(details))
+
+    # 5. The fault on axis 2 alone: TPDO3 fault with 0x683F = 0x2310 while TPDO1 still says
+    #    operation enabled; both targets zero within 2 periods; latched with the right wheel; named.
+    T = 1.0 / cc.TX_RATE_HZ
+    t_fault = next((t for t, sw, _ in tpdo["tpdo3"] if cc.co_state(sw) == "fault"), None)
+    err = next((e for t, sw, e in tpdo["tpdo3"] if cc.co_state(sw) == "fault"), None)
+    ok = rep.get("faulted") and t_fault is not None
+    if ok:
+        axis1_then = [sw for t, sw, _ in tpdo["tpdo1"] if t_fault - 0.1 <= t <= t_fault + 0.1]
+        first_reset = next((x for x in rpdo["rpdo2"] if x[0] > t_fault and x[1] == 0x0080), None)
+        until = first_reset[0] if first_reset else float("inf")
+        moving = [x for k in ("rpdo1", "rpdo2") for x in rpdo[k] if t_fault + 2 * T < x[0] < until and x[2] != 0]
+        latched = [l for l in lines if l.get("event") == "drive_fault_latched"]
+        named = [l for l in lines if "node 1 axis 2 (right wheel) fault, error code 0x2310" in (l.get("message") or "")]
+        emcy = [d for t, k, d in ev if k == "emcy"]
+        ok = (err == cc.CO_FAULT_CODE and axis1_then and all(cc.co_state(sw) == "operation_enabled" for sw in axis1_then)
+              and not moving and latched and latched[0]["wheel"] == "right" and latched[0]["error_code"] == cc.CO_FAULT_CODE
+              and named and emcy and u16(emcy[0], 0) == cc.CO_FAULT_CODE and emcy[0][3] == 2)
+        cc.check(ok, "two_axis: a fault on axis 2 alone (TPDO3 fault, 0x683F = 0x2310, EMCY naming axis 2; axis 1 "
+                     "still operation enabled) -> both wheels' targets zero within 2 periods, drive_fault latched for the "
+                     "right wheel with 0x2310, reported as node 1 axis 2",
+                 f"fault at {t_fault:.3f}; axis 1 around it {[hex(x) for x in axis1_then[:3]]}; non-zero targets after "
+                 f"{len(moving)}; latched {[(l['wheel'], hex(l['error_code'])) for l in latched]}; named {len(named)}; "
+                 f"EMCY {[d.hex() for d in emcy]}")
+        # 6. Recovery: the fault reset goes to RPDO2 only, then both axes run segment 2.
+        resets1 = [x for x in rpdo["rpdo1"] if x[1] == 0x0080]
+        after = {k: [x[2] for x in rpdo[k] if first_reset and x[0] > first_reset[0]] for k in ("rpdo1", "rpdo2")}
+        exp2 = [cc.round_half_away(cc.motor_speeds(-0.1, 0.3)[w] * cc.CO_RPM_PER_RADPS) for w in (0, 1)]
+        ok = (first_reset is not None and not resets1 and exp2[0] in after["rpdo1"] and exp2[1] in after["rpdo2"]
+              and node["axes"][1]["counters"]["fault_resets"] == 1 and node["axes"][0]["counters"]["fault_resets"] == 0)
+        cc.check(ok, "two_axis: after ~reset the fault reset (0x0080) goes on RPDO2 only and both axes drive again",
+                 f"fault reset on RPDO1 {len(resets1)}, python axis resets "
+                 f"{[a['counters']['fault_resets'] for a in node['axes']]}, targets after {exp2} seen "
+                 f"{[exp2[0] in after['rpdo1'], exp2[1] in after['rpdo2']]}")
+    else:
+        cc.check(False, "two_axis: fault injected on axis 2 by the python node", f"faulted {rep.get('faulted')}, seen {t_fault}")
+
+    # 7. SDO at run time through the CLI, against python-canopen's SDO server.
+    sdo = [l for l in lines if l.get("type") == "sdo"]
+    name = next((l for l in sdo if l.get("index") == 0x1008), None)
+    refused = next((l for l in sdo if l.get("index") == 0x6883), None)
+    wrote = next((l for l in sdo if l.get("index") == 0x2100 and l.get("write")), None)
+    readback = next((l for l in sdo if l.get("index") == 0x2100 and not l.get("write")), None)
+    seg_init = [d for t, k, d in ev if k == "sdo_resp" and d[0] == 0x41 and u16(d, 1) == 0x1008]
+    # The refused value (1000) never on the wire; the start-ups' own 9549 is.
+    sent_6883 = [d for t, k, d in ev if k == "sdo_req" and u16(d, 1) == 0x6883 and i32(d, 4) == 1000]
+    seg_down = [d for t, k, d in ev if k == "sdo_req" and d[0] == 0x21 and u16(d, 1) == 0x2100]
+    ok = (name and name["ok"] and name.get("text") == "oldbf dual-axis CiA 402 test drive" and seg_init
+          and refused and not refused["ok"] and refused["refused"] and refused["abort_code"] == 0x08000022 and not sent_6883
+          and wrote and wrote["ok"] and seg_down and node["written"].get("0x2100:00") == NOTE
+          and readback and readback["ok"] and readback.get("text") == NOTE)
+    cc.check(ok, "two_axis: SDO at run time: 0x1008 read by segmented upload (python-canopen answers 0x41 + size); "
+                 "a 0x6883 write refused while axis 1 is enabled (0x08000022, no frame); after the e-stop a 32-byte "
+                 "segmented write of 0x2100 stored by python-canopen and read back",
+             f"read {name and (name['ok'], name.get('text'))}; refused {refused and (refused['abort_code'], refused['message'])}; "
+             f"write {wrote and (wrote['ok'], wrote['message'])}, python holds {node['written'].get('0x2100:00')!r}; "
+             f"read back {readback and readback.get('text')!r}; 0x6883 = 1000 frames {len(sent_6883)}")
+
+    # 8. Odometry from TPDO2 and TPDO4.
+    final = [l for l in lines if l.get("type") == "final"]
+    odo = final[0].get("odometry") if final else None
+    cc.check(bool(odo) and odo["updates"] > 50 and all(math.isfinite(v) for v in odo["pose"].values()),
+             "two_axis: odometry integrates TPDO2 (left) and TPDO4 (right)", f"{odo and odo['updates']} updates")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin-dir", required=True, help="directory with can_bridge_cli and virtual_drive")
-    ap.add_argument("--only", nargs="*", help="run only these checks (odrive06)")
+    ap.add_argument("--only", nargs="*", help="run only these checks (odrive06, two_axis)")
     a = ap.parse_args()
     for b in ("can_bridge_cli", "virtual_drive"):
         if not os.access(os.path.join(a.bin_dir, b), os.X_OK):
@@ -173,7 +398,7 @@ def main():
         cc.check(False, "vcan0 exists (run inside tests/vm/run-in-vm.sh)")
     if not cc.FAILS:
         with tempfile.TemporaryDirectory() as tmp:
-            for name, fn in (("odrive06", check_odrive06),):
+            for name, fn in (("odrive06", check_odrive06), ("two_axis", check_two_axis)):
                 if a.only and name not in a.only:
                     continue
                 try:
