@@ -3,4 +3,4 @@
 //! `oldbf_ros/rosmsg/` (ROSRUST_MSG_PATH, .cargo/config.toml). Their md5sums
 //! are checked against ROS's own tools in `tests/ros_msgs.rs` (e2e group).
 
-rosrust::rosmsg_include!(sensor_msgs / JointState);
+rosrust::rosmsg_include!(sensor_msgs / JointState, oldbf_ros / SdoRead, oldbf_ros / SdoWrite);

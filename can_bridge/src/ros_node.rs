@@ -14,6 +14,12 @@
 //! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
 //! faults (a drive error, a drive whose heartbeat was lost on a working bus)
 //! once the `e_stop` input is false; motion then needs a fresh command.
+//! Services `~sdo_read` (oldbf_ros/SdoRead) and `~sdo_write`
+//! (oldbf_ros/SdoWrite), protocol cia402: read or write an object of a
+//! drive's node while running, expedited or segmented; the transfer runs in
+//! the bridge's loop and the call waits for its end (the abort code decoded
+//! in the answer); a write that could change motion is refused while the
+//! node's drive is enabled ([`crate::protocol::cia402::sdo_jobs`]).
 //!
 //! Parameters: the keys of `config/can_bridge.yaml` in the node's private
 //! namespace plus `node/...` (config/can_bridge_node.yaml), checked like the
@@ -33,6 +39,9 @@ use crate::diagnostics::{BridgeState, BridgeStatus};
 use crate::kinematics::Twist;
 use crate::odometry::covariance::{ros_pose_covariance, ros_twist_covariance};
 use crate::odometry::OdometryState;
+use crate::protocol::cia402::sdo_jobs::{SdoJob, SdoJobId, SdoJobResult, MAX_QUEUED_JOBS};
+use crate::protocol::cia402::sdo_transfer::MAX_TRANSFER_BYTES;
+use crate::ros_msgs::oldbf_ros::{SdoRead, SdoReadRes, SdoWrite, SdoWriteRes};
 use crate::ros_msgs::sensor_msgs::JointState;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
@@ -46,6 +55,7 @@ use oldbf_ros::ros::msg::{
 };
 use serde::{Deserialize, Serialize};
 use serde_yaml::Value;
+use std::collections::HashMap;
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -192,10 +202,60 @@ fn ros_err(what: &'static str) -> impl FnOnce(rosrust::error::Error) -> NodeErro
     move |source| NodeError::Ros { what, source }
 }
 
+/// How an SDO request ended, for a service answer.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct SdoAnswer {
+    success: bool,
+    data: Vec<u8>,
+    abort_code: u32,
+    message: String,
+}
+
+impl From<SdoJobResult> for SdoAnswer {
+    fn from(r: SdoJobResult) -> Self {
+        Self {
+            success: r.ok,
+            data: r.data,
+            abort_code: r.abort_code,
+            message: r.message,
+        }
+    }
+}
+
 enum Input {
     Cmd(Twist),
     EStop(bool),
     Reset(mpsc::Sender<(bool, String)>),
+    Sdo(SdoJob, mpsc::Sender<SdoAnswer>),
+}
+
+/// How long a service call waits for its transfer: every answer of the
+/// longest transfer late by the SDO timeout, behind a full queue, plus a
+/// second. A call that outlives it is answered as failed, not left hanging.
+fn sdo_wait(data_len: usize, sdo_timeout: Duration) -> Duration {
+    let exchanges = (data_len.min(MAX_TRANSFER_BYTES) / 7 + 3) as u32;
+    sdo_timeout * exchanges * MAX_QUEUED_JOBS as u32 + Duration::from_secs(1)
+}
+
+/// Sends `job` to the loop and waits for its end.
+fn call_sdo(tx: &mpsc::Sender<Input>, job: SdoJob, sdo_timeout: Duration) -> SdoAnswer {
+    let (reply_tx, reply_rx) = mpsc::channel();
+    let len = match &job.kind {
+        crate::protocol::cia402::sdo_transfer::TransferKind::Write(d) => d.len(),
+        crate::protocol::cia402::sdo_transfer::TransferKind::Read => MAX_TRANSFER_BYTES,
+    };
+    let failed = |message: &str| SdoAnswer {
+        success: false,
+        data: Vec::new(),
+        abort_code: crate::protocol::cia402::sdo::abort::GENERAL,
+        message: message.into(),
+    };
+    if tx.send(Input::Sdo(job, reply_tx)).is_err() {
+        return failed("the bridge has stopped");
+    }
+    reply_rx
+        .recv_timeout(sdo_wait(len, sdo_timeout))
+        .unwrap_or_else(|_| failed("the bridge did not answer in time"))
 }
 
 fn kv(key: &str, value: impl ToString) -> KeyValue {
@@ -329,6 +389,32 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         Ok(std_srvs::TriggerRes { success, message })
     })
     .map_err(ros_err("advertising ~reset"))?;
+    let sdo_timeout = crate::time::saturating_duration(bridge.config().cia402.sdo_timeout_s);
+    let t = tx.clone();
+    let _sdo_read_srv = rosrust::service::<SdoRead, _>("~sdo_read", move |req| {
+        let a = call_sdo(&t, SdoJob::read(req.node_id, req.index, req.subindex), sdo_timeout);
+        Ok(SdoReadRes {
+            success: a.success,
+            data: a.data,
+            abort_code: a.abort_code,
+            message: a.message,
+        })
+    })
+    .map_err(ros_err("advertising ~sdo_read"))?;
+    let t = tx.clone();
+    let _sdo_write_srv = rosrust::service::<SdoWrite, _>("~sdo_write", move |req| {
+        let a = call_sdo(
+            &t,
+            SdoJob::write(req.node_id, req.index, req.subindex, req.data),
+            sdo_timeout,
+        );
+        Ok(SdoWriteRes {
+            success: a.success,
+            abort_code: a.abort_code,
+            message: a.message,
+        })
+    })
+    .map_err(ros_err("advertising ~sdo_write"))?;
     let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(ros_err("advertising odom"))?;
     let joints_pub = rosrust::publish::<JointState>("joint_states", 10).map_err(ros_err("advertising joint_states"))?;
     let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(ros_err("advertising /tf"))?;
@@ -346,6 +432,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     let (mut next_odom, mut next_diag) = (0.0f64, 0.0f64);
     let mut e_stop_input = false;
     let mut last_cmd_s = f64::NEG_INFINITY;
+    let mut sdo_waiting: HashMap<SdoJobId, mpsc::Sender<SdoAnswer>> = HashMap::new();
     let watch = MasterWatch::start(&node);
     while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
         while let Ok(input) = rx.try_recv() {
@@ -375,6 +462,19 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
                     };
                     let _ = reply.send(answer);
                 }
+                Input::Sdo(job, reply) => match bridge.sdo_request(job, now) {
+                    Ok(id) => {
+                        sdo_waiting.insert(id, reply);
+                    }
+                    Err(e) => {
+                        let _ = reply.send(SdoAnswer {
+                            success: false,
+                            data: Vec::new(),
+                            abort_code: e.abort_code(),
+                            message: format!("refused by the bridge: {e}"),
+                        });
+                    }
+                },
             }
         }
         if let Spin::BackOff(d) = bridge.spin_once(&clock, Duration::from_millis(5)) {
@@ -382,6 +482,11 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         }
         for ev in bridge.drain_events() {
             log::info!("{}", serde_json::to_string(&ev).unwrap_or_default());
+        }
+        for r in bridge.take_sdo_results() {
+            if let Some(reply) = sdo_waiting.remove(&r.id) {
+                let _ = reply.send(SdoAnswer::from(r));
+            }
         }
         let now = clock.now().as_secs_f64();
         if now >= next_odom {
@@ -436,6 +541,36 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A service call waits long enough for its transfer behind a full
+    /// queue: a read may be 1024 bytes, (1024 / 7 + 3) exchanges × 0.2 s × 4
+    /// + 1 s = 120.2 s; a 4-byte write 3 × 0.2 × 4 + 1 = 3.4 s.
+    #[test]
+    fn sdo_calls_wait_for_the_worst_case_transfer() {
+        let ms = Duration::from_millis;
+        assert_eq!(sdo_wait(MAX_TRANSFER_BYTES, ms(200)), ms(200 * 149 * 4 + 1000));
+        assert_eq!(sdo_wait(4, ms(200)), ms(3400));
+        let r = SdoJobResult {
+            id: 3,
+            node: 1,
+            index: 0x1008,
+            sub: 0,
+            write: false,
+            ok: true,
+            data: b"x".to_vec(),
+            abort_code: 0,
+            message: "read 1 byte(s)".into(),
+        };
+        assert_eq!(
+            SdoAnswer::from(r),
+            SdoAnswer {
+                success: true,
+                data: b"x".to_vec(),
+                abort_code: 0,
+                message: "read 1 byte(s)".into()
+            }
+        );
+    }
 
     /// What goes out on `odom` and `joint_states`, from a hand-made state:
     /// the covariance in ROS's indices, the joints in the names' order.
