@@ -133,6 +133,18 @@ pub fn joint_state_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState
     m
 }
 
+/// odom → base_link: the odometry's pose, for /tf.
+pub fn transform_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> geometry_msgs::TransformStamped {
+    let mut t = geometry_msgs::TransformStamped::default();
+    t.header.stamp = stamp;
+    t.header.frame_id = s.odom_frame.clone();
+    t.child_frame_id = s.base_frame.clone();
+    t.transform.translation.x = o.pose.x_m;
+    t.transform.translation.y = o.pose.y_m;
+    t.transform.rotation = quaternion_from_yaw(o.pose.theta_rad);
+    t
+}
+
 /// nav_msgs/Odometry with the model's covariance (ROS's 6×6 layout).
 pub fn odometry_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> nav_msgs::Odometry {
     let mut m = nav_msgs::Odometry::default();
@@ -497,13 +509,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
             let _ = odom_pub.send(odometry_msg(stamp, &settings, &o));
             let _ = joints_pub.send(joint_state_msg(stamp, &settings, &o));
             if settings.publish_tf {
-                let mut t = geometry_msgs::TransformStamped::default();
-                t.header.stamp = stamp;
-                t.header.frame_id = settings.odom_frame.clone();
-                t.child_frame_id = settings.base_frame.clone();
-                t.transform.translation.x = o.pose.x_m;
-                t.transform.translation.y = o.pose.y_m;
-                t.transform.rotation = quaternion_from_yaw(o.pose.theta_rad);
+                let t = transform_msg(stamp, &settings, &o);
                 let _ = tf_pub.send(tf2_msgs::TFMessage { transforms: vec![t] });
             }
         }
@@ -611,6 +617,30 @@ mod tests {
         );
         assert!(j.effort.is_empty());
         assert_eq!((j.header.stamp.sec, m.header.stamp.nsec), (7, 5));
+        // The tf carries the Odometry's pose and stamp.
+        let o = OdometryState {
+            pose: crate::odometry::Pose2D {
+                x_m: 1.5,
+                y_m: -0.25,
+                theta_rad: 0.5,
+            },
+            ..o
+        };
+        let (m, t) = (odometry_msg(stamp, &s, &o), transform_msg(stamp, &s, &o));
+        assert_eq!(
+            (t.header.frame_id.as_str(), t.child_frame_id.as_str()),
+            ("odom", "base_link")
+        );
+        assert_eq!(t.header.stamp, m.header.stamp);
+        assert_eq!(
+            (t.transform.translation.x, t.transform.translation.y),
+            (m.pose.pose.position.x, m.pose.pose.position.y)
+        );
+        assert_eq!(t.transform.rotation, m.pose.pose.orientation);
+        assert!(
+            (t.transform.rotation.z - 0.25f64.sin()).abs() < 1e-15,
+            "yaw 0.5: z = sin(0.25)"
+        );
     }
 
     #[test]
