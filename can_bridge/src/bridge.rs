@@ -44,6 +44,7 @@ use crate::diagnostics::{BridgeEvent, BridgeState, BridgeStatus, Counters, StopR
 use crate::kinematics::{DiffDrive, MotorSpeeds, Twist, Wheel, WheelSpeeds};
 use crate::limits::{clamp_twist, RampLimiter};
 use crate::odometry::Odometry;
+use crate::protocol::cia402::sdo_jobs::{SdoJob, SdoJobId, SdoJobResult, SdoRefusal};
 use crate::protocol::{FrameBatch, Protocol};
 use crate::time::{saturating_duration, Clock, Timestamp};
 use crate::tx_queue::TxQueue;
@@ -108,6 +109,8 @@ pub struct Bridge<B: CanBus> {
     last_motors: MotorSpeeds,
     counters: Counters,
     events: EventLog,
+    /// Finished run-time SDO requests, until taken.
+    sdo_results: Vec<SdoJobResult>,
 }
 
 impl<B: CanBus> Bridge<B> {
@@ -119,7 +122,12 @@ impl<B: CanBus> Bridge<B> {
         bus.set_rx_filters(&protocol.rx_filters())?;
         let kin = cfg.diff_drive();
         let period = cfg.tx_period();
-        let odom = Odometry::new(kin, protocol.position_modulus_rad(), cfg.limits.max_wheel_speed_radps);
+        let odom = Odometry::new(
+            kin,
+            protocol.position_modulus_rad(),
+            cfg.limits.max_wheel_speed_radps,
+            cfg.odometry.noise(),
+        );
         let t = &cfg.timing;
         let mut b = Self {
             kin,
@@ -140,6 +148,7 @@ impl<B: CanBus> Bridge<B> {
             last_motors: MotorSpeeds::ZERO,
             counters: Counters::default(),
             events: EventLog::new(),
+            sdo_results: Vec::new(),
             cfg,
         };
         b.update_reasons(now);
@@ -297,6 +306,35 @@ impl<B: CanBus> Bridge<B> {
         let (progress, sent) = seq.step(&mut self.bus, now);
         self.counters.tx_frames += u64::from(sent);
         progress
+    }
+
+    /// Reads or writes an object of a drive's CANopen node while running
+    /// (CiA 402 only): the request's id, or why it is refused (nothing is
+    /// sent; see [`crate::protocol::cia402::sdo_jobs`]). The transfer runs
+    /// in the loop (segmented ones segment by segment); its result comes
+    /// from [`take_sdo_results`](Self::take_sdo_results) and as an event.
+    pub fn sdo_request(&mut self, job: SdoJob, now: Timestamp) -> Result<SdoJobId, SdoRefusal> {
+        let (node, index, sub, write) = (job.node, job.addr.index, job.addr.sub, job.is_write());
+        let r = self.protocol.sdo_request(job);
+        if let Err(e) = &r {
+            let reason = e.to_string();
+            self.events.push(
+                now,
+                BridgeEvent::SdoRefused {
+                    node,
+                    index,
+                    sub,
+                    write,
+                    reason,
+                },
+            );
+        }
+        r
+    }
+
+    /// Takes the run-time SDO requests that ended since the last call.
+    pub fn take_sdo_results(&mut self) -> Vec<SdoJobResult> {
+        std::mem::take(&mut self.sdo_results)
     }
 
     /// The current state.

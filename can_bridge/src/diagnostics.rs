@@ -165,6 +165,25 @@ pub enum BridgeEvent {
         wheel: Option<Wheel>,
         message: String,
     },
+    /// A run-time SDO request ended (read or written, or aborted: the code decoded).
+    SdoDone {
+        id: u64,
+        node: u8,
+        index: u16,
+        sub: u8,
+        write: bool,
+        ok: bool,
+        abort_code: u32,
+        message: String,
+    },
+    /// A run-time SDO request the bridge refused; nothing was sent.
+    SdoRefused {
+        node: u8,
+        index: u16,
+        sub: u8,
+        write: bool,
+        reason: String,
+    },
 }
 
 /// An event with its time (s on the bridge's clock).

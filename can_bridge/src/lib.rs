@@ -38,6 +38,8 @@ pub mod limits;
 pub mod odometry;
 pub mod protocol;
 #[cfg(feature = "ros")]
+pub mod ros_msgs;
+#[cfg(feature = "ros")]
 pub mod ros_node;
 pub mod script;
 #[cfg(feature = "socketcan")]

@@ -4,12 +4,22 @@
 //! Topics (relative names): subscribes `cmd_vel` (geometry_msgs/Twist) and
 //! `e_stop` (std_msgs/Bool: true latches the bridge's e-stop); publishes
 //! `odom` (nav_msgs/Odometry from the wheels' measured speeds and positions,
-//! `node/odom_rate_hz`), optionally `/tf` odom → base_link
-//! (`node/publish_tf`), and `/diagnostics` (1 Hz: bus state, drive state,
-//! stop reasons, last command age, frames sent, tx drops, error counters).
+//! with the covariance of the `odometry:` noise model, `node/odom_rate_hz`),
+//! `joint_states` (sensor_msgs/JointState: the two wheel joints' angles and
+//! speeds at the wheel, names `node/left_wheel_joint`, `node/right_wheel_joint`,
+//! same rate and stamp), optionally `/tf` odom → base_link
+//! (`node/publish_tf`, the same pose and stamp as `odom`), and `/diagnostics`
+//! (1 Hz: bus state, drive state, stop reasons, last command age, frames
+//! sent, tx drops, error counters).
 //! Service `~reset` (std_srvs/Trigger): clears the e-stop and latched drive
 //! faults (a drive error, a drive whose heartbeat was lost on a working bus)
 //! once the `e_stop` input is false; motion then needs a fresh command.
+//! Services `~sdo_read` (oldbf_ros/SdoRead) and `~sdo_write`
+//! (oldbf_ros/SdoWrite), protocol cia402: read or write an object of a
+//! drive's node while running, expedited or segmented; the transfer runs in
+//! the bridge's loop and the call waits for its end (the abort code decoded
+//! in the answer); a write that could change motion is refused while the
+//! node's drive is enabled ([`crate::protocol::cia402::sdo_jobs`]).
 //!
 //! Parameters: the keys of `config/can_bridge.yaml` in the node's private
 //! namespace plus `node/...` (config/can_bridge_node.yaml), checked like the
@@ -27,6 +37,12 @@ use crate::bus::BusError;
 use crate::config::{default_config, BridgeConfig};
 use crate::diagnostics::{BridgeState, BridgeStatus};
 use crate::kinematics::Twist;
+use crate::odometry::covariance::{ros_pose_covariance, ros_twist_covariance};
+use crate::odometry::OdometryState;
+use crate::protocol::cia402::sdo_jobs::{SdoJob, SdoJobId, SdoJobResult, MAX_QUEUED_JOBS};
+use crate::protocol::cia402::sdo_transfer::MAX_TRANSFER_BYTES;
+use crate::ros_msgs::oldbf_ros::{SdoRead, SdoReadRes, SdoWrite, SdoWriteRes};
+use crate::ros_msgs::sensor_msgs::JointState;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
 use oldbf::config::{load_value, merge, Checker, ConfigError, Interval, Validate};
@@ -39,6 +55,7 @@ use oldbf_ros::ros::msg::{
 };
 use serde::{Deserialize, Serialize};
 use serde_yaml::Value;
+use std::collections::HashMap;
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -52,8 +69,12 @@ pub struct NodeSettings {
     pub base_frame: String,
     /// Publish odom → base_link on /tf.
     pub publish_tf: bool,
-    /// Odometry publication rate (Hz).
+    /// Odometry (and joint state) publication rate (Hz).
     pub odom_rate_hz: f64,
+    /// The left wheel's joint in `joint_states` (the URDF's name).
+    pub left_wheel_joint: String,
+    /// The right wheel's joint in `joint_states`.
+    pub right_wheel_joint: String,
 }
 
 impl Default for NodeSettings {
@@ -63,8 +84,15 @@ impl Default for NodeSettings {
             base_frame: "base_link".into(),
             publish_tf: false,
             odom_rate_hz: 50.0,
+            left_wheel_joint: "wheel_left_joint".into(),
+            right_wheel_joint: "wheel_right_joint".into(),
         }
     }
+}
+
+/// A joint name robot_state_publisher can match: non-empty, no whitespace.
+fn joint_name_ok(n: &str) -> bool {
+    !n.is_empty() && !n.chars().any(char::is_whitespace)
 }
 
 impl Validate for NodeSettings {
@@ -74,7 +102,63 @@ impl Validate for NodeSettings {
             self.odom_rate_hz,
             Interval::open_closed(0.0, 1000.0).unit("Hz"),
         );
+        for (key, n) in [
+            ("left_wheel_joint", &self.left_wheel_joint),
+            ("right_wheel_joint", &self.right_wheel_joint),
+        ] {
+            c.rule(
+                joint_name_ok(n),
+                key,
+                format_args!("{n:?}"),
+                "a non-empty name without whitespace",
+            );
+        }
+        c.rule(
+            self.left_wheel_joint != self.right_wheel_joint,
+            "right_wheel_joint",
+            format_args!("{:?}", self.right_wheel_joint),
+            "different from left_wheel_joint",
+        );
     }
+}
+
+/// The wheels' joint states: angle (rad) and speed (rad/s) at the wheel,
+/// forward positive, in the order of the names.
+pub fn joint_state_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> JointState {
+    let mut m = JointState::default();
+    m.header.stamp = stamp;
+    m.name = vec![s.left_wheel_joint.clone(), s.right_wheel_joint.clone()];
+    m.position = vec![o.wheel_angles.left_rad, o.wheel_angles.right_rad];
+    m.velocity = vec![o.wheels.left_radps, o.wheels.right_radps];
+    m
+}
+
+/// odom → base_link: the odometry's pose, for /tf.
+pub fn transform_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> geometry_msgs::TransformStamped {
+    let mut t = geometry_msgs::TransformStamped::default();
+    t.header.stamp = stamp;
+    t.header.frame_id = s.odom_frame.clone();
+    t.child_frame_id = s.base_frame.clone();
+    t.transform.translation.x = o.pose.x_m;
+    t.transform.translation.y = o.pose.y_m;
+    t.transform.rotation = quaternion_from_yaw(o.pose.theta_rad);
+    t
+}
+
+/// nav_msgs/Odometry with the model's covariance (ROS's 6×6 layout).
+pub fn odometry_msg(stamp: rosrust::Time, s: &NodeSettings, o: &OdometryState) -> nav_msgs::Odometry {
+    let mut m = nav_msgs::Odometry::default();
+    m.header.stamp = stamp;
+    m.header.frame_id = s.odom_frame.clone();
+    m.child_frame_id = s.base_frame.clone();
+    m.pose.pose.position.x = o.pose.x_m;
+    m.pose.pose.position.y = o.pose.y_m;
+    m.pose.pose.orientation = quaternion_from_yaw(o.pose.theta_rad);
+    m.pose.covariance = ros_pose_covariance(&o.pose_covariance);
+    m.twist.twist.linear.x = o.twist.linear_mps;
+    m.twist.twist.angular.z = o.twist.angular_radps;
+    m.twist.covariance = ros_twist_covariance(&o.twist_covariance);
+    m
 }
 
 /// The bridge and node configuration from the private namespace `ns`
@@ -130,10 +214,60 @@ fn ros_err(what: &'static str) -> impl FnOnce(rosrust::error::Error) -> NodeErro
     move |source| NodeError::Ros { what, source }
 }
 
+/// How an SDO request ended, for a service answer.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct SdoAnswer {
+    success: bool,
+    data: Vec<u8>,
+    abort_code: u32,
+    message: String,
+}
+
+impl From<SdoJobResult> for SdoAnswer {
+    fn from(r: SdoJobResult) -> Self {
+        Self {
+            success: r.ok,
+            data: r.data,
+            abort_code: r.abort_code,
+            message: r.message,
+        }
+    }
+}
+
 enum Input {
     Cmd(Twist),
     EStop(bool),
     Reset(mpsc::Sender<(bool, String)>),
+    Sdo(SdoJob, mpsc::Sender<SdoAnswer>),
+}
+
+/// How long a service call waits for its transfer: every answer of the
+/// longest transfer late by the SDO timeout, behind a full queue, plus a
+/// second. A call that outlives it is answered as failed, not left hanging.
+fn sdo_wait(data_len: usize, sdo_timeout: Duration) -> Duration {
+    let exchanges = (data_len.min(MAX_TRANSFER_BYTES) / 7 + 3) as u32;
+    sdo_timeout * exchanges * MAX_QUEUED_JOBS as u32 + Duration::from_secs(1)
+}
+
+/// Sends `job` to the loop and waits for its end.
+fn call_sdo(tx: &mpsc::Sender<Input>, job: SdoJob, sdo_timeout: Duration) -> SdoAnswer {
+    let (reply_tx, reply_rx) = mpsc::channel();
+    let len = match &job.kind {
+        crate::protocol::cia402::sdo_transfer::TransferKind::Write(d) => d.len(),
+        crate::protocol::cia402::sdo_transfer::TransferKind::Read => MAX_TRANSFER_BYTES,
+    };
+    let failed = |message: &str| SdoAnswer {
+        success: false,
+        data: Vec::new(),
+        abort_code: crate::protocol::cia402::sdo::abort::GENERAL,
+        message: message.into(),
+    };
+    if tx.send(Input::Sdo(job, reply_tx)).is_err() {
+        return failed("the bridge has stopped");
+    }
+    reply_rx
+        .recv_timeout(sdo_wait(len, sdo_timeout))
+        .unwrap_or_else(|_| failed("the bridge did not answer in time"))
 }
 
 fn kv(key: &str, value: impl ToString) -> KeyValue {
@@ -267,7 +401,34 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         Ok(std_srvs::TriggerRes { success, message })
     })
     .map_err(ros_err("advertising ~reset"))?;
+    let sdo_timeout = crate::time::saturating_duration(bridge.config().cia402.sdo_timeout_s);
+    let t = tx.clone();
+    let _sdo_read_srv = rosrust::service::<SdoRead, _>("~sdo_read", move |req| {
+        let a = call_sdo(&t, SdoJob::read(req.node_id, req.index, req.subindex), sdo_timeout);
+        Ok(SdoReadRes {
+            success: a.success,
+            data: a.data,
+            abort_code: a.abort_code,
+            message: a.message,
+        })
+    })
+    .map_err(ros_err("advertising ~sdo_read"))?;
+    let t = tx.clone();
+    let _sdo_write_srv = rosrust::service::<SdoWrite, _>("~sdo_write", move |req| {
+        let a = call_sdo(
+            &t,
+            SdoJob::write(req.node_id, req.index, req.subindex, req.data),
+            sdo_timeout,
+        );
+        Ok(SdoWriteRes {
+            success: a.success,
+            abort_code: a.abort_code,
+            message: a.message,
+        })
+    })
+    .map_err(ros_err("advertising ~sdo_write"))?;
     let odom_pub = rosrust::publish::<nav_msgs::Odometry>("odom", 10).map_err(ros_err("advertising odom"))?;
+    let joints_pub = rosrust::publish::<JointState>("joint_states", 10).map_err(ros_err("advertising joint_states"))?;
     let tf_pub = rosrust::publish::<tf2_msgs::TFMessage>("/tf", 50).map_err(ros_err("advertising /tf"))?;
     let diag_pub =
         rosrust::publish::<DiagnosticArray>("/diagnostics", 10).map_err(ros_err("advertising /diagnostics"))?;
@@ -283,6 +444,7 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
     let (mut next_odom, mut next_diag) = (0.0f64, 0.0f64);
     let mut e_stop_input = false;
     let mut last_cmd_s = f64::NEG_INFINITY;
+    let mut sdo_waiting: HashMap<SdoJobId, mpsc::Sender<SdoAnswer>> = HashMap::new();
     let watch = MasterWatch::start(&node);
     while rosrust::is_ok() && !stop.is_set() && watch.health() != MasterHealth::Restarted {
         while let Ok(input) = rx.try_recv() {
@@ -312,6 +474,19 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
                     };
                     let _ = reply.send(answer);
                 }
+                Input::Sdo(job, reply) => match bridge.sdo_request(job, now) {
+                    Ok(id) => {
+                        sdo_waiting.insert(id, reply);
+                    }
+                    Err(e) => {
+                        let _ = reply.send(SdoAnswer {
+                            success: false,
+                            data: Vec::new(),
+                            abort_code: e.abort_code(),
+                            message: format!("refused by the bridge: {e}"),
+                        });
+                    }
+                },
             }
         }
         if let Spin::BackOff(d) = bridge.spin_once(&clock, Duration::from_millis(5)) {
@@ -320,29 +495,21 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
         for ev in bridge.drain_events() {
             log::info!("{}", serde_json::to_string(&ev).unwrap_or_default());
         }
+        for r in bridge.take_sdo_results() {
+            if let Some(reply) = sdo_waiting.remove(&r.id) {
+                let _ = reply.send(SdoAnswer::from(r));
+            }
+        }
         let now = clock.now().as_secs_f64();
         if now >= next_odom {
             next_odom = now + odom_period;
             let o = bridge.odometry();
+            // One stamp for odom, joint_states and tf: the same instant.
             let stamp = time_from_s(now_s());
-            let mut m = nav_msgs::Odometry::default();
-            m.header.stamp = stamp;
-            m.header.frame_id = settings.odom_frame.clone();
-            m.child_frame_id = settings.base_frame.clone();
-            m.pose.pose.position.x = o.pose.x_m;
-            m.pose.pose.position.y = o.pose.y_m;
-            m.pose.pose.orientation = quaternion_from_yaw(o.pose.theta_rad);
-            m.twist.twist.linear.x = o.twist.linear_mps;
-            m.twist.twist.angular.z = o.twist.angular_radps;
-            let _ = odom_pub.send(m);
+            let _ = odom_pub.send(odometry_msg(stamp, &settings, &o));
+            let _ = joints_pub.send(joint_state_msg(stamp, &settings, &o));
             if settings.publish_tf {
-                let mut t = geometry_msgs::TransformStamped::default();
-                t.header.stamp = stamp;
-                t.header.frame_id = settings.odom_frame.clone();
-                t.child_frame_id = settings.base_frame.clone();
-                t.transform.translation.x = o.pose.x_m;
-                t.transform.translation.y = o.pose.y_m;
-                t.transform.rotation = quaternion_from_yaw(o.pose.theta_rad);
+                let t = transform_msg(stamp, &settings, &o);
                 let _ = tf_pub.send(tf2_msgs::TFMessage { transforms: vec![t] });
             }
         }
@@ -381,6 +548,101 @@ fn run_connected(cfg: BridgeConfig, settings: NodeSettings, stop: &lifecycle::St
 mod tests {
     use super::*;
 
+    /// A service call waits long enough for its transfer behind a full
+    /// queue: a read may be 1024 bytes, (1024 / 7 + 3) exchanges × 0.2 s × 4
+    /// + 1 s = 120.2 s; a 4-byte write 3 × 0.2 × 4 + 1 = 3.4 s.
+    #[test]
+    fn sdo_calls_wait_for_the_worst_case_transfer() {
+        let ms = Duration::from_millis;
+        assert_eq!(sdo_wait(MAX_TRANSFER_BYTES, ms(200)), ms(200 * 149 * 4 + 1000));
+        assert_eq!(sdo_wait(4, ms(200)), ms(3400));
+        let r = SdoJobResult {
+            id: 3,
+            node: 1,
+            index: 0x1008,
+            sub: 0,
+            write: false,
+            ok: true,
+            data: b"x".to_vec(),
+            abort_code: 0,
+            message: "read 1 byte(s)".into(),
+        };
+        assert_eq!(
+            SdoAnswer::from(r),
+            SdoAnswer {
+                success: true,
+                data: b"x".to_vec(),
+                abort_code: 0,
+                message: "read 1 byte(s)".into()
+            }
+        );
+    }
+
+    /// What goes out on `odom` and `joint_states`, from a hand-made state:
+    /// the covariance in ROS's indices, the joints in the names' order.
+    #[test]
+    fn odometry_and_joint_state_messages() {
+        use crate::odometry::{PoseCovariance, TwistCovariance, WheelAngles};
+        let o = OdometryState {
+            pose_covariance: PoseCovariance([[1e-4, 2e-5, 3e-5], [2e-5, 4e-4, 5e-5], [3e-5, 5e-5, 6e-3]]),
+            twist_covariance: TwistCovariance([[7e-4, 0.0], [0.0, 9e-3]]),
+            wheel_angles: WheelAngles {
+                left_rad: 12.5,
+                right_rad: -3.0,
+            },
+            wheels: crate::kinematics::WheelSpeeds {
+                left_radps: 4.0,
+                right_radps: 6.0,
+            },
+            ..OdometryState::default()
+        };
+        let s = NodeSettings::default();
+        let stamp = rosrust::Time { sec: 7, nsec: 5 };
+        let m = odometry_msg(stamp, &s, &o);
+        assert_eq!(m.pose.covariance[0], 1e-4);
+        assert_eq!(m.pose.covariance[7], 4e-4);
+        assert_eq!(m.pose.covariance[35], 6e-3);
+        assert_eq!(m.pose.covariance[11], 5e-5);
+        assert_eq!(m.pose.covariance[14], crate::odometry::covariance::UNMEASURED_VARIANCE);
+        assert_eq!((m.twist.covariance[0], m.twist.covariance[35]), (7e-4, 9e-3));
+        assert_eq!(
+            (m.header.frame_id.as_str(), m.child_frame_id.as_str()),
+            ("odom", "base_link")
+        );
+        let j = joint_state_msg(stamp, &s, &o);
+        assert_eq!(j.name, ["wheel_left_joint", "wheel_right_joint"]);
+        assert_eq!(
+            (j.position.clone(), j.velocity.clone()),
+            (vec![12.5, -3.0], vec![4.0, 6.0])
+        );
+        assert!(j.effort.is_empty());
+        assert_eq!((j.header.stamp.sec, m.header.stamp.nsec), (7, 5));
+        // The tf carries the Odometry's pose and stamp.
+        let o = OdometryState {
+            pose: crate::odometry::Pose2D {
+                x_m: 1.5,
+                y_m: -0.25,
+                theta_rad: 0.5,
+            },
+            ..o
+        };
+        let (m, t) = (odometry_msg(stamp, &s, &o), transform_msg(stamp, &s, &o));
+        assert_eq!(
+            (t.header.frame_id.as_str(), t.child_frame_id.as_str()),
+            ("odom", "base_link")
+        );
+        assert_eq!(t.header.stamp, m.header.stamp);
+        assert_eq!(
+            (t.transform.translation.x, t.transform.translation.y),
+            (m.pose.pose.position.x, m.pose.pose.position.y)
+        );
+        assert_eq!(t.transform.rotation, m.pose.pose.orientation);
+        assert!(
+            (t.transform.rotation.z - 0.25f64.sin()).abs() < 1e-15,
+            "yaw 0.5: z = sin(0.25)"
+        );
+    }
+
     #[test]
     fn parameters_merge_over_the_defaults_and_bad_ones_are_named() {
         let ns: Value =
@@ -399,6 +661,16 @@ mod tests {
         assert_eq!(
             config_from_params(node, "P").unwrap_err().to_string(),
             "P: key `node.odom_rate_hz` = 0 is out of range; allowed: (0, 1000] Hz"
+        );
+        let same: Value = serde_yaml::from_str("node: {right_wheel_joint: wheel_left_joint}").unwrap();
+        assert_eq!(
+            config_from_params(same, "P").unwrap_err().keys(),
+            ["node.right_wheel_joint"]
+        );
+        let blank: Value = serde_yaml::from_str("node: {left_wheel_joint: \"left wheel\"}").unwrap();
+        assert_eq!(
+            config_from_params(blank, "P").unwrap_err().keys(),
+            ["node.left_wheel_joint"]
         );
         let node_unknown: Value = serde_yaml::from_str("node: {publish_tf_typo: true}").unwrap();
         let e = config_from_params(node_unknown, "P").unwrap_err();

@@ -7,6 +7,8 @@
 //! reset            clear e-stop and latched drive faults
 //! status           print a status line now
 //! quit             shut the drive down (zero, then disable) and exit
+//! sdo_read N I S   CANopen: read object I, sub-index S of node N (numbers decimal or 0x hex)
+//! sdo_write N I S HEX   write the bytes HEX (e.g. e8030000: 1000 as a u32, little endian)
 //! # comment        blank lines and comments are ignored
 //! ```
 //!
@@ -21,17 +23,30 @@ use crate::kinematics::Twist;
 pub const MAX_EXPANDED_STEPS: usize = 1_000_000;
 
 /// What a line asks for.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Action {
     Twist(Twist),
     Estop,
     Reset,
     Status,
     Quit,
+    /// Read an object of a CANopen node.
+    SdoRead {
+        node: u8,
+        index: u16,
+        sub: u8,
+    },
+    /// Write bytes to an object of a CANopen node.
+    SdoWrite {
+        node: u8,
+        index: u16,
+        sub: u8,
+        data: Vec<u8>,
+    },
 }
 
 /// An action at a time (s from the start).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ScriptStep {
     pub at_s: f64,
     pub action: Action,
@@ -49,8 +64,18 @@ pub enum ScriptError {
         text: String,
     },
     /// No command has these words.
-    #[error("cannot parse `{0}`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit")]
+    #[error(
+        "cannot parse `{0}`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status, quit, `sdo_read NODE INDEX SUB` or `sdo_write NODE INDEX SUB HEX`"
+    )]
     Unknown(String),
+    /// An SDO argument out of its range or not a number.
+    #[error("sdo: {what} `{text}` is not {allowed}")]
+    BadSdo {
+        /// `node`, `index`, `sub-index` or `data`.
+        what: &'static str,
+        text: String,
+        allowed: &'static str,
+    },
     /// A step before the start.
     #[error("time {0} must be a non-negative number")]
     NegativeTime(f64),
@@ -79,8 +104,65 @@ fn num(s: &str, what: &'static str) -> Result<f64, ScriptError> {
     })
 }
 
+/// A decimal or 0x-hex integer within `max`.
+fn int(s: &str, what: &'static str, max: u32, allowed: &'static str) -> Result<u32, ScriptError> {
+    let v = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(h) => u32::from_str_radix(h, 16).ok(),
+        None => s.parse().ok(),
+    };
+    v.filter(|v| *v <= max).ok_or(ScriptError::BadSdo {
+        what,
+        text: s.to_string(),
+        allowed,
+    })
+}
+
+fn sdo_target(node: &str, index: &str, sub: &str) -> Result<(u8, u16, u8), ScriptError> {
+    let n = int(node, "node", 127, "a node id 1-127")?;
+    if n == 0 {
+        return Err(ScriptError::BadSdo {
+            what: "node",
+            text: node.to_string(),
+            allowed: "a node id 1-127",
+        });
+    }
+    let i = int(index, "index", 0xFFFF, "an index 0-0xFFFF")?;
+    let s = int(sub, "sub-index", 0xFF, "a sub-index 0-0xFF")?;
+    Ok((n as u8, i as u16, s as u8))
+}
+
+/// Bytes from hex (`e8030000`, optionally `0x`-prefixed), 1–1024 of them.
+fn hex_bytes(s: &str) -> Result<Vec<u8>, ScriptError> {
+    let bad = || ScriptError::BadSdo {
+        what: "data",
+        text: s.to_string(),
+        allowed: "1-1024 bytes in hex (two digits each)",
+    };
+    let h = s.strip_prefix("0x").unwrap_or(s);
+    if h.is_empty() || h.len() % 2 != 0 || h.len() > 2048 {
+        return Err(bad());
+    }
+    (0..h.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(h.get(i..i + 2).ok_or_else(bad)?, 16).map_err(|_| bad()))
+        .collect()
+}
+
 fn parse_words(words: &[&str]) -> Result<Action, ScriptError> {
     match words {
+        ["sdo_read", n, i, s] => {
+            let (node, index, sub) = sdo_target(n, i, s)?;
+            Ok(Action::SdoRead { node, index, sub })
+        }
+        ["sdo_write", n, i, s, data] => {
+            let (node, index, sub) = sdo_target(n, i, s)?;
+            Ok(Action::SdoWrite {
+                node,
+                index,
+                sub,
+                data: hex_bytes(data)?,
+            })
+        }
         ["estop"] => Ok(Action::Estop),
         ["reset"] => Ok(Action::Reset),
         ["status"] => Ok(Action::Status),
@@ -137,7 +219,10 @@ fn parse_line(line: &str, steps: &mut Vec<ScriptStep>) -> Result<(), ScriptError
         for k in 0..n as usize {
             let t_k = at + k as f64 * dt;
             if t_k < end {
-                steps.push(ScriptStep { at_s: t_k, action });
+                steps.push(ScriptStep {
+                    at_s: t_k,
+                    action: action.clone(),
+                });
             }
         }
     } else {
@@ -209,7 +294,46 @@ mod tests {
         );
         assert_eq!(
             parse_script("0 fly").unwrap_err().to_string(),
-            "line 1: cannot parse `fly`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status or quit"
+            "line 1: cannot parse `fly`; expected `V OMEGA`, `twist V OMEGA`, estop, reset, status, quit, `sdo_read NODE INDEX SUB` or `sdo_write NODE INDEX SUB HEX`"
         );
+    }
+
+    #[test]
+    fn sdo_lines() {
+        assert_eq!(
+            parse_action("sdo_read 1 0x1008 0").unwrap(),
+            Some(Action::SdoRead {
+                node: 1,
+                index: 0x1008,
+                sub: 0
+            })
+        );
+        assert_eq!(
+            parse_action("sdo_write 0x7F 0x6883 0 e8030000").unwrap(),
+            Some(Action::SdoWrite {
+                node: 127,
+                index: 0x6883,
+                sub: 0,
+                data: vec![0xE8, 0x03, 0, 0]
+            })
+        );
+        for (line, what) in [
+            ("sdo_read 0 0x1000 0", "node"),
+            ("sdo_read 128 0x1000 0", "node"),
+            ("sdo_read 1 0x10000 0", "index"),
+            ("sdo_read 1 0x1000 256", "sub-index"),
+            ("sdo_write 1 0x1000 0 abc", "data"),
+            ("sdo_write 1 0x1000 0 zz", "data"),
+            ("sdo_write 1 0x1000 0 0x", "data"),
+        ] {
+            match parse_action(line) {
+                Err(ScriptError::BadSdo { what: w, .. }) => assert_eq!(w, what, "{line}"),
+                r => panic!("{line}: {r:?}"),
+            }
+        }
+        assert!(parse_action(&format!("sdo_write 1 0x2100 0 {}", "ab".repeat(1025))).is_err());
+        assert!(parse_action(&format!("sdo_write 1 0x2100 0 {}", "ab".repeat(1024))).is_ok());
+        let s = parse_script("2.5 sdo_read 2 0x1008 0\n").unwrap();
+        assert_eq!(s[0].at_s, 2.5);
     }
 }

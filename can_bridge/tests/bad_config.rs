@@ -39,8 +39,12 @@ const ROWS: &[(&str, &str)] = &[
     ("odrive.left_node_id", "64"),
     ("odrive.right_node_id", "0"),
     ("odrive.torque_ff_nm", "101"),
+    ("odrive.firmware", "\"0.4\""),
     ("cia402.left_node_id", "0"),
     ("cia402.right_node_id", "128"),
+    ("cia402.left_axis", "0"),
+    ("cia402.right_axis", "3"),
+    ("cia402.axis_offset", "0x4000"),
     ("cia402.counts_per_motor_rev", "0"),
     ("cia402.velocity_unit", "rad_per_s"),
     ("cia402.velocity_resolution", "0"),
@@ -55,6 +59,10 @@ const ROWS: &[(&str, &str)] = &[
     ("cia402.bridge_heartbeat_ms", "-1"),
     ("cia402.drive_consumer_heartbeat_ms", "50"),
     ("cia402.sdo_timeout_s", "0"),
+    ("odometry.left_travel_variance_m2_per_m", "0"),
+    ("odometry.right_travel_variance_m2_per_m", "1.5"),
+    ("odometry.left_speed_sigma_radps", "-0.1"),
+    ("odometry.right_speed_sigma_radps", "0"),
 ];
 
 fn tmp(name: &str, doc: &Value) -> PathBuf {

@@ -5,8 +5,9 @@
 mod common;
 
 use can_bridge::diagnostics::BridgeState;
+use can_bridge::protocol::odrive;
 use can_bridge::virtual_drive::FaultKind;
-use can_bridge::{ProtocolKind, Twist, Wheel};
+use can_bridge::{ProtocolKind, SendError, Twist, Wheel};
 use common::*;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 
@@ -235,6 +236,110 @@ fn the_odrive_startup_never_asks_for_closed_loop_with_a_nonzero_input() {
     assert!(sim.drive.stats().estops >= 6);
 }
 
+// ------------------------------------------------------------------ ODrive 0.6
+
+/// A blocked transmit queue for 0.8 s (ENOBUFS): the bridge sees the loss
+/// (`tx_blocked`) and the ODrive's own watchdog disarms the axes. When the
+/// bus is back, the bridge clears the error by its restart only if it reads
+/// it as the watchdog's in the drive's firmware numbering: 0x01000000 in
+/// 0.6. A bridge configured for 0.5 (watchdog 0x800) latches the same code.
+fn odrive_watchdog_after_a_blocked_bus(bridge_fw: odrive::Firmware) -> Sim {
+    let mut c = bridge_config(ProtocolKind::Odrive);
+    c.odrive.firmware = odrive::Firmware::V0_6;
+    let d = drive_config(&c);
+    c.odrive.firmware = bridge_fw;
+    let mut sim = Sim::new(c, d);
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    sim.bridge.bus().set_send_error(Some(SendError::QueueFull));
+    sim.stream(Twist::new(0.2, 0.0), 0.8);
+    assert!(sim.has_reason("tx_blocked"), "{:?}", sim.bridge.reasons());
+    let a = sim.drive.axis(Wheel::Left);
+    assert!(!a.running && a.error_code == 0x0100_0000, "{a:?}");
+    sim.bridge.bus().set_send_error(None);
+    sim.stream(Twist::new(0.2, 0.0), 1.5);
+    sim
+}
+
+#[test]
+fn odrive_0_6_watchdog_error_after_a_loss_is_cleared_by_the_restart() {
+    let sim = odrive_watchdog_after_a_blocked_bus(odrive::Firmware::V0_6);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    assert!(sim.drive.axis(Wheel::Left).running);
+}
+
+#[test]
+fn odrive_0_6_watchdog_code_read_as_0_5_is_latched() {
+    let sim = odrive_watchdog_after_a_blocked_bus(odrive::Firmware::V0_5);
+    assert_eq!(sim.bridge.state(), BridgeState::Stopped, "{:?}", sim.bridge.reasons());
+    assert!(
+        sim.bridge.reasons().iter().any(|r| matches!(
+            r,
+            can_bridge::diagnostics::StopReason::DriveFault {
+                error_code: 0x0100_0000,
+                ..
+            }
+        )),
+        "{:?}",
+        sim.bridge.reasons()
+    );
+}
+
+/// The whole 0.6 chain: the square corner's pose, the axis error latched and
+/// named in the report, e-stop with 0.6's ESTOP_REQUESTED and recovery.
+#[test]
+fn odrive_0_6_drives_latches_names_and_recovers() {
+    let mut c = bridge_config(ProtocolKind::Odrive);
+    c.odrive.firmware = odrive::Firmware::V0_6;
+    let d = drive_config(&c);
+    let mut sim = Sim::new(c, d);
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    assert!(sim.bridge.odometry().pose.x_m > 0.1, "{:?}", sim.bridge.odometry());
+    let t = sim.t;
+    sim.drive.inject(
+        FaultKind::AxisError {
+            code: 0x20,
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
+    sim.stream(Twist::new(0.2, 0.0), 0.3);
+    let events = sim.bridge.drain_events();
+    let latched = events.iter().find_map(|e| match &e.event {
+        BridgeEvent::DriveFaultLatched { wheel, error_code, .. } => Some((*wheel, *error_code)),
+        _ => None,
+    });
+    assert_eq!(latched, Some((Wheel::Right, 0x20)));
+    let reports: Vec<String> = events
+        .iter()
+        .filter_map(|e| match &e.event {
+            BridgeEvent::DriveReport { message, .. } => Some(message.clone()),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        reports.contains(&"node 5 axis error 0x00000020 (DRV_FAULT), firmware 0.6".to_string())
+            && reports.contains(&"node 5 procedure result 3 (DISARMED)".to_string()),
+        "{reports:?}"
+    );
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let t = sim.t;
+    sim.bridge.estop(t);
+    sim.run_s(0.2);
+    assert_eq!(sim.drive.axis(Wheel::Left).error_code, 0x0200_0000);
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    assert_wire_is_clean(&sim.tap.wire_log(), ProtocolKind::Odrive);
+}
+
 // ------------------------------------------------------------------ CiA 402
 
 use can_bridge::diagnostics::BridgeEvent;
@@ -288,7 +393,10 @@ fn cia402_startup_writes_the_configuration_and_enables_only_at_zero() {
     assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
     for w in Wheel::BOTH {
         let n = sim.drive.cia402_node(w).unwrap();
-        assert_eq!(n.machine.state, DriveState::OperationEnabled);
+        assert_eq!(
+            sim.drive.cia402_axis(w).unwrap().machine.state,
+            DriveState::OperationEnabled
+        );
         // Values by hand: 1000 rad/s² = 9549 rpm/s, 2000 → 19099; 127 << 16 | 300.
         let want = [
             (obj::MODES_OF_OPERATION, 3),
@@ -379,7 +487,7 @@ fn cia402_estop_quick_stops_the_drive_at_0x6085() {
     assert!(s < bound, "{s} s from {v0} rad/s, bound {bound}");
     assert!(sim.drive.stats().estops >= 2);
     assert_eq!(
-        sim.drive.cia402_node(Wheel::Left).unwrap().machine.state,
+        sim.drive.cia402_axis(Wheel::Left).unwrap().machine.state,
         DriveState::SwitchOnDisabled
     );
 }
@@ -519,4 +627,331 @@ fn cia402_without_sync_and_with_a_preconfigured_mapping() {
         .filter(|f| f.id == 0x601)
         .any(|f| (0x1400..=0x1BFF).contains(&u16::from_le_bytes([f.data[1], f.data[2]]))));
     assert!(sim.bridge.odometry().updates > 250, "TPDO2 every 10 ms");
+}
+
+// ------------------------------------------------------------------ one node, two axes
+
+/// Both wheels on node 1: the left on axis 1, the right on axis 2 (+0x800),
+/// as a Roboteq dual-channel controller carries them.
+fn two_axis_sim(faults: Vec<can_bridge::virtual_drive::FaultSpec>) -> Sim {
+    let mut c = bridge_config(ProtocolKind::Cia402);
+    c.cia402.right_node_id = 1;
+    c.cia402.right_axis = 2;
+    c.limits.wheel_accel_radps2 = 30.0;
+    c.limits.wheel_decel_radps2 = 30.0;
+    cia402_sim_with(c, faults)
+}
+
+#[test]
+fn two_axis_node_starts_both_axes_and_drives_the_square_corner() {
+    let mut sim = two_axis_sim(Vec::new());
+    sim.run_s(0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Idle, "{:?}", sim.bridge.reasons());
+    let node = sim.drive.cia402_node(Wheel::Left).unwrap();
+    assert_eq!(node.id, sim.drive.cia402_node(Wheel::Right).unwrap().id);
+    // Each axis's objects hold the start-up's values: 0x6060/0x6860 = 3, 0x6083/0x6883 = 9549 rpm/s;
+    // axis 2's RPDO2 maps 0x6840/0x68FF, its TPDO4 0x6864/0x686C.
+    for (index, want) in [
+        (0x6060, 3),
+        (0x6860, 3),
+        (0x6083, 9549),
+        (0x6883, 9549),
+        (0x6885, 19099),
+        (0x1401, 0x301),
+        (0x1803, 0x481),
+    ] {
+        let sub = if index < 0x6000 { 1 } else { 0 };
+        assert_eq!(node.object(ObjectAddr::new(index, sub)), Some(want), "0x{index:04X}");
+    }
+    assert_eq!(node.object(ObjectAddr::new(0x1601, 2)), Some(0x68FF_0020));
+    assert_eq!(node.object(ObjectAddr::new(0x1A03, 2)), Some(0x686C_0020));
+    for w in Wheel::BOTH {
+        assert_eq!(
+            sim.drive.cia402_axis(w).unwrap().machine.state,
+            DriveState::OperationEnabled
+        );
+    }
+    // One NMT start for the node.
+    let starts = sim
+        .tap
+        .wire_log()
+        .iter()
+        .filter(|f| f.id == 0 && f.data[0] == 1)
+        .count();
+    assert_eq!(starts, 1);
+    sim.stream(Twist::new(0.2, 0.0), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    sim.stream(Twist::new(0.0, FRAC_PI_4), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    sim.stream(Twist::new(0.2, 0.0), 2.0);
+    sim.stream(Twist::ZERO, 1.0);
+    let p = sim.bridge.odometry().pose;
+    assert!(
+        (p.x_m - 0.4).abs() < 2e-3 && (p.y_m - 0.4).abs() < 2e-3 && (p.theta_rad - FRAC_PI_2).abs() < 5e-3,
+        "{p:?}"
+    );
+    // The right wheel's targets travel on RPDO2 (0x301), the left's on RPDO1 (0x201).
+    let log = sim.tap.wire_log();
+    assert!(log
+        .iter()
+        .any(|f| f.id == 0x301 && co_pdo::decode_rpdo1(f).unwrap().target_velocity != 0));
+    assert!(!log.iter().any(|f| f.id == 0x202), "no second node");
+    assert_wire_is_clean(&log, ProtocolKind::Cia402);
+}
+
+/// A fault on axis 2 alone (0x2310 on the right wheel): both wheels stop,
+/// the fault is latched with the right wheel and its code, the report names
+/// node 1 axis 2; after reset only axis 2 gets the fault reset, both run again.
+#[test]
+fn two_axis_node_fault_on_axis_2_stops_both_names_it_and_recovers() {
+    let mut sim = two_axis_sim(Vec::new());
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 1.0);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+    reports(&mut sim);
+    let t = sim.t;
+    sim.drive.inject(
+        FaultKind::AxisError {
+            code: 0x2310,
+            wheel: Some(Wheel::Right),
+        },
+        None,
+        t,
+    );
+    sim.stream(Twist::new(0.2, 0.0), 0.1);
+    assert_eq!(sim.bridge.last_setpoint(), can_bridge::WheelSpeeds::ZERO);
+    assert!(
+        sim.bridge.reasons().iter().any(|r| matches!(
+            r,
+            can_bridge::diagnostics::StopReason::DriveFault {
+                wheel: Wheel::Right,
+                error_code: 0x2310,
+                ..
+            }
+        )),
+        "{:?}",
+        sim.bridge.reasons()
+    );
+    assert_eq!(
+        sim.drive.cia402_axis(Wheel::Left).unwrap().machine.state,
+        DriveState::OperationEnabled,
+        "axis 1 itself is healthy"
+    );
+    let r = reports(&mut sim);
+    assert!(
+        r.iter()
+            .any(|m| m == "node 1 axis 2 (right wheel) fault, error code 0x2310 (current)"),
+        "{r:?}"
+    );
+    // Both wheels at zero on the wire while latched.
+    let n = sim.tap.wire_log().len();
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    let after: Vec<CanFrame> = sim.tap.wire_log()[n..].to_vec();
+    assert!(after
+        .iter()
+        .filter(|f| f.id == 0x201 || f.id == 0x301)
+        .all(|f| co_pdo::decode_rpdo1(f).unwrap().target_velocity == 0));
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.stream(Twist::new(0.2, 0.0), 0.8);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let log = sim.tap.wire_log();
+    let resets: Vec<u32> = log[n..]
+        .iter()
+        .filter(|f| (f.id == 0x201 || f.id == 0x301) && co_pdo::decode_rpdo1(f).unwrap().controlword == 0x0080)
+        .map(|f| f.id)
+        .collect();
+    assert!(
+        !resets.is_empty() && resets.iter().all(|id| *id == 0x301),
+        "{resets:x?}"
+    );
+    assert_eq!(sim.drive.stats().closed_loop_with_nonzero_input, 0);
+}
+
+// ------------------------------------------------------------------ SDO at run time
+
+use can_bridge::protocol::cia402::sdo_jobs::{SdoJob, SdoRefusal};
+use can_bridge::virtual_drive::cia402::{DEVICE_NAME, NOTE};
+
+/// Runs until the request `id` ends (at most 2 s); its result.
+fn sdo_result(sim: &mut Sim, id: u64) -> can_bridge::protocol::cia402::sdo_jobs::SdoJobResult {
+    for _ in 0..2000 {
+        sim.step();
+        if let Some(r) = sim.bridge.take_sdo_results().into_iter().find(|r| r.id == id) {
+            return r;
+        }
+    }
+    panic!("SDO request {id} did not end");
+}
+
+/// While driving: the drive's 27-byte device name (0x1008) comes by
+/// segmented upload (4 segments) and the setpoints keep their period; a
+/// write to 0x6083 or to a manufacturer object is refused with 0x08000022
+/// and nothing goes on the wire. Stopped (e-stop): a 21-byte segmented write
+/// of 0x2100 and a 4-byte write of 0x6083 reach the drive; the drive's own
+/// refusal of a read-only object comes back decoded.
+#[test]
+fn sdo_at_run_time_reads_segmented_and_refuses_motion_writes_while_enabled() {
+    let mut sim = cia402_sim();
+    sim.run_s(0.5);
+    sim.stream(Twist::new(0.2, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running);
+    let t = sim.t;
+    let id = sim.bridge.sdo_request(SdoJob::read(2, 0x1008, 0), t).unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert!(r.ok, "{r:?}");
+    assert_eq!(r.data, DEVICE_NAME.as_bytes());
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "the loop kept running");
+    // 27 bytes = 4 segments: request + 4 segment requests on 0x602.
+    let reqs = sim.tap.wire_log().iter().filter(|f| f.id == 0x602).count();
+    assert!(reqs >= 5, "{reqs}");
+    // Motion-changing writes while enabled: refused, nothing sent.
+    let n_sdo = sim.tap.wire_log().iter().filter(|f| f.id == 0x601).count();
+    for job in [
+        SdoJob::write(1, 0x6083, 0, 1000u32.to_le_bytes().to_vec()),
+        SdoJob::write(1, 0x2100, 0, b"hello".to_vec()),
+        SdoJob::write(1, 0x1017, 0, 50u16.to_le_bytes().to_vec()),
+    ] {
+        let e = sim.bridge.sdo_request(job.clone(), sim.t).unwrap_err();
+        assert!(matches!(e, SdoRefusal::ChangesMotion { node: 1, .. }), "{job:?}: {e}");
+        assert_eq!(e.abort_code(), 0x0800_0022);
+    }
+    assert_eq!(sim.tap.wire_log().iter().filter(|f| f.id == 0x601).count(), n_sdo);
+    // Not a drive of ours, and nothing to write: refused too.
+    assert!(matches!(
+        sim.bridge.sdo_request(SdoJob::read(9, 0x1000, 0), sim.t),
+        Err(SdoRefusal::UnknownNode { node: 9, .. })
+    ));
+    assert_eq!(
+        sim.bridge.sdo_request(SdoJob::write(1, 0x1003, 0, vec![]), sim.t),
+        Err(SdoRefusal::Empty)
+    );
+    // Still braking in quick stop (the motor model settles in about 0.6 s): refused.
+    let t = sim.t;
+    sim.bridge.estop(t);
+    sim.run_s(0.1);
+    assert!(matches!(
+        sim.bridge
+            .sdo_request(SdoJob::write(1, 0x2100, 0, b"x".to_vec()), sim.t),
+        Err(SdoRefusal::ChangesMotion { .. })
+    ));
+    // Stopped (switch on disabled): the writes go through.
+    sim.run_s(1.0);
+    let note = b"commissioned 2026-11-2".to_vec();
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x2100, 0, note.clone()), sim.t)
+        .unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert!(r.ok && r.write, "{r:?}");
+    assert_eq!(
+        sim.drive.cia402_node(Wheel::Left).unwrap().long_object(NOTE),
+        Some(&note[..])
+    );
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x6083, 0, 5000u32.to_le_bytes().to_vec()), sim.t)
+        .unwrap();
+    assert!(sdo_result(&mut sim, id).ok);
+    assert_eq!(
+        sim.drive
+            .cia402_node(Wheel::Left)
+            .unwrap()
+            .object(obj::PROFILE_ACCELERATION),
+        Some(5000)
+    );
+    // The drive refuses: 0x1000 is read only.
+    let id = sim
+        .bridge
+        .sdo_request(SdoJob::write(1, 0x1000, 0, vec![0, 0, 0, 0]), sim.t)
+        .unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert_eq!(
+        (r.ok, r.abort_code, r.message.as_str()),
+        (
+            false,
+            0x0601_0002,
+            "aborted by node 1: 0x06010002 (attempt to write a read only object)"
+        )
+    );
+    // Each request is an event too.
+    let events = sim.bridge.drain_events();
+    let done = events
+        .iter()
+        .filter(|e| matches!(e.event, BridgeEvent::SdoDone { .. }))
+        .count();
+    let refused = events
+        .iter()
+        .filter(|e| matches!(e.event, BridgeEvent::SdoRefused { .. }))
+        .count();
+    assert_eq!((done, refused), (4, 6));
+}
+
+/// A node that stops answering: the request ends after sdo_timeout_s with
+/// 0x05040000 and the bridge's abort frame; the start-up waits for the
+/// channel and still completes after a reset.
+#[test]
+fn sdo_at_run_time_times_out_with_the_abort_and_shares_the_channel_with_the_startup() {
+    let c = bridge_config(ProtocolKind::Cia402);
+    let silence = can_bridge::virtual_drive::FaultSpec {
+        kind: FaultKind::SdoSilence,
+        start_s: 1.5,
+        duration_s: Some(0.5),
+    };
+    let mut sim = cia402_sim_with(c, vec![silence]);
+    sim.run_s(1.6);
+    let id = sim.bridge.sdo_request(SdoJob::read(1, 0x1008, 0), sim.t).unwrap();
+    let r = sdo_result(&mut sim, id);
+    assert_eq!(r.abort_code, 0x0504_0000, "{r:?}");
+    assert!(r.message.contains("within 200 ms"), "{}", r.message);
+    let abort = sim
+        .tap
+        .wire_log()
+        .into_iter()
+        .rev()
+        .find(|f| f.id == 0x601 && f.data[0] == 0x80)
+        .unwrap();
+    assert_eq!(abort.data, [0x80, 0x08, 0x10, 0x00, 0x00, 0x00, 0x04, 0x05]);
+    // A reset runs the start-up over SDO; requests made during it wait their turn.
+    sim.run_s(0.5);
+    let t = sim.t;
+    sim.bridge.reset(t);
+    sim.step();
+    let ids: Vec<u64> = (0..3)
+        .map(|_| sim.bridge.sdo_request(SdoJob::read(1, 0x1000, 0), sim.t).unwrap())
+        .collect();
+    for id in ids {
+        let r = sdo_result(&mut sim, id);
+        assert_eq!((r.ok, r.data.as_slice()), (true, &0x0002_0192u32.to_le_bytes()[..]));
+    }
+    sim.stream(Twist::new(0.1, 0.0), 0.5);
+    assert_eq!(sim.bridge.state(), BridgeState::Running, "{:?}", sim.bridge.reasons());
+    let r = reports(&mut sim);
+    assert!(!r.iter().any(|m| m.contains("start-up failed")), "{r:?}");
+    // Never two requests in flight on a node's channel: each request to 0x601
+    // is answered on 0x581 before the next (CiA 301).
+    let mut waiting = false;
+    for f in sim.tap.wire_log() {
+        if f.id == 0x601 && f.data[0] != 0x80 {
+            assert!(!waiting, "a second request in flight: {f:?}");
+            waiting = true;
+        } else if f.id == 0x581 || (f.id == 0x601 && f.data[0] == 0x80) {
+            waiting = false;
+        }
+    }
+}
+
+#[test]
+fn sdo_is_refused_on_protocols_without_it() {
+    for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive] {
+        let c = bridge_config(protocol);
+        let d = drive_config(&c);
+        let mut sim = Sim::new(c, d);
+        let e = sim.bridge.sdo_request(SdoJob::read(1, 0x1000, 0), sim.t).unwrap_err();
+        assert_eq!(e, SdoRefusal::NotCanopen(protocol.name()));
+        assert_eq!(
+            e.to_string(),
+            format!("SDO is CANopen's; the bridge speaks {}", protocol.name())
+        );
+    }
 }

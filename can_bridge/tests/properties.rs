@@ -175,16 +175,24 @@ proptest! {
         let f = CanFrame { id, extended: false, data, len };
         let mut g = generic::GenericProtocol::new(0x100);
         let mut o = odrive::OdriveProtocol::new(0, 1, 0.0);
+        let mut o6 = odrive::OdriveProtocol::new(0, 1, 0.0).with_firmware(odrive::Firmware::V0_6);
         let mut co = cia402::Cia402Protocol::new(can_bridge::config::default_config().cia402.settings());
-        for p in [&mut g as &mut dyn Protocol, &mut o, &mut co] {
+        for p in [&mut g as &mut dyn Protocol, &mut o, &mut o6, &mut co] {
             if let Ok(Some(DriveMessage::Feedback { motor_pos_rad, motor_vel_radps, .. })) = p.decode(&f) {
                 prop_assert!(motor_pos_rad.is_finite() && motor_vel_radps.is_finite());
             }
         }
         // The virtual drive swallows garbage too.
-        for protocol in [ProtocolKind::Generic, ProtocolKind::Odrive, ProtocolKind::Cia402] {
+        for (protocol, odrive_firmware) in [
+            (ProtocolKind::Generic, odrive::Firmware::V0_5),
+            (ProtocolKind::Odrive, odrive::Firmware::V0_5),
+            (ProtocolKind::Odrive, odrive::Firmware::V0_6),
+            (ProtocolKind::Cia402, odrive::Firmware::V0_5),
+        ] {
             let (left_node_id, right_node_id) = if protocol == ProtocolKind::Cia402 { (1, 2) } else { (0, 1) };
-            let cfg = can_bridge::virtual_drive::VirtualDriveConfig { protocol, left_node_id, right_node_id, ..Default::default() };
+            let cfg = can_bridge::virtual_drive::VirtualDriveConfig {
+                protocol, left_node_id, right_node_id, odrive_firmware, ..Default::default()
+            };
             let mut d = VirtualDrive::new(cfg, can_bridge::Timestamp::ZERO);
             d.handle_frame(&f, can_bridge::Timestamp::from_secs_f64(0.01));
             let mut out = Vec::new();
@@ -274,6 +282,84 @@ proptest! {
                 prop_assert!(w & 0x80 != 0 && last & 0x80 == 0, "0x{last:04X} -> 0x{w:04X}");
             }
             last = w;
+        }
+    }
+
+    /// The odometry covariance stays a covariance whatever the wheel
+    /// travels and the noise: finite, symmetric, positive semi-definite
+    /// (principal minors ≥ 0 up to rounding), the heading's variance never
+    /// shrinking; the twist covariance likewise.
+    #[test]
+    fn odometry_covariance_stays_symmetric_psd_and_finite(
+        steps in proptest::collection::vec((-0.05..0.05f64, -0.05..0.05f64), 1..300),
+        theta in -10.0..10.0f64,
+        k in (1e-9..1.0f64, 1e-9..1.0f64),
+        sigma in (1e-6..100.0f64, 1e-6..100.0f64),
+        track in 0.05..2.0f64,
+    ) {
+        use can_bridge::odometry::{PoseCovariance, TwistCovariance, WheelNoise};
+        let noise = WheelNoise {
+            left_travel_variance_m2_per_m: k.0,
+            right_travel_variance_m2_per_m: k.1,
+            left_speed_sigma_radps: sigma.0,
+            right_speed_sigma_radps: sigma.1,
+        };
+        let mut p = PoseCovariance::default();
+        let mut th = theta;
+        for (sl, sr) in steps {
+            let before = p.0[2][2];
+            p.step(th, sl, sr, track, &noise);
+            th += (sr - sl) / track;
+            let m = p.0;
+            prop_assert!(m.iter().flatten().all(|v| v.is_finite()));
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                prop_assert_eq!(m[a][b], m[b][a]);
+            }
+            let scale = m[0][0].max(m[1][1]).max(m[2][2]).max(1e-300);
+            let tol = 1e-9 * scale * scale;
+            prop_assert!(m[0][0] >= 0.0 && m[1][1] >= 0.0 && m[2][2] >= before);
+            prop_assert!(m[0][0] * m[1][1] - m[0][1] * m[0][1] >= -tol);
+            prop_assert!(m[0][0] * m[2][2] - m[0][2] * m[0][2] >= -tol);
+            prop_assert!(m[1][1] * m[2][2] - m[1][2] * m[1][2] >= -tol);
+        }
+        let t = TwistCovariance::of(&noise, 0.05, track).0;
+        prop_assert!(t[0][0] > 0.0 && t[1][1] > 0.0 && t[0][1] == t[1][0]);
+        prop_assert!(t[0][0] * t[1][1] - t[0][1] * t[0][1] >= -1e-12 * t[0][0] * t[1][1]);
+    }
+
+    /// A run-time SDO transfer fed arbitrary server frames never panics,
+    /// never holds more than its bound, and always either waits, or ends
+    /// (data, an abort, a timeout) after which it sends nothing more but the
+    /// one abort frame it may owe.
+    #[test]
+    fn sdo_transfer_survives_any_server(
+        frames in proptest::collection::vec(any::<[u8; 8]>(), 0..40),
+        write_len in 0usize..40,
+        read in any::<bool>(),
+    ) {
+        use can_bridge::protocol::cia402::sdo::ObjectAddr;
+        use can_bridge::protocol::cia402::sdo_transfer::{SdoTransfer, TransferEnd, TransferKind, MAX_TRANSFER_BYTES};
+        use std::time::Duration;
+        let kind = if read { TransferKind::Read } else { TransferKind::Write(vec![0xA5; write_len.max(1)]) };
+        let mut x = SdoTransfer::new(1, ObjectAddr::new(0x1008, 0), kind, Duration::from_millis(200));
+        let mut now = can_bridge::Timestamp::ZERO;
+        for d in frames {
+            if let Some(f) = x.poll(now) {
+                prop_assert!(f.is_valid() && f.id == 0x601);
+            }
+            let f = CanFrame { id: 0x581, extended: false, data: d, len: 8 };
+            if let Some(a) = x.on_response(&f) {
+                prop_assert_eq!(a.data[0], 0x80);
+            }
+            now = now + Duration::from_millis(5);
+            if !x.busy() {
+                let end = x.end().cloned();
+                if let Some(TransferEnd::Done(data)) = &end {
+                    prop_assert!(data.len() <= MAX_TRANSFER_BYTES);
+                }
+                prop_assert!(end.is_some());
+                prop_assert_eq!(x.poll(now), None);
+            }
         }
     }
 }

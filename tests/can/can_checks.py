@@ -68,6 +68,9 @@ def motor_speeds(v, w):
     return DIR_L * GEAR * wl, DIR_R * GEAR * wr
 
 
+ODRIVE_FIRMWARE = "0.5"
+
+
 def write_config(path, protocol):
     with open(path, "w") as f:
         f.write(f"""interface: vcan0
@@ -97,9 +100,13 @@ odrive:
   left_node_id: 3
   right_node_id: 5
   torque_ff_nm: 0.05
+  firmware: "{ODRIVE_FIRMWARE}"
 cia402:
   left_node_id: {CO_NODES[0]}
+  left_axis: 1
   right_node_id: {CO_NODES[1]}
+  right_axis: 1
+  axis_offset: 0x800
   counts_per_motor_rev: {CO_COUNTS}
   velocity_unit: rpm
   velocity_resolution: 1.0
@@ -114,6 +121,11 @@ cia402:
   bridge_heartbeat_ms: {CO_BRIDGE_HB_MS}
   drive_consumer_heartbeat_ms: {CO_CONSUMER_MS}
   sdo_timeout_s: 0.5
+odometry:
+  left_travel_variance_m2_per_m: 0.0004
+  right_travel_variance_m2_per_m: 0.0004
+  left_speed_sigma_radps: 0.2
+  right_speed_sigma_radps: 0.2
 """)
 
 

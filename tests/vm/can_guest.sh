@@ -67,6 +67,16 @@ else
 fi
 TIMES+=("can_checks.py $(( $(ms) - t0 ))")
 
+# ------------------------------------------------------------------ drive variants
+# ODrive 0.6, the two-axis CANopen node, SDO at run time (tests/can/drive_variant_checks.py).
+t0=$(ms)
+if python3 tests/can/drive_variant_checks.py --bin-dir "$BIN_DIR"; then
+  pass "drive variant checks"
+else
+  fail "drive variant checks"
+fi
+TIMES+=("drive_variant_checks.py $(( $(ms) - t0 ))")
+
 # ------------------------------------------------------------------ the bringup, no upstream command
 t0=$(ms)
 if ( source "$ROOT/target/ros/setup.bash" && /usr/bin/python3 tests/can/bringup_no_upstream.py ); then

@@ -36,10 +36,26 @@ run_case() {
   t1=$(date +%s)
   candump -t a -n 200000 vcan0 > "$dump" 2>&1 &
   local dump_pid=$!
-  setsid roslaunch --wait oldbf_ros sim_can.launch protocol:="$proto" > "$OUT/launch_$proto.log" 2>&1 &
+  # cia402: the bridge's ROS side while the robot drives (joint_states, covariance, tf, SDO services).
+  local extra=() checker=""
+  if [ "$proto" = cia402 ]; then
+    extra=(publish_tf:=true)
+    $ROSPY tests/can/ros_bridge_checks.py --config config/can_bridge.yaml --node-config config/can_bridge_node.yaml \
+      --sdo 1 > "$OUT/ros_bridge_checks.log" 2>&1 &
+    checker=$!
+  fi
+  setsid roslaunch --wait oldbf_ros sim_can.launch protocol:="$proto" "${extra[@]}" > "$OUT/launch_$proto.log" 2>&1 &
   local launch=$!
   local rc=0 summary
   summary=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 300) || rc=$?
+  if [ -n "$checker" ]; then
+    if wait "$checker"; then
+      echo "PASS: $proto: joint_states, odometry covariance, tf and the SDO services (tests/can/ros_bridge_checks.py)"
+    else
+      echo "FAIL: $proto: tests/can/ros_bridge_checks.py"; ok=false
+    fi
+    grep -E '^(PASS|FAIL)' "$OUT/ros_bridge_checks.log" | sed 's/^/  /' || tail -20 "$OUT/ros_bridge_checks.log"
+  fi
   kill -INT -- -"$launch" 2>/dev/null || true
   for _ in $(seq 100); do kill -0 "$launch" 2>/dev/null || break; sleep 0.1; done
   kill "$dump_pid" 2>/dev/null || true

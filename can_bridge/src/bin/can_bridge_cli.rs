@@ -5,6 +5,7 @@
 use anyhow::{bail, Context, Result};
 use can_bridge::bridge::{Bridge, ShutdownProgress, Spin};
 use can_bridge::config::{default_config, load_config_file, BridgeConfig, ConfigError, Validate};
+use can_bridge::protocol::cia402::sdo_jobs::{SdoJob, SdoJobResult};
 use can_bridge::script::{parse_action, parse_script, Action, ScriptError, ScriptStep};
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::time::{Clock, MonotonicClock, Timestamp};
@@ -26,13 +27,17 @@ use std::time::Duration;
 ///   reset          clear the e-stop and latched drive faults (then a fresh command is needed)
 ///   status         print a status line now
 ///   quit           shut down: zero setpoint, then disable the drive
+///   sdo_read N I S        CANopen (cia402): read object I, sub-index S of node N (0x hex or decimal)
+///   sdo_write N I S HEX   write the bytes HEX (e8030000 is 1000 as a u32); refused (0x08000022)
+///                         while the node's drive is enabled if the object could change motion
 ///
 /// A script line starts with its time in seconds from the start (`1.5 0.2 0.0`, `3 estop`), and
 /// `T V OMEGA every DT until T_END` repeats a command like a teleop stream.
 ///
 /// Output on stdout, one JSON object per line, each with "type": "command" (as received),
 /// "event" (state changes, rejections, faults, bus errors), "status" (periodic: state, stop
-/// reasons, setpoints in rad/s, odometry in m and rad, drive link, counters) and "final" (at exit).
+/// reasons, setpoints in rad/s, odometry in m and rad, drive link, counters), "sdo" (the end of an
+/// SDO request: ok, data_hex, text, abort_code, message) and "final" (at exit).
 /// Logs go to stderr (RUST_LOG=info|debug). Exit status: 0 after a clean shutdown, 2 for a bad
 /// configuration or script, 1 otherwise (e.g. the interface cannot be opened).
 #[derive(Parser, Debug)]
@@ -198,6 +203,20 @@ fn run(args: Args) -> Result<i32> {
         }
         Action::Status => emit("status", status_json(bridge, t, start)),
         Action::Quit => *quit = true,
+        Action::SdoRead { node, index, sub } => {
+            emit(
+                "command",
+                json!({"t_s": rel(t), "command": "sdo_read", "node": node, "index": index, "sub": sub}),
+            );
+            sdo(bridge, SdoJob::read(node, index, sub), t, start);
+        }
+        Action::SdoWrite { node, index, sub, data } => {
+            emit(
+                "command",
+                json!({"t_s": rel(t), "command": "sdo_write", "node": node, "index": index, "sub": sub, "data_hex": hex(&data)}),
+            );
+            sdo(bridge, SdoJob::write(node, index, sub, data), t, start);
+        }
     };
 
     while !quit && !stop.load(Ordering::Relaxed) {
@@ -210,7 +229,7 @@ fn run(args: Args) -> Result<i32> {
                 if now < at(s.at_s) {
                     break;
                 }
-                apply(&mut bridge, s.action, now, &mut quit);
+                apply(&mut bridge, s.action.clone(), now, &mut quit);
                 next_step += 1;
             }
         }
@@ -249,6 +268,9 @@ fn run(args: Args) -> Result<i32> {
             std::thread::sleep(d);
         }
         emit_events(&mut bridge, start);
+        for r in bridge.take_sdo_results() {
+            emit("sdo", sdo_json(&r, clock.now(), start));
+        }
         if let Some(p) = status_period {
             let now = clock.now();
             if now >= next_status {
@@ -280,6 +302,33 @@ fn shut_down(bridge: &mut Bridge<SocketCanBus>, clock: &MonotonicClock) -> usize
             ShutdownProgress::Pending { retry_at } => std::thread::sleep(retry_at - clock.now()),
         }
     }
+}
+
+fn hex(data: &[u8]) -> String {
+    data.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A request to the bridge; a refusal is printed at once as its "sdo" line.
+fn sdo(bridge: &mut Bridge<SocketCanBus>, job: SdoJob, t: Timestamp, start: Timestamp) {
+    let (node, index, sub, write) = (job.node, job.addr.index, job.addr.sub, job.is_write());
+    if let Err(e) = bridge.sdo_request(job, t) {
+        emit(
+            "sdo",
+            json!({"t_s": t.saturating_since(start).as_secs_f64(), "node": node, "index": index, "sub": sub,
+                   "write": write, "ok": false, "refused": true, "abort_code": e.abort_code(),
+                   "message": format!("refused by the bridge: {e}")}),
+        );
+    }
+}
+
+/// An SDO result: the bytes as hex, and as text when they are printable.
+fn sdo_json(r: &SdoJobResult, now: Timestamp, start: Timestamp) -> Value {
+    let text = std::str::from_utf8(&r.data)
+        .ok()
+        .filter(|s| !s.is_empty() && s.chars().all(|c| !c.is_control()));
+    json!({"t_s": now.saturating_since(start).as_secs_f64(), "id": r.id, "node": r.node, "index": r.index,
+           "sub": r.sub, "write": r.write, "ok": r.ok, "refused": false, "data_hex": hex(&r.data), "text": text,
+           "abort_code": r.abort_code, "message": r.message})
 }
 
 /// Prints the bridge's events, times relative to the CLI's start.

@@ -17,7 +17,8 @@ use std::time::Duration;
 /// A simulated motor drive (two axes: left and right wheel) on a SocketCAN interface.
 ///
 /// It speaks the generic protocol (can_bridge/dbc/oldbf_generic.dbc), ODrive CANSimple or CANopen
-/// CiA 402 (one node per axis: SDO, NMT, heartbeats, PDOs, SYNC, profile velocity), follows
+/// CiA 402 (a node per axis, or one node with both axes: SDO, NMT, heartbeats, PDOs, SYNC, profile
+/// velocity), follows
 /// velocity setpoints with a first-order lag under its own speed and acceleration limits, sends
 /// heartbeats/status and encoder feedback, and goes idle with a watchdog error when no valid
 /// setpoint arrives for --watchdog-s. Speeds and positions are at the motor shaft.
@@ -33,9 +34,14 @@ use std::time::Duration;
 ///   sdo_silence@T[+D]                       cia402: SDO requests get no answer
 ///   reboot@T[:left|right|both]              cia402: the node(s) reboot (boot-up, defaults)
 ///
+/// odrive: the firmware generation (0.5 or 0.6: heartbeat layout, error numbering, Get_Error) comes
+/// from --config (`odrive.firmware`).
+///
 /// cia402: the axis error CODE is the 0x603F error code (e.g. 0x2310, overcurrent); the watchdog is
 /// an RPDO timeout (0x8250); --heartbeat-rate-hz and --feedback-rate-hz are the defaults of 0x1017
-/// and of the TPDO event timers; node ids, units and the bridge's node id come from --config.
+/// and of the TPDO event timers; node ids, axes (cia402.left_axis, right_axis, axis_offset: one
+/// node with both axes when the node ids are equal), units and the bridge's node id come from
+/// --config.
 ///
 /// With --status-rate-hz > 0 the axes' true state is printed on stdout as JSON lines (motor rad,
 /// rad/s); a final line is printed at exit. Logs go to stderr (RUST_LOG=info|debug).
@@ -160,6 +166,10 @@ fn run(args: Args) -> Result<i32> {
         };
         cfg.cia402_scaling = b.cia402.scaling();
         cfg.cia402_bridge_node_id = u8::try_from(b.cia402.bridge_node_id).unwrap_or(0);
+        cfg.odrive_firmware = b.odrive.firmware;
+        cfg.left_axis = u8::try_from(b.cia402.left_axis).unwrap_or(0);
+        cfg.right_axis = u8::try_from(b.cia402.right_axis).unwrap_or(0);
+        cfg.cia402_axis_offset = u16::try_from(b.cia402.axis_offset).unwrap_or(0);
     }
     if let Some(p) = args.protocol {
         cfg.protocol = p;

@@ -85,6 +85,20 @@ impl<B: CanBus> Bridge<B> {
                 }
                 return;
             }
+            DriveMessage::Heartbeat { axes } => {
+                for w in crate::kinematics::Wheel::BOTH {
+                    if let Some(a) = axes[w.index()] {
+                        let state = DriveState {
+                            error_code: a.error_code,
+                            running: a.running,
+                            estopped: a.estopped,
+                            raw_state: a.raw_state,
+                        };
+                        self.drive.on_status(crate::protocol::Wheels::One(w), state, true, now);
+                    }
+                }
+                return;
+            }
             DriveMessage::Handled { .. } => return,
         };
         let state = DriveState {

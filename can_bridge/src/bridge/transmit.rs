@@ -11,6 +11,9 @@ use crate::protocol::{ProtocolReport, SetpointMode};
 use crate::time::Timestamp;
 use crate::tx_queue::{PushReport, TxKind};
 
+/// Finished SDO requests kept until taken.
+const MAX_SDO_RESULTS: usize = 64;
+
 impl<B: CanBus> Bridge<B> {
     /// Queues the protocol's start-up sequence; the drive restarts from
     /// standstill, so does the ramp.
@@ -35,6 +38,27 @@ impl<B: CanBus> Bridge<B> {
         self.protocol.drain_reports(&mut reports);
         for ProtocolReport { wheel, message } in reports {
             self.events.push(now, BridgeEvent::DriveReport { wheel, message });
+        }
+        let mut done = Vec::new();
+        self.protocol.drain_sdo_results(&mut done);
+        for r in done {
+            self.events.push(
+                now,
+                BridgeEvent::SdoDone {
+                    id: r.id,
+                    node: r.node,
+                    index: r.index,
+                    sub: r.sub,
+                    write: r.write,
+                    ok: r.ok,
+                    abort_code: r.abort_code,
+                    message: r.message.clone(),
+                },
+            );
+            // Bounded: results nobody takes cannot grow memory.
+            if self.sdo_results.len() < MAX_SDO_RESULTS {
+                self.sdo_results.push(r);
+            }
         }
     }
 

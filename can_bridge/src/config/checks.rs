@@ -124,5 +124,6 @@ impl Validate for BridgeConfig {
             Interval::closed(-100.0, 100.0).unit("Nm"),
         );
         check_cia402(self, c);
+        self.odometry.check(c);
     }
 }

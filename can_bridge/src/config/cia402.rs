@@ -3,6 +3,7 @@
 //! and `limits:` keys, and each names the key to change).
 
 use super::BridgeConfig;
+use crate::protocol::cia402::axis::{AxisLayout, MAX_AXES};
 use crate::protocol::cia402::pdo::PdoPlan;
 use crate::protocol::cia402::units::{Scaling, VelocityUnit};
 use crate::protocol::cia402::{Cia402Settings, PdoMapping};
@@ -16,8 +17,15 @@ use serde::{Deserialize, Serialize};
 pub struct Cia402Config {
     /// The left wheel's drive (CANopen node id).
     pub left_node_id: u32,
-    /// The right wheel's drive (CANopen node id).
+    /// The left wheel's axis on its node: 1 (the standard objects) or 2 (at `axis_offset`).
+    pub left_axis: u32,
+    /// The right wheel's drive (CANopen node id); the left one's when one
+    /// node carries both axes.
     pub right_node_id: u32,
+    /// The right wheel's axis on its node.
+    pub right_axis: u32,
+    /// Index offset of axis 2's objects from axis 1's (CiA 402, Roboteq: 0x800).
+    pub axis_offset: u32,
     /// Encoder counts per motor revolution (0x6064).
     pub counts_per_motor_rev: u32,
     /// Unit of 0x60FF / 0x606C.
@@ -64,8 +72,13 @@ impl Cia402Config {
         let sc = self.scaling();
         let u16_of = |v: u32| u16::try_from(v).unwrap_or(u16::MAX);
         let u8_of = |v: u32| u8::try_from(v).unwrap_or(u8::MAX);
+        let offset = u16_of(self.axis_offset);
         Cia402Settings {
             nodes: [u8_of(self.left_node_id), u8_of(self.right_node_id)],
+            axes: [
+                AxisLayout::new(u8_of(self.left_axis), offset),
+                AxisLayout::new(u8_of(self.right_axis), offset),
+            ],
             scaling: sc,
             profile_accel: sc.accel_to_drive(self.profile_accel_radps2).unwrap_or(1),
             profile_decel: sc.accel_to_drive(self.profile_decel_radps2).unwrap_or(1),
@@ -91,11 +104,21 @@ pub(super) fn check_cia402(cfg: &BridgeConfig, c: &mut Checker) {
     let f = |v: u32| f64::from(v);
     c.range("cia402.left_node_id", p.left_node_id, NODE_ID);
     c.range("cia402.right_node_id", p.right_node_id, NODE_ID);
+    let axes = Interval::closed(1.0, f64::from(MAX_AXES));
+    c.range("cia402.left_axis", p.left_axis, axes);
+    c.range("cia402.right_axis", p.right_axis, axes);
     c.rule(
-        p.left_node_id != p.right_node_id,
+        (p.left_node_id, p.left_axis) != (p.right_node_id, p.right_axis),
         "cia402.right_node_id",
         p.right_node_id,
-        "different from cia402.left_node_id",
+        "different from cia402.left_node_id, or the same node with another cia402.right_axis",
+    );
+    // Axis 2's objects stay in the device profile area (0x60FF + offset ≤ 0x9FFF)
+    // and clear of axis 1's (0x6000–0x60FF used here).
+    c.range(
+        "cia402.axis_offset",
+        p.axis_offset,
+        Interval::closed(f64::from(0x100u32), f64::from(0x3F00u32)),
     );
     c.range(
         "cia402.counts_per_motor_rev",

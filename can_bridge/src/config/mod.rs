@@ -7,18 +7,21 @@
 //! binaries run from any directory.
 //!
 //! One concept per file: the sections and loading here, the value rules in
-//! `checks.rs`, the `cia402:` section (settings and rules) in `cia402.rs`.
+//! `checks.rs`, the `cia402:` section (settings and rules) in `cia402.rs`,
+//! the `odometry:` noise model in `odometry.rs`.
 
 mod checks;
 mod cia402;
+mod odometry;
 
 pub use cia402::Cia402Config;
+pub use odometry::OdometryConfig;
 pub use oldbf::config::{ConfigError, ParamError, Validate};
 
 use crate::kinematics::DiffDrive;
 use crate::protocol::cia402::Cia402Protocol;
 use crate::protocol::generic::GenericProtocol;
-use crate::protocol::odrive::OdriveProtocol;
+use crate::protocol::odrive::{Firmware, OdriveProtocol};
 use crate::protocol::{Protocol, ProtocolKind};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -49,6 +52,8 @@ pub struct BridgeConfig {
     pub odrive: OdriveConfig,
     /// CANopen CiA 402 node ids, units and timings.
     pub cia402: Cia402Config,
+    /// The wheels' measurement noise (odometry covariance).
+    pub odometry: OdometryConfig,
 }
 
 /// Rates and timeouts.
@@ -119,6 +124,8 @@ pub struct OdriveConfig {
     pub right_node_id: u32,
     /// Torque feed-forward sent while moving (Nm).
     pub torque_ff_nm: f64,
+    /// The drives' firmware generation: message layouts and error numbering.
+    pub firmware: Firmware,
 }
 
 impl BridgeConfig {
@@ -143,11 +150,14 @@ impl BridgeConfig {
     pub fn make_protocol(&self) -> Box<dyn Protocol> {
         match self.protocol {
             ProtocolKind::Generic => Box::new(GenericProtocol::new(self.generic.base_id)),
-            ProtocolKind::Odrive => Box::new(OdriveProtocol::new(
-                self.odrive.left_node_id,
-                self.odrive.right_node_id,
-                self.odrive.torque_ff_nm,
-            )),
+            ProtocolKind::Odrive => Box::new(
+                OdriveProtocol::new(
+                    self.odrive.left_node_id,
+                    self.odrive.right_node_id,
+                    self.odrive.torque_ff_nm,
+                )
+                .with_firmware(self.odrive.firmware),
+            ),
             ProtocolKind::Cia402 => Box::new(Cia402Protocol::new(self.cia402.settings())),
         }
     }

@@ -41,7 +41,7 @@ fn shipped_file_is_valid_and_documented() {
             "no range: {line}"
         );
     }
-    assert_eq!(leaves, 38, "every key of BridgeConfig is in the shipped file");
+    assert_eq!(leaves, 46, "every key of BridgeConfig is in the shipped file");
 }
 
 #[test]
@@ -66,6 +66,24 @@ fn wrong_type_and_bad_enum_are_named() {
         e.to_string().contains("generic") && e.to_string().contains("odrive"),
         "{e}"
     );
+}
+
+#[test]
+fn odrive_firmware_is_0_5_or_0_6_quoted_or_not() {
+    assert_eq!(default_config().odrive.firmware, Firmware::V0_5);
+    for (text, want) in [
+        ("\"0.6\"", Firmware::V0_6),
+        ("0.6", Firmware::V0_6),
+        ("'0.5'", Firmware::V0_5),
+    ] {
+        let c = load_config_str(&with("odrive.firmware", text), "f.yaml").unwrap();
+        assert_eq!(c.odrive.firmware, want, "{text}");
+    }
+    for bad in ["\"0.7\"", "0.60001", "6", "\"v0.6\""] {
+        let e = load_config_str(&with("odrive.firmware", bad), "f.yaml").unwrap_err();
+        assert_eq!(e.keys(), ["odrive.firmware"], "{bad}: {e}");
+        assert!(e.to_string().contains("\"0.5\" or \"0.6\""), "{bad}: {e}");
+    }
 }
 
 #[test]
@@ -118,6 +136,19 @@ fn cia402_cross_key_rules() {
         assert!(e.to_string().contains(rule), "{key} = {value}: {e}");
     };
     case("cia402.right_node_id", "1", "different from cia402.left_node_id");
+    // One node, two axes (a dual-channel controller): allowed, with 0x800 as the offset.
+    let two_axis = with("cia402.right_node_id", "1").replace("  right_axis: 1", "  right_axis: 2");
+    let c = load_config_str(&cia(two_axis.clone()), "f").unwrap();
+    let s = c.cia402.settings();
+    assert_eq!(s.nodes, [1, 1]);
+    assert_eq!((s.axes[0].axis, s.axes[1].axis, s.axes[1].offset), (1, 2, 0x800));
+    assert_eq!(s.node_ids(), [1]);
+    // …but not the same axis twice, on either side.
+    let same = two_axis.replace("  left_axis: 1", "  left_axis: 2");
+    let e = load_config_str(&cia(same), "f").unwrap_err();
+    assert_eq!(e.keys(), ["cia402.right_node_id"], "{e}");
+    case("cia402.left_axis", "3", "[1, 2]");
+    case("cia402.axis_offset", "0x80", "[256, 16128]");
     case("cia402.bridge_node_id", "2", "different from both drives' node ids");
     // heartbeat_timeout_s 0.5: at most 250 ms.
     case(
@@ -186,6 +217,25 @@ fn the_epos_example_is_valid() {
     assert_eq!(s.scaling.velocity_to_drive(motor), 3476);
     assert_eq!(s.profile_accel, 19099);
     assert_eq!(s.nodes, [1, 2]);
+}
+
+/// The Roboteq example: one node, the right wheel on channel 2 (+0x800);
+/// by hand: 12 rad/s at the wheel × 16 = 192 rad/s = 1833.5 → 1833 RPM at
+/// the motor; 2000 rad/s² = 19099 RPM/s on both channels (0x6883 too).
+#[test]
+fn the_roboteq_dual_channel_example_is_valid() {
+    let text = include_str!("../../../config/can_bridge_cia402_roboteq.yaml");
+    let c = load_config_str(text, "config/can_bridge_cia402_roboteq.yaml").unwrap();
+    let s = c.cia402.settings();
+    assert_eq!((s.nodes, s.node_ids()), ([1, 1], vec![1]));
+    assert_eq!((s.axes[0].axis, s.axes[1].axis, s.axes[1].offset), (1, 2, 0x800));
+    let motor = c.limits.max_wheel_speed_radps * c.kinematics.gear_ratio;
+    assert_eq!(s.scaling.velocity_to_drive(motor), 1833);
+    let steps = crate::protocol::cia402::startup_steps(&s, 1);
+    assert!(steps.contains(&crate::protocol::cia402::Step::Write(
+        crate::protocol::cia402::sdo::ObjectAddr::new(0x6883, 0),
+        crate::protocol::cia402::sdo::SdoValue::u32(19099)
+    )));
 }
 
 #[test]

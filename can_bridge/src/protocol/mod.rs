@@ -14,6 +14,7 @@ pub mod odrive;
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::{MotorSpeeds, Wheel};
 use crate::time::Timestamp;
+use cia402::sdo_jobs::{SdoJob, SdoJobId, SdoJobResult, SdoRefusal};
 use serde::{Deserialize, Serialize};
 
 /// Which protocol a configuration selects.
@@ -150,6 +151,19 @@ impl Wheels {
     }
 }
 
+/// One wheel's drive state in a status that covers several wheels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisStatus {
+    /// Drive error bits; 0 = none.
+    pub error_code: u32,
+    /// The axis follows velocity setpoints.
+    pub running: bool,
+    /// The axis itself is in e-stop (CiA 402 quick stop active).
+    pub estopped: bool,
+    /// The raw state value, for reports.
+    pub raw_state: u8,
+}
+
 /// A decoded message from the drive, protocol-neutral.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DriveMessage {
@@ -175,6 +189,10 @@ pub enum DriveMessage {
         estopped: bool,
         raw_state: u8,
     },
+    /// A heartbeat of a node that drives several wheels (a CiA 402 node
+    /// with two axes): a sign of life for each wheel present, with its own
+    /// state (by wheel index: left, right).
+    Heartbeat { axes: [Option<AxisStatus>; 2] },
     /// A frame the protocol consumed itself (an SDO response, an EMCY):
     /// traffic from the drive, nothing for the bridge's state.
     Handled { wheel: Wheel },
@@ -238,6 +256,17 @@ pub trait Protocol: Send {
 
     /// Moves the pending reports to `out`.
     fn drain_reports(&mut self, _out: &mut Vec<ProtocolReport>) {}
+
+    /// Starts an SDO read or write at run time (CANopen only,
+    /// [`cia402::sdo_jobs`]): its id, or why it is refused (nothing sent).
+    /// The transfer runs in [`poll`](Self::poll); its end comes out of
+    /// [`drain_sdo_results`](Self::drain_sdo_results).
+    fn sdo_request(&mut self, _job: SdoJob) -> Result<SdoJobId, SdoRefusal> {
+        Err(SdoRefusal::not_canopen(self.kind()))
+    }
+
+    /// Moves the finished SDO requests to `out`.
+    fn drain_sdo_results(&mut self, _out: &mut Vec<SdoJobResult>) {}
 
     /// Decodes a received frame: `Ok(None)` if the id is not one of ours.
     fn decode(&mut self, frame: &CanFrame) -> Result<Option<DriveMessage>, DecodeError>;

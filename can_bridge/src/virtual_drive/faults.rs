@@ -238,19 +238,17 @@ impl VirtualDrive {
                     match self.cfg.protocol {
                         ProtocolKind::Generic => self.generic_set_error(code),
                         ProtocolKind::Cia402 => {
-                            for n in &mut self.co {
-                                if wheel.is_none_or(|x| x == n.wheel) {
-                                    n.fault(u16::try_from(code).unwrap_or(0x1000));
+                            for w in Wheel::BOTH {
+                                if wheel.is_none_or(|x| x == w) {
+                                    let (n, k) = self.co_of[w.index()];
+                                    self.co[n].fault(k, u16::try_from(code).unwrap_or(0x1000));
                                 }
                             }
                         }
                         ProtocolKind::Odrive => {
                             for w in Wheel::BOTH {
                                 if wheel.is_none_or(|x| x == w) {
-                                    let a = &mut self.axes[w.index()];
-                                    a.error |= code;
-                                    a.running = false;
-                                    a.input = 0.0;
+                                    self.axes[w.index()].disarm(code);
                                 }
                             }
                         }
@@ -259,8 +257,9 @@ impl VirtualDrive {
                 FaultKind::Reboot { wheel } => {
                     self.applied[i] = true;
                     log::warn!("rebooting {wheel:?}");
+                    // A reboot is the node's: every axis on it restarts.
                     for n in &mut self.co {
-                        if wheel.is_none_or(|x| x == n.wheel) {
+                        if n.axes.iter().any(|a| wheel.is_none_or(|x| x == a.wheel)) {
                             n.boot(now);
                         }
                     }

@@ -15,12 +15,17 @@
 //!   and the watchdog is not fed). Enable=1 enables (from disabled, without
 //!   error); Estop=1 latches e-stop; Enable=0, Estop=0 disables and clears a
 //!   latched e-stop or error.
-//! * odrive: one node per wheel. Clear_Errors, Set_Controller_Mode,
-//!   Set_Input_Vel (feeds the watchdog), Set_Axis_State (closed loop only
-//!   without error and in velocity mode), Estop (error ESTOP_REQUESTED,
-//!   idle). A closed-loop request while the input velocity is non-zero is
-//!   counted as a start-up order violation.
-//! * cia402: one CANopen node per wheel ([`cia402`]): SDO server, NMT,
+//! * odrive: one node per wheel, firmware 0.5 or 0.6 (heartbeat layout and
+//!   error numbering of [`crate::protocol::odrive::firmware`]). Clear_Errors,
+//!   Set_Controller_Mode, Set_Input_Vel (feeds the watchdog), Set_Axis_State
+//!   (closed loop only without error and in velocity mode), Estop (error
+//!   ESTOP_REQUESTED, idle). An error that ends closed loop sets 0.6's
+//!   procedure result DISARMED; Clear_Errors clears both. 0.6 sends
+//!   Get_Error (active errors 0, disarm reason = the error) with each
+//!   heartbeat. A closed-loop request while the input velocity is non-zero
+//!   is counted as a start-up order violation.
+//! * cia402: a CANopen node per wheel, or one node with both wheels' axes
+//!   (axis 2 at the configured offset) ([`cia402`]): SDO server, NMT,
 //!   heartbeat producer and consumer, PDOs from the mapped dictionary,
 //!   SYNC, the CiA 402 state machine and profile velocity ramps. The
 //!   watchdog is an RPDO timeout (error 0x8250); faults add `sdo_silence`
@@ -46,6 +51,7 @@ pub use settings::VirtualDriveConfig;
 
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::Wheel;
+use crate::protocol::cia402::axis::AxisLayout;
 use crate::protocol::generic::{self, GenericIds};
 use crate::protocol::odrive;
 use crate::protocol::ProtocolKind;
@@ -101,6 +107,8 @@ struct Axis {
     feedback_counter: u8,
     control_mode: u32,
     input_mode: u32,
+    /// ODrive 0.6 procedure result (Heartbeat byte 5).
+    procedure_result: u8,
 }
 
 /// The simulated drive.
@@ -119,32 +127,44 @@ pub struct VirtualDrive {
     applied: Vec<bool>,
     exited: bool,
     stats: DriveStats,
-    /// CiA 402 nodes (left, right); empty for the other protocols.
+    /// CiA 402 nodes (one per distinct node id); empty for the other protocols.
     co: Vec<cia402::CoNode>,
+    /// CiA 402: each wheel's (node index in `co`, axis index in the node).
+    co_of: [(usize, usize); 2],
 }
 
 impl VirtualDrive {
     /// A drive powered up at `now`, idle, without error.
     pub fn new(cfg: VirtualDriveConfig, now: Timestamp) -> Self {
         let n = cfg.faults.len();
-        let co = if cfg.protocol == ProtocolKind::Cia402 {
+        let mut co: Vec<cia402::CoNode> = Vec::new();
+        let mut co_of = [(0, 0), (0, 0)];
+        if cfg.protocol == ProtocolKind::Cia402 {
             let hb_ms = (1000.0 / cfg.heartbeat_rate_hz).round().clamp(1.0, 65535.0) as u16;
             let ev_ms = (1000.0 / cfg.feedback_rate_hz).round().clamp(1.0, 65535.0) as u16;
-            Wheel::BOTH
-                .iter()
-                .map(|w| {
-                    let id = match w {
-                        Wheel::Left => cfg.left_node_id,
-                        Wheel::Right => cfg.right_node_id,
-                    };
-                    cia402::CoNode::new(id.clamp(1, 127) as u8, *w, hb_ms, ev_ms, now)
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
+            let ids = [cfg.left_node_id, cfg.right_node_id].map(|id| id.clamp(1, 127) as u8);
+            let layouts = [cfg.left_axis, cfg.right_axis].map(|a| AxisLayout::new(a, cfg.cia402_axis_offset));
+            for w in Wheel::BOTH {
+                let id = ids[w.index()];
+                if co.iter().any(|n| n.id == id) {
+                    continue;
+                }
+                let axes: Vec<(Wheel, AxisLayout)> = Wheel::BOTH
+                    .into_iter()
+                    .filter(|x| ids[x.index()] == id)
+                    .map(|x| (x, layouts[x.index()]))
+                    .collect();
+                co.push(cia402::CoNode::new(id, &axes, hb_ms, ev_ms, now));
+            }
+            for w in Wheel::BOTH {
+                let n = co.iter().position(|n| n.id == ids[w.index()]).unwrap_or(0);
+                let k = co[n].axes.iter().position(|a| a.wheel == w).unwrap_or(0);
+                co_of[w.index()] = (n, k);
+            }
+        }
         Self {
             co,
+            co_of,
             cfg,
             axes: [Axis::default(); 2],
             start: now,
@@ -213,7 +233,9 @@ impl VirtualDrive {
                 for n in &self.co {
                     let id = u32::from(n.id);
                     v.push(RxFilter::standard(crate::protocol::cia402::sdo::COB_RX_BASE + id));
-                    v.push(RxFilter::standard(crate::protocol::cia402::pdo::COB_RPDO1_BASE + id));
+                    for a in &n.axes {
+                        v.push(RxFilter::standard(a.layout.rpdo_cob(n.id)));
+                    }
                 }
                 v
             }
@@ -222,7 +244,13 @@ impl VirtualDrive {
 
     /// The CiA 402 node of a wheel (protocol cia402 only).
     pub fn cia402_node(&self, w: Wheel) -> Option<&cia402::CoNode> {
-        self.co.get(w.index())
+        self.co.get(self.co_of[w.index()].0)
+    }
+
+    /// The CiA 402 axis of a wheel (protocol cia402 only).
+    pub fn cia402_axis(&self, w: Wheel) -> Option<&cia402::CoAxis> {
+        let (n, k) = self.co_of[w.index()];
+        self.co.get(n).and_then(|n| n.axes.get(k))
     }
 
     /// Snapshot of one axis.
@@ -258,22 +286,23 @@ impl VirtualDrive {
         match self.cfg.protocol {
             ProtocolKind::Generic => self.generic_state == generic::STATE_ENABLED,
             ProtocolKind::Odrive => self.axes[w.index()].running,
-            ProtocolKind::Cia402 => {
-                self.co[w.index()].machine.state == crate::protocol::cia402::state_machine::DriveState::OperationEnabled
-            }
+            ProtocolKind::Cia402 => self.cia402_axis(w).is_some_and(|a| {
+                a.machine.state == crate::protocol::cia402::state_machine::DriveState::OperationEnabled
+            }),
         }
     }
 
     fn error(&self, w: Wheel) -> u32 {
         match self.cfg.protocol {
             ProtocolKind::Cia402 => {
-                let n = &self.co[w.index()];
+                let (n, k) = self.co_of[w.index()];
+                let node = &self.co[n];
                 if matches!(
-                    n.machine.state,
+                    node.axes[k].machine.state,
                     crate::protocol::cia402::state_machine::DriveState::Fault
                         | crate::protocol::cia402::state_machine::DriveState::FaultReactionActive
                 ) {
-                    u32::from(n.error_code())
+                    u32::from(node.error_code(k))
                 } else {
                     0
                 }
@@ -284,7 +313,7 @@ impl VirtualDrive {
 
     fn target(&self, w: Wheel) -> f64 {
         if self.cfg.protocol == ProtocolKind::Cia402 {
-            return self.co[w.index()].demand_radps;
+            return self.cia402_axis(w).map_or(0.0, |a| a.demand_radps);
         }
         if self.running(w) {
             self.axes[w.index()]
@@ -324,11 +353,13 @@ impl VirtualDrive {
             for w in Wheel::BOTH {
                 if self.cfg.protocol == ProtocolKind::Cia402 {
                     // The profile generator: the demand ramps to the target.
-                    let n = &mut self.co[w.index()];
-                    let (target, rate) = n.profile(&self.cfg.cia402_scaling);
+                    let (n, k) = self.co_of[w.index()];
+                    let node = &mut self.co[n];
+                    let (target, rate) = node.profile(k, &self.cfg.cia402_scaling);
                     let step = rate * hs;
-                    let d = (target - n.demand_radps).clamp(-step, step);
-                    n.demand_radps = (n.demand_radps + d).clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps);
+                    let a = &mut node.axes[k];
+                    let d = (target - a.demand_radps).clamp(-step, step);
+                    a.demand_radps = (a.demand_radps + d).clamp(-self.cfg.max_speed_radps, self.cfg.max_speed_radps);
                 }
                 let target = self.target(w);
                 let a = &mut self.axes[w.index()];
@@ -368,9 +399,7 @@ impl VirtualDrive {
                     if a.running && a.last_setpoint.is_none_or(|t| now - t > wd) {
                         log::warn!("{} axis watchdog expired, idle", w.name());
                         self.stats.watchdog_trips += 1;
-                        a.running = false;
-                        a.input = 0.0;
-                        a.error |= odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED;
+                        a.disarm(self.cfg.odrive_firmware.watchdog_error());
                     }
                 }
             }
@@ -395,17 +424,22 @@ impl VirtualDrive {
             let mute_fb = silent || self.fault_active(t_s, |k| *k == FaultKind::FeedbackSilence).is_some();
             let wd = crate::time::saturating_duration(self.cfg.watchdog_s);
             let scaling = self.cfg.cia402_scaling;
-            for w in Wheel::BOTH {
-                let (pos, vel) = (self.axes[w.index()].pos, self.axes[w.index()].vel);
+            for n in 0..self.co.len() {
+                let motion: Vec<(f64, f64)> = self.co[n]
+                    .axes
+                    .iter()
+                    .map(|a| (self.axes[a.wheel.index()].pos, self.axes[a.wheel.index()].vel))
+                    .collect();
                 let before = out.len();
-                if let Some(why) = self.co[w.index()].step(now, &scaling, pos, vel, wd, mute_hb, mute_fb, out) {
-                    log::warn!("{} node: {why} expired, fault", w.name());
+                if let Some(why) = self.co[n].step(now, &scaling, &motion, wd, mute_hb, mute_fb, out) {
+                    log::warn!("node {}: {why} expired, fault", self.co[n].id);
                     self.stats.watchdog_trips += 1;
                 }
                 for f in &out[before..] {
                     match f.id & !0x7F {
                         0x700 => self.stats.heartbeats_sent += 1,
-                        0x280 => self.stats.feedback_sent += 1,
+                        // TPDO2 (axis 1) and TPDO4 (axis 2): position and velocity.
+                        0x280 | 0x480 => self.stats.feedback_sent += 1,
                         _ => {}
                     }
                 }
@@ -469,12 +503,26 @@ impl VirtualDrive {
             ProtocolKind::Odrive => {
                 for w in Wheel::BOTH {
                     let a = &self.axes[w.index()];
+                    let node = self.node(w);
                     let state = if a.running {
                         odrive::AXIS_STATE_CLOSED_LOOP
                     } else {
                         odrive::AXIS_STATE_IDLE
-                    };
-                    out.push(odrive::heartbeat(self.node(w), a.error, state as u8));
+                    } as u8;
+                    match self.cfg.odrive_firmware {
+                        odrive::Firmware::V0_5 => out.push(odrive::heartbeat(node, a.error, state)),
+                        odrive::Firmware::V0_6 => {
+                            // Velocity control runs no trajectory: it is always "done".
+                            let h = odrive::Heartbeat {
+                                axis_error: a.error,
+                                axis_state: state,
+                                procedure_result: Some(a.procedure_result),
+                                trajectory_done: Some(true),
+                            };
+                            out.push(odrive::heartbeat_0_6(node, &h));
+                            out.push(odrive::get_error(node, 0, a.error));
+                        }
+                    }
                     self.stats.heartbeats_sent += 1;
                 }
             }
@@ -514,6 +562,18 @@ impl VirtualDrive {
             t = t.min(*due);
         }
         t
+    }
+}
+
+impl Axis {
+    /// ODrive: an error ends closed loop (0.6 records the disarm).
+    fn disarm(&mut self, error: u32) {
+        if self.running {
+            self.procedure_result = odrive::firmware::procedure_result::DISARMED;
+        }
+        self.running = false;
+        self.input = 0.0;
+        self.error |= error;
     }
 }
 

@@ -1,5 +1,6 @@
 //! ODrive CANSimple's drive side: one axis per node, closed loop only
-//! without error and in velocity mode, Estop latched as ESTOP_REQUESTED.
+//! without error and in velocity mode, Estop latched as ESTOP_REQUESTED
+//! (in the configured firmware's numbering).
 
 use super::VirtualDrive;
 use crate::bus::CanFrame;
@@ -29,9 +30,7 @@ impl VirtualDrive {
                 if !vel_turns_per_s.is_finite() {
                     // A NaN on the wire is a bridge bug: fault, never follow it.
                     self.stats.setpoints_rejected += 1;
-                    a.error |= 0x1;
-                    a.running = false;
-                    a.input = 0.0;
+                    a.disarm(0x1);
                     return;
                 }
                 self.stats.setpoints_accepted += 1;
@@ -59,17 +58,17 @@ impl VirtualDrive {
                 a.control_mode = control_mode;
                 a.input_mode = input_mode;
             }
-            Command::ClearErrors => {
+            Command::ClearErrors { .. } => {
                 self.stats.clear_requests += 1;
                 a.error = 0;
+                a.procedure_result = odrive::firmware::procedure_result::SUCCESS;
             }
             Command::Estop => {
-                if a.error & odrive::AXIS_ERROR_ESTOP_REQUESTED == 0 {
+                let code = self.cfg.odrive_firmware.estop_error();
+                if a.error & code == 0 {
                     self.stats.estops += 1;
                 }
-                a.error |= odrive::AXIS_ERROR_ESTOP_REQUESTED;
-                a.running = false;
-                a.input = 0.0;
+                a.disarm(code);
             }
         }
     }

@@ -4,7 +4,7 @@
 use super::FaultSpec;
 use crate::protocol::cia402::units::{Scaling, VelocityUnit};
 use crate::protocol::generic;
-use crate::protocol::odrive;
+use crate::protocol::odrive::{self, Firmware};
 use crate::protocol::ProtocolKind;
 use oldbf::config::{Checker, Interval, Validate};
 
@@ -37,6 +37,16 @@ pub struct VirtualDriveConfig {
     pub cia402_scaling: Scaling,
     /// CiA 402: the bridge's node id (whose heartbeat 0x1016:01 may watch).
     pub cia402_bridge_node_id: u8,
+    /// CiA 402: the left wheel's axis on its node (1, or 2 at `cia402_axis_offset`).
+    pub left_axis: u8,
+    /// CiA 402: the right wheel's axis on its node; with the left one's node
+    /// id, one node carries both axes.
+    pub right_axis: u8,
+    /// CiA 402: the index offset of axis 2's objects.
+    pub cia402_axis_offset: u16,
+    /// ODrive: the firmware generation it plays (heartbeat layout, error
+    /// numbering; 0.6 also sends Get_Error with every heartbeat).
+    pub odrive_firmware: Firmware,
 }
 
 impl Default for VirtualDriveConfig {
@@ -55,6 +65,10 @@ impl Default for VirtualDriveConfig {
             faults: Vec::new(),
             cia402_scaling: Scaling::new(VelocityUnit::Rpm, 1.0, 4096),
             cia402_bridge_node_id: 127,
+            left_axis: 1,
+            right_axis: 1,
+            cia402_axis_offset: crate::protocol::cia402::axis::STANDARD_AXIS_OFFSET,
+            odrive_firmware: Firmware::V0_5,
         }
     }
 }
@@ -92,12 +106,24 @@ impl Validate for VirtualDriveConfig {
         };
         c.range("left_node_id", self.left_node_id, node_ids);
         c.range("right_node_id", self.right_node_id, node_ids);
+        // One CANopen node may carry both wheels on two axes; an ODrive node is one axis.
+        let two_axes = self.protocol == ProtocolKind::Cia402 && self.left_axis != self.right_axis;
         c.rule(
-            self.left_node_id != self.right_node_id,
+            self.left_node_id != self.right_node_id || two_axes,
             "right_node_id",
             self.right_node_id,
-            "different from left_node_id",
+            "different from left_node_id (cia402: or on another axis)",
         );
+        if self.protocol == ProtocolKind::Cia402 {
+            let axes = Interval::closed(1.0, 2.0);
+            c.range("left_axis", self.left_axis, axes);
+            c.range("right_axis", self.right_axis, axes);
+            c.range(
+                "cia402_axis_offset",
+                self.cia402_axis_offset,
+                Interval::closed(256.0, 16128.0),
+            );
+        }
     }
 }
 

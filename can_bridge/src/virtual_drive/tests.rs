@@ -263,6 +263,78 @@ fn odrive_watchdog_sets_the_watchdog_error() {
     assert!(!a.running && a.error_code == odrive::AXIS_ERROR_WATCHDOG_TIMER_EXPIRED);
 }
 
+/// Firmware 0.6: the watchdog and Estop set 0.6's bits, the heartbeat
+/// carries the procedure result (DISARMED after the watchdog, SUCCESS
+/// after Clear_Errors) and the trajectory flag, and Get_Error follows each
+/// heartbeat with the disarm reason.
+#[test]
+fn odrive_0_6_heartbeat_get_error_and_codes() {
+    let mut d = VirtualDrive::new(
+        VirtualDriveConfig {
+            protocol: ProtocolKind::Odrive,
+            left_node_id: 3,
+            right_node_id: 5,
+            odrive_firmware: odrive::Firmware::V0_6,
+            heartbeat_rate_hz: 10.0,
+            ..Default::default()
+        },
+        t(0.0),
+    );
+    let fw = odrive::Firmware::V0_6;
+    odrive_start(&mut d, 3, 0.0);
+    let mut out = Vec::new();
+    d.step(t(0.6), &mut out);
+    let a = d.axis(Wheel::Left);
+    assert!(!a.running && a.error_code == 0x0100_0000, "{a:?}");
+    out.clear();
+    d.step(t(0.75), &mut out);
+    let hb = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(3, odrive::cmd::HEARTBEAT))
+        .unwrap();
+    assert_eq!(
+        odrive::decode_heartbeat(hb, fw).unwrap(),
+        odrive::Heartbeat {
+            axis_error: 0x0100_0000,
+            axis_state: 1,
+            procedure_result: Some(3),
+            trajectory_done: Some(true),
+        }
+    );
+    let ge = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(3, odrive::cmd::GET_ERROR))
+        .unwrap();
+    assert_eq!(odrive::decode_get_error(ge), Ok((0, 0x0100_0000)));
+    // The right axis was never armed: idle, no error, procedure result SUCCESS.
+    let hb5 = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(5, odrive::cmd::HEARTBEAT))
+        .unwrap();
+    assert_eq!(odrive::decode_heartbeat(hb5, fw).unwrap().procedure_result, Some(0));
+    // Clear_Errors (the start-up's first frame) clears the error and the result.
+    odrive_start(&mut d, 3, 0.8);
+    assert!(d.axis(Wheel::Left).running);
+    d.handle_frame(&odrive::estop(3), t(0.81));
+    assert_eq!(d.axis(Wheel::Left).error_code, 0x0200_0000);
+    out.clear();
+    d.step(t(0.9), &mut out);
+    let hb = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(3, odrive::cmd::HEARTBEAT))
+        .unwrap();
+    assert_eq!(odrive::decode_heartbeat(hb, fw).unwrap().procedure_result, Some(3));
+    odrive_start(&mut d, 3, 0.95);
+    out.clear();
+    d.step(t(1.0), &mut out);
+    let hb = out
+        .iter()
+        .find(|f| f.id == odrive::arb_id(3, odrive::cmd::HEARTBEAT))
+        .unwrap();
+    let h = odrive::decode_heartbeat(hb, fw).unwrap();
+    assert_eq!((h.axis_error, h.axis_state, h.procedure_result), (0, 8, Some(0)));
+}
+
 #[test]
 fn odrive_nan_setpoint_faults_the_axis() {
     let mut d = odrive_drive();
@@ -364,6 +436,27 @@ fn config_validation_names_the_option() {
         ..Default::default()
     };
     assert_eq!(keys(&c), ["left_node_id"], "CANopen ids start at 1");
+    // One CANopen node may carry both wheels on two axes; not on the same axis.
+    let two = VirtualDriveConfig {
+        protocol: ProtocolKind::Cia402,
+        left_node_id: 1,
+        right_node_id: 1,
+        right_axis: 2,
+        ..Default::default()
+    };
+    assert!(two.validate().is_ok());
+    let same = VirtualDriveConfig {
+        right_axis: 1,
+        ..two.clone()
+    };
+    assert_eq!(keys(&same), ["right_node_id"]);
+    let odrive = VirtualDriveConfig {
+        protocol: ProtocolKind::Odrive,
+        ..two.clone()
+    };
+    assert_eq!(keys(&odrive), ["right_node_id"], "an ODrive node is one axis");
+    let far = VirtualDriveConfig { right_axis: 3, ..two };
+    assert_eq!(keys(&far), ["right_axis"]);
     let c = VirtualDriveConfig {
         right_node_id: 64,
         ..Default::default()

@@ -38,6 +38,10 @@ pub fn drive_config(c: &BridgeConfig) -> VirtualDriveConfig {
         right_node_id,
         cia402_scaling: c.cia402.scaling(),
         cia402_bridge_node_id: c.cia402.bridge_node_id as u8,
+        odrive_firmware: c.odrive.firmware,
+        left_axis: c.cia402.left_axis as u8,
+        right_axis: c.cia402.right_axis as u8,
+        cia402_axis_offset: c.cia402.axis_offset as u16,
         ..Default::default()
     }
 }
@@ -154,17 +158,19 @@ pub fn assert_wire_is_clean(frames: &[CanFrame], protocol: ProtocolKind) -> Vec<
                 }
             }
             ProtocolKind::Cia402 => {
-                // The bridge's frames: NMT, SYNC, SDO requests, RPDO1, its heartbeat;
-                // the drives' (heartbeats, TPDOs, SDO responses, EMCY) are skipped.
+                // The bridge's frames: NMT, SYNC, SDO requests, RPDO1 (RPDO2 for
+                // an axis 2), its heartbeat; the drives' (heartbeats, TPDOs,
+                // SDO responses, EMCY) are skipped. Node 1 axis 1 is the left
+                // wheel; node 2, or node 1's axis 2, the right.
                 let base = f.id & !0x7F;
                 let drive_node = matches!(f.id & 0x7F, 1 | 2);
                 match base {
-                    0x700 | 0x180 | 0x280 | 0x580 | 0x080 if drive_node => {}
+                    0x700 | 0x180 | 0x280 | 0x380 | 0x480 | 0x580 | 0x080 if drive_node => {}
                     0x000 => assert!(f.id == 0 && f.len == 2, "{f:?}"),
                     0x080 => assert!(f.id == 0x080 && f.len == 0, "SYNC {f:?}"),
                     0x600 => assert!(f.len == 8 && cia402::sdo::decode_request(f).is_ok(), "{f:?}"),
                     0x700 => assert!(f.id == 0x77F && f.len == 1 && f.data[0] == 5, "{f:?}"),
-                    0x200 => {
+                    0x200 | 0x300 => {
                         let r = cia402::pdo::decode_rpdo1(f).unwrap();
                         let w = if f.id == 0x201 { 0 } else { 1 };
                         let scaling = can_bridge::config::default_config().cia402.scaling();

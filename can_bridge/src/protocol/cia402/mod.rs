@@ -1,17 +1,29 @@
-//! CANopen CiA 402 drives in profile velocity mode, one node per wheel
-//! (Maxon EPOS, Roboteq, Copley, Elmo, Nanotec, …): the bridge's side.
+//! CANopen CiA 402 drives in profile velocity mode (Maxon EPOS, Roboteq,
+//! Copley, Elmo, Nanotec, …): the bridge's side. Each wheel is one axis of
+//! a node; a node carries one axis (one drive per wheel) or both (a
+//! dual-channel controller such as Roboteq's), see [`axis`].
 //!
 //! One concept per file: [`nmt`] (NMT, heartbeat, SYNC, EMCY), [`sdo`]
 //! (expedited SDO frames, abort codes, the client), [`pdo`] (the PDO layout
-//! and its mapping), [`state_machine`] (controlword / statusword, the
-//! drive's transitions), [`units`] (drive units ↔ motor SI).
+//! and its mapping), [`axis`] (an axis's objects and PDOs on its node),
+//! [`state_machine`] (controlword / statusword, the drive's transitions),
+//! [`units`] (drive units ↔ motor SI).
+//!
+//! What is per node and what per axis: NMT, the heartbeat (consumed and
+//! configured), the SDO channel, the device type and the PDO configuration
+//! writes go to the node; modes of operation, the profile ramps, the PDOs,
+//! the CiA 402 state machine, faults and their resets belong to each axis.
+//! A node's heartbeat is the liveness of every wheel it drives; a fault on
+//! one axis stops the robot (both wheels) and is reported with its node and
+//! axis.
 //!
 //! Start-up, per node, when the bridge asks for it ([`Protocol::startup`]):
 //! NMT enter pre-operational; over SDO, one transfer at a time: read 0x1000
 //! and check the CiA 402 profile number, write 0x1017 (the drive's
 //! heartbeat), 0x1016:01 (its consumer time for the bridge's heartbeat),
-//! 0x6060 = 3, 0x6083/0x6084/0x6085, and (unless the mapping is
-//! preconfigured) map RPDO1/TPDO1/TPDO2; NMT start; then, from the
+//! per axis 0x6060 = 3 and 0x6083/0x6084/0x6085 (at the axis's offset), and
+//! (unless the mapping is preconfigured) map each axis's three PDOs; NMT
+//! start; then, per axis, from the
 //! statusword, controlword shutdown → switch on → enable operation, every
 //! word in an RPDO1 whose target velocity is zero (a drive found switched on
 //! or enabled is shut down first, and only an operation enabled that follows
@@ -35,21 +47,30 @@
 //! `startup_timeout_s`). EMCY messages are reported, not acted on: the
 //! statusword's fault bit is what stops the robot.
 
+pub mod axis;
 pub mod nmt;
 pub mod pdo;
 pub mod sdo;
+pub mod sdo_jobs;
+pub mod sdo_transfer;
 pub mod state_machine;
 pub mod units;
 
-use super::{DecodeError, DriveMessage, FrameBatch, Protocol, ProtocolKind, ProtocolReport, SetpointMode, Wheels};
+use super::{
+    AxisStatus, DecodeError, DriveMessage, FrameBatch, Protocol, ProtocolKind, ProtocolReport, SetpointMode, Wheels,
+};
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::{MotorSpeeds, Wheel};
 use crate::time::Timestamp;
+use axis::AxisLayout;
 use nmt::{NmtCommand, NmtState};
 use pdo::{obj, PdoPlan, Rpdo1};
 use sdo::{ObjectAddr, SdoError, SdoRequest, SdoResponse, SdoValue};
+use sdo_jobs::{changes_motion, SdoJob, SdoJobId, SdoJobResult, SdoRefusal, MAX_QUEUED_JOBS};
+use sdo_transfer::{SdoTransfer, TransferKind, MAX_TRANSFER_BYTES};
 use serde::{Deserialize, Serialize};
 use state_machine::{cw, enabling_controlword, DriveState};
+use std::collections::VecDeque;
 use std::time::Duration;
 use units::Scaling;
 
@@ -77,8 +98,11 @@ pub enum PdoMapping {
 /// Everything the protocol needs, in drive units (from the configuration).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cia402Settings {
-    /// Left, right node ids (1–127).
+    /// Left, right wheel's node id (1–127); the same node for both wheels
+    /// when one node carries both axes.
     pub nodes: [u8; 2],
+    /// Left, right wheel's axis on its node.
+    pub axes: [AxisLayout; 2],
     pub scaling: Scaling,
     /// 0x6083, 0x6084, 0x6085 (velocity units / s).
     pub profile_accel: u32,
@@ -95,6 +119,26 @@ pub struct Cia402Settings {
     /// Written to 0x1016:01 with the bridge's id (0: not written).
     pub drive_consumer_heartbeat_ms: u16,
     pub sdo_timeout: Duration,
+}
+
+impl Cia402Settings {
+    /// The distinct node ids, in wheel order (one when a node carries both wheels).
+    pub fn node_ids(&self) -> Vec<u8> {
+        let mut v = vec![self.nodes[0]];
+        if self.nodes[1] != self.nodes[0] {
+            v.push(self.nodes[1]);
+        }
+        v
+    }
+
+    /// The axes `node` carries, in wheel order.
+    pub fn axes_of(&self, node: u8) -> Vec<(Wheel, AxisLayout)> {
+        Wheel::BOTH
+            .into_iter()
+            .filter(|w| self.nodes[w.index()] == node)
+            .map(|w| (w, self.axes[w.index()]))
+            .collect()
+    }
 }
 
 /// One start-up step.
@@ -114,7 +158,8 @@ impl Step {
     }
 }
 
-/// The start-up SDO steps for `node`.
+/// The start-up SDO steps for `node`: the node's objects, then each of its
+/// axes' (at the axis's offset), then each axis's PDO mapping.
 pub fn startup_steps(s: &Cia402Settings, node: u8) -> Vec<Step> {
     let mut v = vec![Step::CheckDeviceType];
     if s.drive_heartbeat_ms > 0 {
@@ -127,33 +172,54 @@ pub fn startup_steps(s: &Cia402Settings, node: u8) -> Vec<Step> {
         let entry = (u32::from(s.bridge_node_id) << 16) | u32::from(s.drive_consumer_heartbeat_ms);
         v.push(Step::Write(obj::CONSUMER_HEARTBEAT_1, SdoValue::u32(entry)));
     }
-    v.push(Step::Write(
-        obj::MODES_OF_OPERATION,
-        SdoValue::i8(pdo::MODE_PROFILE_VELOCITY),
-    ));
-    v.push(Step::Write(obj::PROFILE_ACCELERATION, SdoValue::u32(s.profile_accel)));
-    v.push(Step::Write(obj::PROFILE_DECELERATION, SdoValue::u32(s.profile_decel)));
-    v.push(Step::Write(
-        obj::QUICK_STOP_DECELERATION,
-        SdoValue::u32(s.quick_stop_decel),
-    ));
+    let axes = s.axes_of(node);
+    for (_, a) in &axes {
+        v.push(Step::Write(
+            a.obj(obj::MODES_OF_OPERATION),
+            SdoValue::i8(pdo::MODE_PROFILE_VELOCITY),
+        ));
+        v.push(Step::Write(
+            a.obj(obj::PROFILE_ACCELERATION),
+            SdoValue::u32(s.profile_accel),
+        ));
+        v.push(Step::Write(
+            a.obj(obj::PROFILE_DECELERATION),
+            SdoValue::u32(s.profile_decel),
+        ));
+        v.push(Step::Write(
+            a.obj(obj::QUICK_STOP_DECELERATION),
+            SdoValue::u32(s.quick_stop_decel),
+        ));
+    }
     if s.mapping == PdoMapping::Configure {
-        v.extend(
-            pdo::mapping_writes(node, &s.plan)
-                .into_iter()
-                .map(|(a, val)| Step::Write(a, val)),
-        );
+        for (_, a) in &axes {
+            v.extend(
+                pdo::axis_mapping_writes(node, a, &s.plan)
+                    .into_iter()
+                    .map(|(a, val)| Step::Write(a, val)),
+            );
+        }
     }
     v
 }
 
+/// A node's part of the start-up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Phase {
+enum NodePhase {
     /// Not started (boot, after an e-stop, a reboot or a failed start-up).
     Idle,
     /// SDO step `next` is due (or in flight).
     Configuring { next: usize },
-    /// NMT start sent: the controlword sequence runs.
+    /// NMT start sent: its axes run their controlword sequences.
+    Started,
+}
+
+/// An axis's part of the start-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AxisPhase {
+    /// Its node is not started, or the axis stopped (no silent re-enable).
+    Idle,
+    /// The controlword sequence runs.
     Enabling,
     /// Reached operation enabled; leaving it ends here (no silent re-enable).
     Enabled,
@@ -162,93 +228,224 @@ enum Phase {
 #[derive(Clone, Debug)]
 struct Node {
     id: u8,
-    wheel: Wheel,
     sdo: sdo::SdoClient,
     steps: Vec<Step>,
-    phase: Phase,
+    phase: NodePhase,
     nmt: Option<NmtState>,
-    drive_state: Option<DriveState>,
-    /// 0x603F from TPDO1.
-    error_code: u16,
-    mode_display: i8,
     /// The SDO abort code that ended the start-up.
     startup_error: Option<u32>,
+    /// The wheels (axis indices) this node drives.
+    wheels: Vec<usize>,
+}
+
+#[derive(Clone, Debug)]
+struct Axis {
+    wheel: Wheel,
+    /// Index into the protocol's nodes.
+    node: usize,
+    layout: AxisLayout,
+    phase: AxisPhase,
+    drive_state: Option<DriveState>,
+    /// 0x603F (at the axis's offset) from its state TPDO.
+    error_code: u16,
+    mode_display: i8,
     last_word: u16,
     /// A fault seen in this start-up may be reset (none seen clear yet).
     may_reset_fault: bool,
-    /// Since NMT start, the drive reported ready to switch on: the enable
+    /// Since NMT start, the axis reported ready to switch on: the enable
     /// sequence runs from a state the bridge saw.
     seen_ready: bool,
     fault_resets_left: u8,
 }
 
-impl Node {
-    fn running(&self) -> bool {
-        self.phase == Phase::Enabled
-            && self.nmt == Some(NmtState::Operational)
+impl Axis {
+    fn reset_for_startup(&mut self) {
+        self.phase = AxisPhase::Idle;
+        self.drive_state = None;
+        self.error_code = 0;
+        self.mode_display = 0;
+        self.may_reset_fault = true;
+        self.fault_resets_left = MAX_FAULT_RESETS;
+    }
+
+    fn state_ok(&self, nmt: Option<NmtState>) -> bool {
+        nmt == Some(NmtState::Operational)
             && self.drive_state == Some(DriveState::OperationEnabled)
             && self.mode_display == pdo::MODE_PROFILE_VELOCITY
     }
-
-    fn error(&self) -> u32 {
-        if let Some(code) = self.startup_error {
-            return code;
-        }
-        match self.drive_state {
-            Some(DriveState::Fault | DriveState::FaultReactionActive) if self.error_code != 0 => {
-                u32::from(self.error_code)
-            }
-            Some(DriveState::Fault | DriveState::FaultReactionActive) => FAULT_WITHOUT_CODE,
-            _ => 0,
-        }
-    }
-
-    fn status(&self) -> (u32, bool, bool, u8) {
-        (
-            self.error(),
-            self.running(),
-            self.drive_state == Some(DriveState::QuickStopActive),
-            self.drive_state.map_or(RAW_STATE_UNKNOWN, DriveState::code),
-        )
-    }
 }
 
-/// The bridge's side of CiA 402 for two nodes.
+/// An SDO job on the bus.
+#[derive(Clone, Debug)]
+struct ActiveJob {
+    id: SdoJobId,
+    /// Index into the protocol's nodes.
+    node: usize,
+    job: SdoJob,
+    transfer: SdoTransfer,
+}
+
+/// Finished jobs kept until drained (bounded: nobody draining cannot grow memory).
+const MAX_JOB_RESULTS: usize = 64;
+
+/// The bridge's side of CiA 402 for the two wheels' axes on one or two nodes.
 #[derive(Clone, Debug)]
 pub struct Cia402Protocol {
     s: Cia402Settings,
-    nodes: [Node; 2],
+    nodes: Vec<Node>,
+    /// Left, right.
+    axes: [Axis; 2],
     next_heartbeat: Option<Timestamp>,
     reports: Vec<ProtocolReport>,
+    /// Run-time SDO jobs waiting for a free channel, in order.
+    jobs: VecDeque<(SdoJobId, SdoJob)>,
+    active: Option<ActiveJob>,
+    job_results: Vec<SdoJobResult>,
+    next_job: SdoJobId,
+    /// Frames decided while decoding (a client abort), sent at the next poll.
+    outbox: Vec<CanFrame>,
 }
 
 impl Cia402Protocol {
     /// Settings from a validated configuration.
     pub fn new(s: Cia402Settings) -> Self {
-        let node = |w: Wheel| {
-            let id = s.nodes[w.index()];
-            Node {
+        let nodes: Vec<Node> = s
+            .node_ids()
+            .into_iter()
+            .map(|id| Node {
                 id,
-                wheel: w,
                 sdo: sdo::SdoClient::new(id, s.sdo_timeout),
                 steps: startup_steps(&s, id),
-                phase: Phase::Idle,
+                phase: NodePhase::Idle,
                 nmt: None,
-                drive_state: None,
-                error_code: 0,
-                mode_display: 0,
                 startup_error: None,
-                last_word: cw::SHUTDOWN,
-                may_reset_fault: false,
-                seen_ready: false,
-                fault_resets_left: 0,
-            }
+                wheels: s.axes_of(id).iter().map(|(w, _)| w.index()).collect(),
+            })
+            .collect();
+        let axis = |w: Wheel| Axis {
+            wheel: w,
+            node: nodes.iter().position(|n| n.id == s.nodes[w.index()]).unwrap_or(0),
+            layout: s.axes[w.index()],
+            phase: AxisPhase::Idle,
+            drive_state: None,
+            error_code: 0,
+            mode_display: 0,
+            last_word: cw::SHUTDOWN,
+            may_reset_fault: false,
+            seen_ready: false,
+            fault_resets_left: 0,
         };
         Self {
-            nodes: [node(Wheel::Left), node(Wheel::Right)],
+            axes: [axis(Wheel::Left), axis(Wheel::Right)],
+            nodes,
             s,
             next_heartbeat: None,
             reports: Vec::new(),
+            jobs: VecDeque::new(),
+            active: None,
+            job_results: Vec::new(),
+            next_job: 1,
+            outbox: Vec::new(),
+        }
+    }
+
+    /// Whether node `i` is powered or being enabled: a write that could
+    /// change motion is refused then.
+    fn node_in_operation(&self, i: usize) -> bool {
+        self.nodes[i].wheels.iter().any(|&k| {
+            let a = &self.axes[k];
+            a.phase == AxisPhase::Enabling || a.drive_state.is_some_and(DriveState::powered)
+        })
+    }
+
+    /// The rule a job must pass, now: Err if it would be refused.
+    fn check_job(&self, job: &SdoJob) -> Result<usize, SdoRefusal> {
+        let Some(i) = self.node_of(u32::from(job.node)) else {
+            let known: Vec<String> = self.nodes.iter().map(|n| n.id.to_string()).collect();
+            return Err(SdoRefusal::UnknownNode {
+                node: job.node,
+                known: known.join(", "),
+            });
+        };
+        if let TransferKind::Write(d) = &job.kind {
+            if d.is_empty() {
+                return Err(SdoRefusal::Empty);
+            }
+            if d.len() > MAX_TRANSFER_BYTES {
+                return Err(SdoRefusal::TooLong { len: d.len() });
+            }
+            if changes_motion(job.addr.index) && self.node_in_operation(i) {
+                return Err(SdoRefusal::ChangesMotion {
+                    node: job.node,
+                    addr: job.addr,
+                });
+            }
+        }
+        Ok(i)
+    }
+
+    fn push_job_result(&mut self, r: SdoJobResult) {
+        if self.job_results.len() < MAX_JOB_RESULTS {
+            self.job_results.push(r);
+        }
+    }
+
+    /// The active job: its next frame, its end; or the next job started.
+    fn poll_jobs(&mut self, now: Timestamp, out: &mut FrameBatch) {
+        for f in self.outbox.drain(..) {
+            out.push(f);
+        }
+        if self.active.is_none() {
+            let Some((id, job)) = self.jobs.front().cloned() else {
+                return;
+            };
+            let Some(i) = self.node_of(u32::from(job.node)) else {
+                self.jobs.pop_front();
+                return;
+            };
+            if self.nodes[i].sdo.busy() {
+                return; // the start-up's transfer first
+            }
+            self.jobs.pop_front();
+            // The drive may have been enabled since the request: ask again.
+            if let Err(refusal) = self.check_job(&job) {
+                let r = SdoJobResult {
+                    id,
+                    node: job.node,
+                    index: job.addr.index,
+                    sub: job.addr.sub,
+                    write: job.is_write(),
+                    ok: false,
+                    data: Vec::new(),
+                    abort_code: refusal.abort_code(),
+                    message: format!("refused by the bridge: {refusal}"),
+                };
+                self.push_job_result(r);
+                return;
+            }
+            let transfer = SdoTransfer::new(job.node, job.addr, job.kind.clone(), self.s.sdo_timeout);
+            self.active = Some(ActiveJob {
+                id,
+                node: i,
+                job,
+                transfer,
+            });
+        }
+        if let Some(a) = &mut self.active {
+            if let Some(f) = a.transfer.poll(now) {
+                out.push(f);
+            }
+        }
+        self.finish_active_job();
+    }
+
+    fn finish_active_job(&mut self) {
+        let done = self.active.as_mut().and_then(|a| a.transfer.take_end());
+        if let Some(end) = done {
+            if let Some(a) = self.active.take() {
+                let r = SdoJobResult::of(a.id, &a.job, end, self.s.sdo_timeout.as_millis() as u64);
+                self.push_job_result(r);
+            }
         }
     }
 
@@ -269,43 +466,103 @@ impl Cia402Protocol {
         self.nodes.iter().position(|n| u32::from(n.id) == id)
     }
 
-    fn status_msg(&self, i: usize, live: bool) -> DriveMessage {
-        let n = &self.nodes[i];
-        let (error_code, running, estopped, raw_state) = n.status();
-        let wheels = Wheels::One(n.wheel);
-        if live {
-            DriveMessage::Status {
-                wheels,
-                error_code,
-                running,
-                estopped,
-                raw_state,
-            }
+    /// How an axis is named in reports: `node 3`, or `node 1 axis 2` when
+    /// its node carries both wheels.
+    fn axis_label(&self, k: usize) -> String {
+        let a = &self.axes[k];
+        let n = &self.nodes[a.node];
+        if n.wheels.len() > 1 {
+            format!("node {} axis {}", n.id, a.layout.axis)
         } else {
-            DriveMessage::State {
-                wheels,
-                error_code,
-                running,
-                estopped,
-                raw_state,
-            }
+            format!("node {}", n.id)
         }
     }
 
+    fn running(&self, k: usize) -> bool {
+        let a = &self.axes[k];
+        a.phase == AxisPhase::Enabled && a.state_ok(self.nodes[a.node].nmt)
+    }
+
+    fn error(&self, k: usize) -> u32 {
+        let a = &self.axes[k];
+        if let Some(code) = self.nodes[a.node].startup_error {
+            return code;
+        }
+        match a.drive_state {
+            Some(DriveState::Fault | DriveState::FaultReactionActive) if a.error_code != 0 => u32::from(a.error_code),
+            Some(DriveState::Fault | DriveState::FaultReactionActive) => FAULT_WITHOUT_CODE,
+            _ => 0,
+        }
+    }
+
+    fn axis_status(&self, k: usize) -> AxisStatus {
+        let a = &self.axes[k];
+        AxisStatus {
+            error_code: self.error(k),
+            running: self.running(k),
+            estopped: a.drive_state == Some(DriveState::QuickStopActive),
+            raw_state: a.drive_state.map_or(RAW_STATE_UNKNOWN, DriveState::code),
+        }
+    }
+
+    /// The state of axis `k` at once (TPDO), not a sign of life.
+    fn state_msg(&self, k: usize) -> DriveMessage {
+        let st = self.axis_status(k);
+        DriveMessage::State {
+            wheels: Wheels::One(self.axes[k].wheel),
+            error_code: st.error_code,
+            running: st.running,
+            estopped: st.estopped,
+            raw_state: st.raw_state,
+        }
+    }
+
+    /// A node's heartbeat: the status, with liveness, of every wheel it drives.
+    fn heartbeat_msg(&self, i: usize) -> DriveMessage {
+        let n = &self.nodes[i];
+        if let [k] = n.wheels[..] {
+            let st = self.axis_status(k);
+            return DriveMessage::Status {
+                wheels: Wheels::One(self.axes[k].wheel),
+                error_code: st.error_code,
+                running: st.running,
+                estopped: st.estopped,
+                raw_state: st.raw_state,
+            };
+        }
+        let mut axes = [None; 2];
+        for &k in &n.wheels {
+            axes[self.axes[k].wheel.index()] = Some(self.axis_status(k));
+        }
+        DriveMessage::Heartbeat { axes }
+    }
+
     fn fail_startup(&mut self, i: usize, e: SdoError) {
-        let (id, wheel) = (self.nodes[i].id, self.nodes[i].wheel);
-        self.nodes[i].phase = Phase::Idle;
+        let id = self.nodes[i].id;
+        self.nodes[i].phase = NodePhase::Idle;
+        for k in self.nodes[i].wheels.clone() {
+            self.axes[k].phase = AxisPhase::Idle;
+        }
         if !matches!(e, SdoError::Timeout { .. }) {
             self.nodes[i].startup_error = Some(e.code());
         }
-        self.report(Some(wheel), format!("node {id} start-up failed: {e}"));
+        let wheel = self.node_wheel(i);
+        self.report(wheel, format!("node {id} start-up failed: {e}"));
+    }
+
+    /// The wheel a node's own reports concern: its only one, or none (both).
+    fn node_wheel(&self, i: usize) -> Option<Wheel> {
+        match self.nodes[i].wheels[..] {
+            [k] => Some(self.axes[k].wheel),
+            _ => None,
+        }
     }
 
     fn on_sdo(&mut self, i: usize, r: &SdoResponse) {
         let Some(outcome) = self.nodes[i].sdo.on_response(r) else {
             return;
         };
-        let Phase::Configuring { next } = self.nodes[i].phase else {
+        let NodePhase::Configuring { next } = self.nodes[i].phase else {
             return;
         };
         match (outcome, self.nodes[i].steps.get(next).copied()) {
@@ -313,90 +570,102 @@ impl Cia402Protocol {
             (Ok(v), Some(Step::CheckDeviceType)) => {
                 let value = v.map_or(0, |v| v.as_u32());
                 if value & 0xFFFF == pdo::DEVICE_PROFILE_402 {
-                    self.nodes[i].phase = Phase::Configuring { next: next + 1 };
+                    self.nodes[i].phase = NodePhase::Configuring { next: next + 1 };
                 } else {
-                    let (id, wheel) = (self.nodes[i].id, self.nodes[i].wheel);
-                    self.nodes[i].phase = Phase::Idle;
+                    let id = self.nodes[i].id;
+                    self.nodes[i].phase = NodePhase::Idle;
                     self.nodes[i].startup_error = Some(sdo::abort::PARAMETER_INCOMPATIBLE);
+                    let wheel = self.node_wheel(i);
                     self.report(
-                        Some(wheel),
+                        wheel,
                         format!("node {id} start-up failed: device type 0x{value:08X} is not a CiA 402 drive"),
                     );
                 }
             }
-            (Ok(_), _) => self.nodes[i].phase = Phase::Configuring { next: next + 1 },
+            (Ok(_), _) => self.nodes[i].phase = NodePhase::Configuring { next: next + 1 },
         }
     }
 
-    fn on_tpdo1(&mut self, i: usize, t: &pdo::Tpdo1) -> Result<(), DecodeError> {
+    fn on_state_tpdo(&mut self, k: usize, t: &pdo::Tpdo1, cob: u32) -> Result<(), DecodeError> {
         let state = DriveState::from_statusword(t.statusword).ok_or(DecodeError::Invalid {
-            id: pdo::COB_TPDO1_BASE + u32::from(self.nodes[i].id),
+            id: cob,
             what: "statusword with an undefined state",
         })?;
-        let n = &mut self.nodes[i];
-        let before = n.drive_state;
-        n.drive_state = Some(state);
-        n.error_code = t.error_code;
-        n.mode_display = t.mode_display;
+        let nmt = self.nodes[self.axes[k].node].nmt;
+        let label = self.axis_label(k);
+        let a = &mut self.axes[k];
+        let before = a.drive_state;
+        a.drive_state = Some(state);
+        a.error_code = t.error_code;
+        a.mode_display = t.mode_display;
         let faulted = matches!(state, DriveState::Fault | DriveState::FaultReactionActive);
-        match n.phase {
-            Phase::Enabling if !faulted => {
+        match a.phase {
+            AxisPhase::Enabling if !faulted => {
                 // A fault that appears from here on is new: not reset.
-                n.may_reset_fault = false;
-                n.seen_ready |= state == DriveState::ReadyToSwitchOn;
+                a.may_reset_fault = false;
+                a.seen_ready |= state == DriveState::ReadyToSwitchOn;
                 // Enabled by our own enable operation, after switch on from ready.
-                if n.seen_ready && n.last_word == cw::ENABLE_OPERATION && n.running_candidate() {
-                    n.phase = Phase::Enabled;
+                if a.seen_ready && a.last_word == cw::ENABLE_OPERATION && a.state_ok(nmt) {
+                    a.phase = AxisPhase::Enabled;
                 }
             }
-            Phase::Enabled if state != DriveState::OperationEnabled => {
-                n.phase = Phase::Idle;
-                let (id, wheel, code) = (n.id, n.wheel, n.error_code);
+            AxisPhase::Enabled if state != DriveState::OperationEnabled => {
+                a.phase = AxisPhase::Idle;
+                let (wheel, code) = (a.wheel, a.error_code);
                 self.report(
                     Some(wheel),
-                    format!("node {id} left operation enabled: {state:?} (0x603F = 0x{code:04X})"),
+                    format!("{label} left operation enabled: {state:?} (0x603F = 0x{code:04X})"),
                 );
             }
             _ => {}
         }
         if faulted && before != Some(state) && state == DriveState::Fault {
-            let n = &self.nodes[i];
-            let (id, wheel, code) = (n.id, n.wheel, n.error_code);
+            let (wheel, code) = (self.axes[k].wheel, self.axes[k].error_code);
             self.report(
                 Some(wheel),
-                format!("node {id} fault, error code 0x{code:04X} ({})", nmt::emcy_class(code)),
+                format!(
+                    "{label} ({} wheel) fault, error code 0x{code:04X} ({})",
+                    wheel.name(),
+                    nmt::emcy_class(code)
+                ),
             );
         }
         Ok(())
     }
 
-    fn controlword(&mut self, i: usize, mode: SetpointMode) -> u16 {
-        let n = &mut self.nodes[i];
+    fn controlword(&mut self, k: usize, mode: SetpointMode) -> u16 {
+        let a = &mut self.axes[k];
         if mode == SetpointMode::Estop {
             // Every period while latched; the drive is started again after reset.
-            n.phase = Phase::Idle;
+            a.phase = AxisPhase::Idle;
             return cw::QUICK_STOP;
         }
-        match n.phase {
-            Phase::Enabling => {
-                let allow = n.may_reset_fault && n.fault_resets_left > 0;
-                let w = enabling_controlword(n.drive_state, n.last_word, n.seen_ready, allow);
+        match a.phase {
+            AxisPhase::Enabling => {
+                let allow = a.may_reset_fault && a.fault_resets_left > 0;
+                let w = enabling_controlword(a.drive_state, a.last_word, a.seen_ready, allow);
                 if w == cw::FAULT_RESET {
-                    n.fault_resets_left -= 1;
+                    a.fault_resets_left -= 1;
                 }
                 w
             }
-            Phase::Enabled if n.drive_state == Some(DriveState::OperationEnabled) => cw::ENABLE_OPERATION,
+            AxisPhase::Enabled if a.drive_state == Some(DriveState::OperationEnabled) => cw::ENABLE_OPERATION,
             _ => cw::SHUTDOWN,
         }
     }
-}
 
-impl Node {
-    fn running_candidate(&self) -> bool {
-        self.nmt == Some(NmtState::Operational)
-            && self.drive_state == Some(DriveState::OperationEnabled)
-            && self.mode_display == pdo::MODE_PROFILE_VELOCITY
+    /// The axis whose PDO has COB-ID `cob`: (axis index, is the state TPDO).
+    fn tpdo_axis(&self, cob: u32) -> Option<(usize, bool)> {
+        self.axes.iter().enumerate().find_map(|(k, a)| {
+            let id = self.nodes[a.node].id;
+            if a.layout.tpdo_state_cob(id) == cob {
+                Some((k, true))
+            } else if a.layout.tpdo_motion_cob(id) == cob {
+                Some((k, false))
+            } else {
+                None
+            }
+        })
     }
 }
 
@@ -406,33 +675,30 @@ impl Protocol for Cia402Protocol {
     }
 
     fn rx_filters(&self) -> Vec<RxFilter> {
-        self.nodes
-            .iter()
-            .flat_map(|n| {
-                let id = u32::from(n.id);
-                [
-                    nmt::COB_HEARTBEAT_BASE + id,
-                    pdo::COB_TPDO1_BASE + id,
-                    pdo::COB_TPDO2_BASE + id,
-                    sdo::COB_TX_BASE + id,
-                    nmt::COB_EMCY_BASE + id,
-                ]
-                .map(RxFilter::standard)
-            })
-            .collect()
+        let mut v = Vec::new();
+        for n in &self.nodes {
+            let id = u32::from(n.id);
+            v.push(RxFilter::standard(nmt::COB_HEARTBEAT_BASE + id));
+            for &k in &n.wheels {
+                let a = &self.axes[k];
+                v.push(RxFilter::standard(a.layout.tpdo_state_cob(n.id)));
+                v.push(RxFilter::standard(a.layout.tpdo_motion_cob(n.id)));
+            }
+            v.push(RxFilter::standard(sdo::COB_TX_BASE + id));
+            v.push(RxFilter::standard(nmt::COB_EMCY_BASE + id));
+        }
+        v
     }
 
     fn startup(&mut self, out: &mut FrameBatch) {
         for n in &mut self.nodes {
             n.sdo.cancel();
-            n.phase = Phase::Configuring { next: 0 };
-            n.drive_state = None;
-            n.error_code = 0;
-            n.mode_display = 0;
+            n.phase = NodePhase::Configuring { next: 0 };
             n.startup_error = None;
-            n.may_reset_fault = true;
-            n.fault_resets_left = MAX_FAULT_RESETS;
             out.push(nmt::nmt_command(NmtCommand::EnterPreOperational, n.id));
+        }
+        for a in &mut self.axes {
+            a.reset_for_startup();
         }
     }
 
@@ -450,14 +716,17 @@ impl Protocol for Cia402Protocol {
                 self.next_heartbeat = Some(next);
             }
         }
-        for i in 0..2 {
+        self.poll_jobs(now, out);
+        for i in 0..self.nodes.len() {
             if let Some((e, abort)) = self.nodes[i].sdo.poll_timeout(now) {
                 out.push(abort);
                 self.fail_startup(i, e);
             }
+            // One transfer at a time on a node's channel: a run-time job's first.
+            let job_here = self.active.as_ref().is_some_and(|a| a.node == i);
             let n = &mut self.nodes[i];
-            if let Phase::Configuring { next } = n.phase {
-                if n.sdo.busy() {
+            if let NodePhase::Configuring { next } = n.phase {
+                if n.sdo.busy() || job_here {
                     continue;
                 }
                 match n.steps.get(next) {
@@ -468,10 +737,14 @@ impl Protocol for Cia402Protocol {
                     None => {
                         // Configured: operational. The state seen before is stale.
                         out.push(nmt::nmt_command(NmtCommand::Start, n.id));
-                        n.phase = Phase::Enabling;
-                        n.drive_state = None;
+                        n.phase = NodePhase::Started;
                         n.nmt = None;
-                        n.seen_ready = false;
+                        for k in n.wheels.clone() {
+                            let a = &mut self.axes[k];
+                            a.phase = AxisPhase::Enabling;
+                            a.drive_state = None;
+                            a.seen_ready = false;
+                        }
                     }
                 }
             }
@@ -479,16 +752,18 @@ impl Protocol for Cia402Protocol {
     }
 
     fn setpoints(&mut self, motor: MotorSpeeds, mode: SetpointMode, out: &mut FrameBatch) {
-        for i in 0..2 {
-            let word = self.controlword(i, mode);
-            let n = &mut self.nodes[i];
+        for k in 0..2 {
+            let word = self.controlword(k, mode);
+            let running = self.running(k);
+            let a = &mut self.axes[k];
             let v = match mode {
-                SetpointMode::Run if word == cw::ENABLE_OPERATION && n.running() => motor.get(n.wheel),
+                SetpointMode::Run if word == cw::ENABLE_OPERATION && running => motor.get(a.wheel),
                 _ => 0.0,
             };
-            n.last_word = word;
-            out.push(pdo::encode_rpdo1(
-                n.id,
+            a.last_word = word;
+            let cob = a.layout.rpdo_cob(self.nodes[a.node].id);
+            out.push(pdo::encode_rpdo(
+                cob,
                 &Rpdo1 {
                     controlword: word,
                     target_velocity: self.s.scaling.velocity_to_drive(v),
@@ -502,10 +777,14 @@ impl Protocol for Cia402Protocol {
 
     fn shutdown(&mut self, out: &mut FrameBatch) {
         for n in &mut self.nodes {
-            n.phase = Phase::Idle;
-            n.last_word = cw::SHUTDOWN;
-            out.push(pdo::encode_rpdo1(
-                n.id,
+            n.phase = NodePhase::Idle;
+        }
+        for a in &mut self.axes {
+            a.phase = AxisPhase::Idle;
+            a.last_word = cw::SHUTDOWN;
+            let cob = a.layout.rpdo_cob(self.nodes[a.node].id);
+            out.push(pdo::encode_rpdo(
+                cob,
                 &Rpdo1 {
                     controlword: cw::SHUTDOWN,
                     target_velocity: 0,
@@ -525,7 +804,9 @@ impl Protocol for Cia402Protocol {
         let Some(i) = self.node_of(f.id & 0x7F) else {
             return Ok(None);
         };
-        let (id, wheel) = (self.nodes[i].id, self.nodes[i].wheel);
+        let id = self.nodes[i].id;
+        // Traffic a node sends for itself is counted against its first wheel.
+        let first_wheel = self.axes[self.nodes[i].wheels[0]].wheel;
         match base {
             nmt::COB_HEARTBEAT_BASE => {
                 let state = match nmt::decode_heartbeat(f) {
@@ -551,44 +832,32 @@ impl Protocol for Cia402Protocol {
                 if state == NmtState::BootUp {
                     let n = &mut self.nodes[i];
                     n.sdo.cancel();
-                    n.phase = Phase::Idle;
-                    n.drive_state = None;
-                    self.report(
-                        Some(wheel),
-                        format!("node {id} booted (boot-up message): restarting it"),
-                    );
+                    n.phase = NodePhase::Idle;
+                    for k in n.wheels.clone() {
+                        self.axes[k].phase = AxisPhase::Idle;
+                        self.axes[k].drive_state = None;
+                    }
+                    let wheel = self.node_wheel(i);
+                    self.report(wheel, format!("node {id} booted (boot-up message): restarting it"));
                 }
                 self.nodes[i].nmt = Some(state);
-                Ok(Some(self.status_msg(i, true)))
-            }
-            pdo::COB_TPDO1_BASE => {
-                let t = pdo::decode_tpdo1(f).map_err(|e| DecodeError::Length {
-                    id: f.id,
-                    len: e.got,
-                    expected: e.expected,
-                })?;
-                self.on_tpdo1(i, &t)?;
-                Ok(Some(self.status_msg(i, false)))
-            }
-            pdo::COB_TPDO2_BASE => {
-                let t = pdo::decode_tpdo2(f).map_err(|e| DecodeError::Length {
-                    id: f.id,
-                    len: e.got,
-                    expected: e.expected,
-                })?;
-                Ok(Some(DriveMessage::Feedback {
-                    wheel,
-                    motor_pos_rad: self.s.scaling.position_rad(t.position),
-                    motor_vel_radps: self.s.scaling.velocity_from_drive(t.velocity),
-                }))
+                Ok(Some(self.heartbeat_msg(i)))
             }
             sdo::COB_TX_BASE => {
+                if let Some(a) = self.active.as_mut().filter(|a| a.node == i) {
+                    // A run-time job's answer (segments included).
+                    if let Some(abort) = a.transfer.on_response(f) {
+                        self.outbox.push(abort);
+                    }
+                    self.finish_active_job();
+                    return Ok(Some(DriveMessage::Handled { wheel: first_wheel }));
+                }
                 let r = sdo::decode_response(f).map_err(|_| DecodeError::Invalid {
                     id: f.id,
                     what: "SDO response",
                 })?;
                 self.on_sdo(i, &r);
-                Ok(Some(DriveMessage::Handled { wheel }))
+                Ok(Some(DriveMessage::Handled { wheel: first_wheel }))
             }
             nmt::COB_EMCY_BASE => {
                 let e = nmt::decode_emcy(f).ok_or(DecodeError::Length {
@@ -596,8 +865,9 @@ impl Protocol for Cia402Protocol {
                     len: f.len,
                     expected: 8,
                 })?;
+                let wheel = self.node_wheel(i);
                 self.report(
-                    Some(wheel),
+                    wheel,
                     format!(
                         "node {id} EMCY 0x{:04X} ({}), error register 0x{:02X}",
                         e.error_code,
@@ -605,9 +875,30 @@ impl Protocol for Cia402Protocol {
                         e.error_register
                     ),
                 );
-                Ok(Some(DriveMessage::Handled { wheel }))
+                Ok(Some(DriveMessage::Handled { wheel: first_wheel }))
             }
-            _ => Ok(None),
+            _ => {
+                let Some((k, state)) = self.tpdo_axis(f.id) else {
+                    return Ok(None);
+                };
+                let len_err = |e: pdo::PdoLengthError| DecodeError::Length {
+                    id: f.id,
+                    len: e.got,
+                    expected: e.expected,
+                };
+                if state {
+                    let t = pdo::decode_tpdo1(f).map_err(len_err)?;
+                    self.on_state_tpdo(k, &t, f.id)?;
+                    Ok(Some(self.state_msg(k)))
+                } else {
+                    let t = pdo::decode_tpdo2(f).map_err(len_err)?;
+                    Ok(Some(DriveMessage::Feedback {
+                        wheel: self.axes[k].wheel,
+                        motor_pos_rad: self.s.scaling.position_rad(t.position),
+                        motor_vel_radps: self.s.scaling.velocity_from_drive(t.velocity),
+                    }))
+                }
+            }
         }
     }
 
@@ -622,8 +913,27 @@ impl Protocol for Cia402Protocol {
     fn drain_reports(&mut self, out: &mut Vec<ProtocolReport>) {
         out.append(&mut self.reports);
     }
+
+    fn sdo_request(&mut self, job: SdoJob) -> Result<SdoJobId, SdoRefusal> {
+        self.check_job(&job)?;
+        if self.jobs.len() + usize::from(self.active.is_some()) >= MAX_QUEUED_JOBS {
+            return Err(SdoRefusal::Busy);
+        }
+        let id = self.next_job;
+        self.next_job += 1;
+        self.jobs.push_back((id, job));
+        Ok(id)
+    }
+
+    fn drain_sdo_results(&mut self, out: &mut Vec<SdoJobResult>) {
+        out.append(&mut self.job_results);
+    }
 }
 
 #[cfg(test)]
 #[path = "tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "two_axis_tests.rs"]
+mod two_axis_tests;

@@ -12,6 +12,7 @@
 //! it, type 255 (event driven: RPDO applied on receipt, TPDOs on the event
 //! timer 0x1800/0x1801 sub 5, and TPDO1 also on a change of state).
 
+use super::axis::AxisLayout;
 use super::sdo::{ObjectAddr, SdoValue};
 use crate::bus::CanFrame;
 
@@ -136,9 +137,14 @@ fn need(f: &CanFrame, n: u8) -> Result<(), PdoLengthError> {
 }
 
 pub fn encode_rpdo1(node: u8, r: &Rpdo1) -> CanFrame {
+    encode_rpdo(COB_RPDO1_BASE + u32::from(node), r)
+}
+
+/// Controlword and target velocity on `cob_id` (RPDO1, or RPDO2 for axis 2).
+pub fn encode_rpdo(cob_id: u32, r: &Rpdo1) -> CanFrame {
     let c = r.controlword.to_le_bytes();
     let v = r.target_velocity.to_le_bytes();
-    pdo_frame(COB_RPDO1_BASE + u32::from(node), &[c[0], c[1], v[0], v[1], v[2], v[3]])
+    pdo_frame(cob_id, &[c[0], c[1], v[0], v[1], v[2], v[3]])
 }
 
 pub fn decode_rpdo1(f: &CanFrame) -> Result<Rpdo1, PdoLengthError> {
@@ -206,70 +212,49 @@ impl PdoPlan {
 }
 
 /// One PDO's configuration objects.
-struct PdoObjects {
-    /// Communication parameter sub 1.
-    cob_id_addr: ObjectAddr,
+pub(super) struct PdoObjects {
+    /// Communication parameter index (sub 1 COB-ID, 2 type, 5 event timer).
+    pub comm: u16,
+    /// Mapping parameter index (sub 0 count, 1.. entries).
+    pub map: u16,
     /// Its COB-ID.
-    cob: u32,
-    /// Mapping parameter sub 0.
-    map_count: ObjectAddr,
-    entries: &'static [(ObjectAddr, u8)],
-    /// Communication parameter sub 2.
-    kind: ObjectAddr,
-    /// Communication parameter sub 5 (TPDOs).
-    event_timer: Option<ObjectAddr>,
+    pub cob: u32,
+    pub entries: Vec<(ObjectAddr, u8)>,
+    /// A TPDO: without SYNC it runs on its event timer (sub 5).
+    pub event_timer: bool,
 }
 
 /// The SDO writes that map one PDO, in the order CiA 301 §7.4.8.5
 /// prescribes: disable (COB-ID bit 31), mapping count 0, entries, count,
 /// transmission type (and event timer), enable.
 fn map_pdo(out: &mut Vec<(ObjectAddr, SdoValue)>, p: &PdoObjects, plan: &PdoPlan) {
-    out.push((p.cob_id_addr, SdoValue::u32(p.cob | COB_ID_INVALID)));
-    out.push((p.map_count, SdoValue::u8(0)));
+    let cob_id_addr = ObjectAddr::new(p.comm, 1);
+    let map_count = ObjectAddr::new(p.map, 0);
+    out.push((cob_id_addr, SdoValue::u32(p.cob | COB_ID_INVALID)));
+    out.push((map_count, SdoValue::u8(0)));
     for (i, (addr, bits)) in p.entries.iter().enumerate() {
         out.push((
-            ObjectAddr::new(p.map_count.index, i as u8 + 1),
+            ObjectAddr::new(p.map, i as u8 + 1),
             SdoValue::u32(mapping_entry(*addr, *bits)),
         ));
     }
-    out.push((p.map_count, SdoValue::u8(p.entries.len() as u8)));
-    out.push((p.kind, SdoValue::u8(plan.transmission_type())));
-    if let (Some(et), false) = (p.event_timer, plan.sync) {
-        out.push((et, SdoValue::u16(plan.tpdo_event_ms)));
+    out.push((map_count, SdoValue::u8(p.entries.len() as u8)));
+    out.push((ObjectAddr::new(p.comm, 2), SdoValue::u8(plan.transmission_type())));
+    if p.event_timer && !plan.sync {
+        out.push((ObjectAddr::new(p.comm, 5), SdoValue::u16(plan.tpdo_event_ms)));
     }
-    out.push((p.cob_id_addr, SdoValue::u32(p.cob)));
+    out.push((cob_id_addr, SdoValue::u32(p.cob)));
 }
 
-/// The SDO writes that configure RPDO1, TPDO1 and TPDO2 of `node`.
+/// The SDO writes that configure RPDO1, TPDO1 and TPDO2 of `node` (axis 1).
 pub fn mapping_writes(node: u8, plan: &PdoPlan) -> Vec<(ObjectAddr, SdoValue)> {
-    let n = u32::from(node);
+    axis_mapping_writes(node, &AxisLayout::FIRST, plan)
+}
+
+/// The SDO writes that configure one axis's three PDOs ([`AxisLayout`]).
+pub fn axis_mapping_writes(node: u8, axis: &AxisLayout, plan: &PdoPlan) -> Vec<(ObjectAddr, SdoValue)> {
     let mut out = Vec::new();
-    for p in [
-        PdoObjects {
-            cob_id_addr: obj::RPDO1_COB_ID,
-            cob: COB_RPDO1_BASE + n,
-            map_count: obj::RPDO1_MAP_COUNT,
-            entries: &RPDO1_MAP,
-            kind: obj::RPDO1_TYPE,
-            event_timer: None,
-        },
-        PdoObjects {
-            cob_id_addr: obj::TPDO1_COB_ID,
-            cob: COB_TPDO1_BASE + n,
-            map_count: obj::TPDO1_MAP_COUNT,
-            entries: &TPDO1_MAP,
-            kind: obj::TPDO1_TYPE,
-            event_timer: Some(obj::TPDO1_EVENT_TIMER),
-        },
-        PdoObjects {
-            cob_id_addr: obj::TPDO2_COB_ID,
-            cob: COB_TPDO2_BASE + n,
-            map_count: obj::TPDO2_MAP_COUNT,
-            entries: &TPDO2_MAP,
-            kind: obj::TPDO2_TYPE,
-            event_timer: Some(obj::TPDO2_EVENT_TIMER),
-        },
-    ] {
+    for p in axis.pdos(node) {
         map_pdo(&mut out, &p, plan);
     }
     out

@@ -239,6 +239,7 @@ pub mod abort {
     pub const TOGGLE_BIT: u32 = 0x0503_0000;
     pub const TIMEOUT: u32 = 0x0504_0000;
     pub const COMMAND_SPECIFIER: u32 = 0x0504_0001;
+    pub const OUT_OF_MEMORY: u32 = 0x0504_0005;
     pub const UNSUPPORTED_ACCESS: u32 = 0x0601_0000;
     pub const WRITE_ONLY: u32 = 0x0601_0001;
     pub const READ_ONLY: u32 = 0x0601_0002;
@@ -247,10 +248,13 @@ pub mod abort {
     pub const PDO_LENGTH: u32 = 0x0604_0042;
     pub const PARAMETER_INCOMPATIBLE: u32 = 0x0604_0043;
     pub const LENGTH_MISMATCH: u32 = 0x0607_0010;
+    pub const LENGTH_TOO_HIGH: u32 = 0x0607_0012;
+    pub const LENGTH_TOO_LOW: u32 = 0x0607_0013;
     pub const NO_SUB_INDEX: u32 = 0x0609_0011;
     pub const INVALID_VALUE: u32 = 0x0609_0030;
     pub const VALUE_TOO_HIGH: u32 = 0x0609_0031;
     pub const VALUE_TOO_LOW: u32 = 0x0609_0032;
+    pub const RESOURCE_NOT_AVAILABLE: u32 = 0x060A_0023;
     pub const GENERAL: u32 = 0x0800_0000;
     pub const DEVICE_STATE: u32 = 0x0800_0022;
 }

@@ -11,6 +11,7 @@ fn settings() -> Cia402Settings {
     let scaling = Scaling::new(VelocityUnit::Rpm, 1.0, 4096);
     Cia402Settings {
         nodes: [3, 5],
+        axes: [AxisLayout::FIRST; 2],
         scaling,
         profile_accel: scaling.accel_to_drive(1000.0).unwrap(),
         profile_decel: scaling.accel_to_drive(1000.0).unwrap(),
@@ -415,7 +416,7 @@ fn a_fault_stops_reports_and_is_not_reset_outside_startup() {
     p.drain_reports(&mut r);
     assert!(
         r.iter()
-            .any(|x| x.message == "node 3 fault, error code 0x2310 (current)"),
+            .any(|x| x.message == "node 3 (left wheel) fault, error code 0x2310 (current)"),
         "{r:?}"
     );
     // A fault without a code reports 0x1000.

@@ -9,6 +9,15 @@
 //! A position increment larger than the wheels could have moved (the drive
 //! rebooted and its encoder count restarted) re-baselines instead of
 //! teleporting the robot; it is counted and reported.
+//!
+//! Each step also carries the pose covariance forward and adds the wheels'
+//! rotation to their joint angles (for `/joint_states`); the model is in
+//! [`covariance`]. A re-baseline adds no motion and no uncertainty: the
+//! unknown motion it skips is reported (the reset counter), not guessed.
+
+pub mod covariance;
+
+pub use covariance::{PoseCovariance, TwistCovariance, WheelNoise};
 
 use crate::kinematics::{DiffDrive, Twist, Wheel, WheelSpeeds};
 use crate::time::Timestamp;
@@ -23,14 +32,28 @@ pub struct Pose2D {
     pub theta_rad: f64,
 }
 
+/// Wheel rotation since the first feedback (rad at the wheel, positive
+/// when the wheel drives the robot forward), unwrapped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct WheelAngles {
+    pub left_rad: f64,
+    pub right_rad: f64,
+}
+
 /// What odometry reports.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct OdometryState {
     pub pose: Pose2D,
+    /// Covariance of (x, y, θ) from the noise model.
+    pub pose_covariance: PoseCovariance,
     /// Measured twist (from the wheels' measured speeds).
     pub twist: Twist,
+    /// Covariance of (v, ω) from the noise model.
+    pub twist_covariance: TwistCovariance,
     /// Measured wheel speeds (rad/s at the wheel).
     pub wheels: WheelSpeeds,
+    /// The wheels' joint angles.
+    pub wheel_angles: WheelAngles,
     /// Integration steps done.
     pub updates: u64,
     /// Position jumps, and speeds beyond any the robot can reach, that
@@ -50,6 +73,7 @@ struct WheelTrack {
 #[derive(Clone, Debug)]
 pub struct Odometry {
     kin: DiffDrive,
+    noise: WheelNoise,
     modulus_rad: Option<f64>,
     /// Largest plausible wheel speed (rad/s); beyond it a jump is a reset.
     plausible_wheel_speed_radps: f64,
@@ -66,15 +90,21 @@ const JUMP_FLOOR_RAD: f64 = 1.0;
 
 impl Odometry {
     /// `modulus_rad`: feedback positions wrap modulo this (motor rad);
-    /// `max_wheel_speed_radps`: the configured wheel speed limit, for the jump check.
-    pub fn new(kin: DiffDrive, modulus_rad: Option<f64>, max_wheel_speed_radps: f64) -> Self {
+    /// `max_wheel_speed_radps`: the configured wheel speed limit, for the
+    /// jump check; `noise`: the wheels' measurement noise (the covariance).
+    pub fn new(kin: DiffDrive, modulus_rad: Option<f64>, max_wheel_speed_radps: f64, noise: WheelNoise) -> Self {
+        let state = OdometryState {
+            twist_covariance: TwistCovariance::of(&noise, kin.wheel_radius_m, kin.wheel_separation_m),
+            ..OdometryState::default()
+        };
         Self {
             kin,
+            noise,
             modulus_rad,
             plausible_wheel_speed_radps: max_wheel_speed_radps,
             wheels: [WheelTrack::default(); 2],
             last_update: None,
-            state: OdometryState::default(),
+            state,
         }
     }
 
@@ -151,14 +181,20 @@ impl Odometry {
         }
     }
 
-    /// Exact arc for wheel angle increments (rad at the wheel).
+    /// Exact arc for wheel angle increments (rad at the wheel); the
+    /// covariance and the joint angles follow.
     fn integrate(&mut self, dl_rad: f64, dr_rad: f64) {
         let r = self.kin.wheel_radius_m;
         let (sl, sr) = (dl_rad * r, dr_rad * r);
         let ds = 0.5 * (sl + sr);
         let dth = (sr - sl) / self.kin.wheel_separation_m;
+        self.state.wheel_angles.left_rad += dl_rad;
+        self.state.wheel_angles.right_rad += dr_rad;
+        let th = self.state.pose.theta_rad;
+        self.state
+            .pose_covariance
+            .step(th, sl, sr, self.kin.wheel_separation_m, &self.noise);
         let p = &mut self.state.pose;
-        let th = p.theta_rad;
         if dth.abs() < 1e-9 {
             // Straight (second-order term keeps tiny turns accurate).
             p.x_m += ds * (th + 0.5 * dth).cos();
@@ -198,6 +234,13 @@ mod tests {
         }
     }
 
+    const NOISE: WheelNoise = WheelNoise {
+        left_travel_variance_m2_per_m: 1e-3,
+        right_travel_variance_m2_per_m: 1e-3,
+        left_speed_sigma_radps: 0.1,
+        right_speed_sigma_radps: 0.1,
+    };
+
     fn t(s: f64) -> Timestamp {
         Timestamp::from_secs_f64(s)
     }
@@ -211,7 +254,7 @@ mod tests {
 
     #[test]
     fn straight_line_by_hand() {
-        let mut o = Odometry::new(kin(), None, 100.0);
+        let mut o = Odometry::new(kin(), None, 100.0, NOISE);
         assert!(!feed(&mut o, 0.0, 0.0, 0.0), "first pair only sets the base");
         // Both wheels turn 10 rad: 10 × 0.033 = 0.33 m ahead.
         for i in 1..=10 {
@@ -224,9 +267,36 @@ mod tests {
         );
     }
 
+    /// The joint angles are the wheels' rotation at the wheel, forward
+    /// positive, unwrapped (the right motor runs reversed); the covariance
+    /// of a straight 0.33 m is the model's σ_x² = k·D/2, σ_θ² = 2k·D/L².
+    #[test]
+    fn joint_angles_and_covariance_follow_the_steps() {
+        let mut o = Odometry::new(kin(), Some(100.0), 100.0, NOISE);
+        feed(&mut o, 0.0, 0.0, 0.0);
+        for i in 1..=10 {
+            feed(&mut o, i as f64, i as f64, 0.1 * i as f64);
+        }
+        let s = o.state();
+        assert!((s.wheel_angles.left_rad - 10.0).abs() < 1e-9 && (s.wheel_angles.right_rad - 10.0).abs() < 1e-9);
+        let d = 0.33;
+        assert!((s.pose_covariance.0[0][0] - 1e-3 * d / 2.0).abs() < 1e-15, "{s:?}");
+        assert!(
+            (s.pose_covariance.0[2][2] - 2e-3 * d / (0.16 * 0.16)).abs() < 1e-12,
+            "{s:?}"
+        );
+        // Backwards: the angles go down again, the uncertainty keeps growing.
+        feed(&mut o, 9.0, 10.0, 1.1);
+        let s2 = o.state();
+        assert!((s2.wheel_angles.left_rad - 9.0).abs() < 1e-9 && (s2.wheel_angles.right_rad - 10.0).abs() < 1e-9);
+        assert!(s2.pose_covariance.0[2][2] > s.pose_covariance.0[2][2]);
+        // The twist covariance is the model's for r = 0.033, σ = 0.1: r²·0.02/4.
+        assert!((s.twist_covariance.0[0][0] - 0.033f64.powi(2) * 0.02 / 4.0).abs() < 1e-18);
+    }
+
     #[test]
     fn turn_in_place_by_hand() {
-        let mut o = Odometry::new(kin(), None, 100.0);
+        let mut o = Odometry::new(kin(), None, 100.0, NOISE);
         feed(&mut o, 0.0, 0.0, 0.0);
         // Quarter turn: each wheel travels (π/2)·L/2 = 0.04π m → 0.04π/0.033 rad.
         let w = 0.04 * PI / 0.033;
@@ -242,7 +312,7 @@ mod tests {
     fn arc_is_exact() {
         // Constant curvature: right wheel 2× the left. A quarter circle of
         // radius R: centre line s = R·π/2; wheels R ∓ L/2.
-        let mut o = Odometry::new(kin(), None, 1000.0);
+        let mut o = Odometry::new(kin(), None, 1000.0, NOISE);
         feed(&mut o, 0.0, 0.0, 0.0);
         let big_r = 0.24; // (R − 0.08) : (R + 0.08) = 1 : 2
         let (sl, sr) = ((big_r - 0.08) * FRAC_PI_2, (big_r + 0.08) * FRAC_PI_2);
@@ -255,7 +325,7 @@ mod tests {
     #[test]
     fn wrapping_positions_unwrap() {
         let m = 100.0;
-        let mut o = Odometry::new(kin(), Some(m), 100.0);
+        let mut o = Odometry::new(kin(), Some(m), 100.0, NOISE);
         let k = kin();
         // Motor angles wrap at 100 rad: left goes 95 → 5 (+10), right −(95 → 5) i.e. 5 → 95 (−10).
         o.on_feedback(Wheel::Left, 95.0, 0.0, t(0.0));
@@ -270,7 +340,7 @@ mod tests {
     #[test]
     fn measured_twist_from_speeds() {
         let k = kin();
-        let mut o = Odometry::new(k, None, 100.0);
+        let mut o = Odometry::new(k, None, 100.0, NOISE);
         // Wheel speeds 4 and 6 rad/s → v = 0.033·5 = 0.165, ω = 0.033·2/0.16 = 0.4125.
         o.on_feedback(Wheel::Left, 0.0, 4.0 * k.motor_per_wheel(Wheel::Left), t(0.0));
         o.on_feedback(Wheel::Right, 0.0, 6.0 * k.motor_per_wheel(Wheel::Right), t(0.0));
@@ -280,7 +350,7 @@ mod tests {
 
     #[test]
     fn implausible_jump_rebaselines() {
-        let mut o = Odometry::new(kin(), None, 10.0);
+        let mut o = Odometry::new(kin(), None, 10.0, NOISE);
         feed(&mut o, 0.0, 0.0, 0.0);
         feed(&mut o, 0.5, 0.5, 0.1);
         let before = o.state().pose;
@@ -295,7 +365,7 @@ mod tests {
     #[test]
     fn an_implausible_speed_is_a_reset_not_a_twist() {
         let k = kin();
-        let mut o = Odometry::new(k, None, 10.0);
+        let mut o = Odometry::new(k, None, 10.0, NOISE);
         feed(&mut o, 0.0, 0.0, 0.0);
         // Bound: 2 × 10 + 1 = 21 wheel rad/s. The generic protocol's most negative
         // count decodes to -21474.8 motor rad/s.
@@ -312,9 +382,11 @@ mod tests {
 
     #[test]
     fn non_finite_feedback_is_ignored() {
-        let mut o = Odometry::new(kin(), None, 10.0);
+        let mut o = Odometry::new(kin(), None, 10.0, NOISE);
+        let before = o.state();
         assert!(!o.on_feedback(Wheel::Left, f64::NAN, 0.0, t(0.0)));
-        assert_eq!(o.state(), OdometryState::default());
+        assert_eq!(o.state(), before);
+        assert_eq!((before.updates, before.pose), (0, Pose2D::default()));
     }
 
     #[test]
