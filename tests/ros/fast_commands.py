@@ -3,14 +3,17 @@
 a clock jump to the node.
 
     fast_commands.py NS RATE_HZ SECONDS
-Publishes NS/cmd_vel_in (0.1 m/s forward) at RATE_HZ and open-space scans at
-10 Hz on NS/scan for SECONDS, and watches NS/oldbf_node/state. Prints JSON:
-commands published and the rate reached, states received, states whose stop
-reason names a clock jump, and states with a zero command (open space: the
-upstream command passes, so any zero is an invented stop).
+Publishes NS/cmd_vel_in (0.1 m/s forward) at RATE_HZ for SECONDS while
+open-space scans arrive at 10 Hz on NS/scan from another process (so a busy
+command loop cannot starve them), and watches NS/oldbf_node/state. Prints
+JSON: commands published and the rate reached, states received, states whose
+stop reason names a clock jump, and states with a zero command, split into
+those stopped for a late scan (`zero_late_scan`: the scans really were late,
+a correct stop) and all others (`zero`: open space, so the upstream command
+passes and any other zero is an invented stop), with every stop reason seen.
 """
 import json
-import math
+import re
 import sys
 import threading
 import time
@@ -18,12 +21,11 @@ import time
 import rospy
 from geometry_msgs.msg import Twist
 from oldbf_ros.msg import BarrierState
-from sensor_msgs.msg import LaserScan
 
 ns, rate_hz, seconds = sys.argv[1].rstrip("/"), float(sys.argv[2]), float(sys.argv[3])
 rospy.init_node("fast_commands_probe", anonymous=True, disable_signals=True)
 lock = threading.Lock()
-stats = {"published": 0, "states": 0, "clock_jump": 0, "zero": 0, "reasons": {}}
+stats = {"published": 0, "states": 0, "clock_jump": 0, "zero": 0, "zero_late_scan": 0, "reasons": {}}
 started = threading.Event()
 
 
@@ -35,29 +37,15 @@ def on_state(m):
         if "clock" in m.stop_reason:
             stats["clock_jump"] += 1
         if m.cmd.linear.x == 0.0:
-            stats["zero"] += 1
-            stats["reasons"][m.stop_reason or "(none)"] = stats["reasons"].get(m.stop_reason or "(none)", 0) + 1
+            late = m.stop_reason.startswith("scan rejected: scan is") and "old (timeout" in m.stop_reason
+            stats["zero_late_scan" if late else "zero"] += 1
+            kind = re.sub(r"[0-9.]+ s\b", "N s", m.stop_reason) or "(none)"  # one entry per kind
+            stats["reasons"][kind] = stats["reasons"].get(kind, 0) + 1
 
 
 rospy.Subscriber(ns + "/oldbf_node/state", BarrierState, on_state, queue_size=5000, tcp_nodelay=True)
-scan_pub = rospy.Publisher(ns + "/scan", LaserScan, queue_size=1)
 cmd_pub = rospy.Publisher(ns + "/cmd_vel_in", Twist, queue_size=1, tcp_nodelay=True)
-N = 360
-scan = LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / N, angle_max=math.pi - 2 * math.pi / N,
-                 scan_time=0.1, range_min=0.12, range_max=3.5, ranges=[float("inf")] * N)
-scan.header.frame_id = "laser"
-done = threading.Event()
-
-
-def scans():
-    while not done.is_set():
-        scan.header.stamp = rospy.Time.from_sec(time.time())
-        scan_pub.publish(scan)
-        time.sleep(0.1)
-
-
 time.sleep(1.5)  # connections
-threading.Thread(target=scans, daemon=True).start()
 cmd = Twist()
 cmd.linear.x = 0.1
 # A second of commands before counting: the node starts from "no upstream yet".
@@ -77,7 +65,6 @@ while time.time() - t0 < seconds:
     if delay > 0:
         time.sleep(delay)
 elapsed = time.time() - t0
-done.set()
 time.sleep(0.5)
 with lock:
     stats["rate_hz"] = round(stats["published"] / elapsed, 1)
