@@ -43,7 +43,7 @@ use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
 use crate::algo::scan::{LaserScan, ScanHeader, ScanRejection};
-use crate::algo::tracking::track;
+use crate::algo::tracking::{towards_point, track};
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use oldbf::config::{Checker, Interval, Validate};
@@ -569,11 +569,13 @@ impl NodeCore {
                     let guidance = Guidance::of_reference(reference, progress, o.pose, ahead_m);
                     self.pipeline.set_guidance(Some(guidance));
                     progress.advance(dt_s, rate);
-                    (
-                        track(o.pose, ref_pose, ref_twist, &params, omega_max_radps),
-                        NominalUsed::Reference,
-                        Some(ref_pose),
-                    )
+                    // While a way round an obstacle is followed (§4b), the tracking law
+                    // aims at its waypoint: the reference is behind what blocks the way.
+                    let cmd = match self.pipeline.aim_point() {
+                        Some(aim) => towards_point(o.pose, aim, reference.v_mps.abs(), &params),
+                        None => track(o.pose, ref_pose, ref_twist, &params, omega_max_radps),
+                    };
+                    (cmd, NominalUsed::Reference, Some(ref_pose))
                 }
                 None => (Twist::ZERO, NominalUsed::ReferenceNoOdom, None),
             };

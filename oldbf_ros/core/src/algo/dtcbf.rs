@@ -45,7 +45,38 @@ use super::geometry::{min_distance_squared, Twist, Vec2};
 use super::params::{Params, PredictionModel};
 
 /// Numerical tolerance on the condition (m).
-const TOL_M: f64 = 1e-9;
+pub const TOL_M: f64 = 1e-9;
+
+/// The DTCBF condition h(k+1) ≥ (1 − γ) h(k) (§5), to [`TOL_M`]: the one
+/// definition the record, the simulator's check, the tests and the
+/// selector's tiers judge. With nothing visible (h not finite) it holds.
+#[inline]
+pub fn condition_holds(h_m: f64, h_next_m: f64, gamma: f64) -> bool {
+    !h_m.is_finite() || h_next_m >= condition_target(h_m, gamma) - TOL_M
+}
+
+/// The requirement on h(k+1) the condition puts at h(k) = `h_m` (m).
+#[inline]
+pub fn condition_target(h_m: f64, gamma: f64) -> f64 {
+    (1.0 - gamma) * h_m
+}
+
+/// The requirement with the noise margin δ (§5, our addition), outside the
+/// unsafe set: the condition on h − δ, (1 − γ)(h − δ) + δ, which implies
+/// the condition itself; inside the margin band (h < δ), where that asks h
+/// to rise, "no closer" (h(k+1) ≥ h(k)), which standing still meets for
+/// static points and which implies the condition too.
+#[inline]
+pub fn margin_target(h_m: f64, gamma: f64, delta_m: f64) -> f64 {
+    ((1.0 - gamma) * (h_m - delta_m) + delta_m).min(h_m)
+}
+
+/// Yaw rate `k` of `n` evenly spaced over [lo, hi] (n ≥ 2): the one grid of
+/// yaw rates (the filter's search, its least-bad fallback, the selector).
+#[inline]
+pub fn omega_grid(lo: f64, hi: f64, k: usize, n: usize) -> f64 {
+    lo + (hi - lo) * k as f64 / (n - 1) as f64
+}
 
 /// Speeds tried (plus one) across the box by the least-bad fallback.
 const LEAST_BAD_SPEEDS: usize = 8;
@@ -284,6 +315,48 @@ impl DtcbfFilter {
         self.near.min_distance(points_next, disp) - p.robot_radius_m() - p.barrier.d_safe_m
     }
 
+    /// Gets the geometry of one step ready for a search over the commands
+    /// of `bx` (the selector, §5c): returns h(k) over `points` (m; +inf with
+    /// nothing visible) and keeps the points of `points_next` that can
+    /// matter for any requirement on h(k+1) a command of the box can meet
+    /// (none asks more than h(k) plus the longest step), so that
+    /// [`Self::h_next_at`] and [`Self::forbidden_speeds`] run over a handful
+    /// of points with the results of all of them.
+    pub fn prepare(&mut self, points: &[Vec2], points_next: &[Vec2], p: &Params, bx: &InputBox) -> f64 {
+        let (r, d_safe) = (p.robot_radius_m(), p.barrier.d_safe_m);
+        self.forbidden.intervals.reserve(points_next.len());
+        self.near.points.reserve(points_next.len());
+        self.near.nearest.reserve(points_next.len());
+        let nearest_now = min_distance(points, Vec2::zeros());
+        let h = nearest_now - r - d_safe;
+        if !h.is_finite() || points_next.is_empty() {
+            self.near.points.clear();
+            self.near.nearest.clear();
+            self.near.max_step_m = f64::INFINITY;
+            return h;
+        }
+        let max_step = p.control.dt_s() * bx.v_lo.abs().max(bx.v_hi.abs());
+        let max_clearance = r + d_safe + h.abs() + max_step;
+        let nearest_next = if std::ptr::eq(points, points_next) {
+            nearest_now
+        } else {
+            min_distance(points_next, Vec2::zeros())
+        };
+        self.near.select(points_next, nearest_next, max_clearance, max_step);
+        h
+    }
+
+    /// The open intervals of speed (m/s) that yaw rate `omega_radps` forbids
+    /// for the requirement h(k+1) ≥ `target_m`, sorted and merged, over the
+    /// points of the last [`Self::prepare`]: every other speed of its box
+    /// meets the requirement (exactly, for the one-step model of `p`).
+    pub fn forbidden_speeds(&mut self, omega_radps: f64, target_m: f64, p: &Params) -> &[(f64, f64)] {
+        let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target_m;
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        self.forbidden.build(&self.near.points, omega_radps, clearance, model, dt);
+        &self.forbidden.intervals
+    }
+
     /// Filters `desired` within `bx`.
     ///
     /// `points` are the valid obstacle points now (robot frame, m);
@@ -330,7 +403,7 @@ impl DtcbfFilter {
             };
         }
         // The definition's condition, which is what is logged.
-        let target = (1.0 - gamma) * h;
+        let target = condition_target(h, gamma);
         let escape = h < 0.0;
 
         // Targets for h(k+1), strictest first. Outside the unsafe set: the condition on
@@ -364,7 +437,7 @@ impl DtcbfFilter {
                 h_m: h,
                 h_next_m: h_next,
                 changed: cmd != desired,
-                condition_held: h_next >= target - TOL_M,
+                condition_held: condition_holds(h, h_next, gamma),
                 escape,
                 infeasible,
             }
@@ -514,7 +587,7 @@ impl ForbiddenSpeeds {
             let omega = if k == 0 {
                 desired.omega_radps
             } else {
-                -bx.omega_max + 2.0 * bx.omega_max * (k - 1) as f64 / (n - 1) as f64
+                omega_grid(-bx.omega_max, bx.omega_max, k - 1, n)
             };
             if !(model == PredictionModel::Euler && built_for_euler) {
                 self.build(points, omega, clearance, model, dt);
@@ -538,7 +611,7 @@ fn least_bad(near: &NearPoints, points_next: &[Vec2], bx: &InputBox, p: &Params)
     let n = p.dtcbf.omega_candidates;
     let mut best: Option<(Twist, f64)> = None;
     for k in 0..n {
-        let omega = -bx.omega_max + 2.0 * bx.omega_max * k as f64 / (n - 1) as f64;
+        let omega = omega_grid(-bx.omega_max, bx.omega_max, k, n);
         for j in 0..=LEAST_BAD_SPEEDS {
             let v = bx.v_lo + (bx.v_hi - bx.v_lo) * j as f64 / LEAST_BAD_SPEEDS as f64;
             let cmd = Twist::new(v, omega);

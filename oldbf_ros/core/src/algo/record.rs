@@ -5,6 +5,7 @@
 use super::doaa::DoaaState;
 use super::geometry::{Twist, Vec2};
 use super::scan::ScanRejection;
+use super::select::{CriticCosts, Tier};
 use std::fmt;
 
 /// Why the command is a stop (when it is).
@@ -117,6 +118,16 @@ pub struct StepRecord {
     /// Why no command met the checks, when none did (`cmd` is then the
     /// fallback: a stop, a turn in place, or the evasive command).
     pub infeasibility: Option<Infeasibility>,
+    /// The level of the relaxation order the command came from (§5c);
+    /// `None` for a stop without a usable scan and for the paper's decision.
+    pub tier: Option<Tier>,
+    /// Each critic's weighted cost for the command sent (§5c; zero for the
+    /// paper's decision and for stops).
+    pub costs: CriticCosts,
+    /// The command goes faster than the upstream command or reverses where
+    /// it does not: an escape from the unsafe set, or evasion of a tracked
+    /// mover (§5c says so).
+    pub added_motion: bool,
     /// Barrier of the left side, B_l = B_d,l + B_v (dimensionless).
     pub b_left: f64,
     /// Barrier of the right side, B_r = B_d,r + B_v.
@@ -172,6 +183,9 @@ impl StepRecord {
             braking_held: true,
             passive_changed: false,
             infeasibility: None,
+            tier: None,
+            costs: CriticCosts::default(),
+            added_motion: false,
             b_left: f64::NAN,
             b_right: f64::NAN,
             b_velocity: f64::NAN,

@@ -20,7 +20,7 @@
 //! it and the reference (the paper's robot always drives at v_r); scaling v by
 //! cos β instead stalls it in front of the obstacle.
 
-use super::geometry::{wrap_angle, Pose2, Twist};
+use super::geometry::{wrap_angle, Pose2, Twist, Vec2};
 use super::params::TrackingParams;
 
 /// Tracking error in the robot frame: along-track, cross-track (m), heading (rad).
@@ -68,6 +68,19 @@ pub fn go_to_point(robot: Pose2, reference: Pose2, reference_twist: Twist, k: &T
     let bearing = e.e_y_m.atan2(e.e_x_m);
     Twist::new(
         (reference_twist.v_mps.abs() + k.k_x_per_s * e.distance_m()) * (2.0 * bearing.cos()).clamp(0.0, 1.0),
+        k.k_bearing_per_s * bearing,
+    )
+}
+
+/// Towards a point at `speed_mps` (the way round's waypoint, §4b, in the
+/// frame of `robot`): go-to-point, at the given speed rather than one that
+/// grows with the distance: full speed while the point is within ±60°
+/// ahead, tapering to zero at ±90°, turning at k_β per radian of bearing.
+pub fn towards_point(robot: Pose2, point: Vec2, speed_mps: f64, k: &TrackingParams) -> Twist {
+    let d = robot.inverse_transform_point(point);
+    let bearing = d.y.atan2(d.x);
+    Twist::new(
+        speed_mps * (2.0 * bearing.cos()).clamp(0.0, 1.0),
         k.k_bearing_per_s * bearing,
     )
 }
@@ -132,6 +145,21 @@ pub fn track(
 mod tests {
     use super::*;
     use std::f64::consts::FRAC_PI_4;
+
+    #[test]
+    fn towards_a_point_turns_to_it_and_drives_only_while_it_is_ahead() {
+        let k = TrackingParams::default(); // k_β = 1/s
+        let robot = Pose2::new(1.0, 1.0, std::f64::consts::FRAC_PI_2);
+        // 1 m straight ahead (north): full speed, no turn.
+        let cmd = towards_point(robot, Vec2::new(1.0, 2.0), 0.15, &k);
+        assert!((cmd.v_mps - 0.15).abs() < 1e-12 && cmd.omega_radps.abs() < 1e-12, "{cmd:?}");
+        // 45° to the right: 2 cos 45° > 1, full speed, turning right at π/4 rad/s.
+        let cmd = towards_point(robot, Vec2::new(2.0, 2.0), 0.15, &k);
+        assert!((cmd.v_mps - 0.15).abs() < 1e-12 && (cmd.omega_radps + FRAC_PI_4).abs() < 1e-12);
+        // Behind: turn in place.
+        let cmd = towards_point(robot, Vec2::new(1.0, 0.0), 0.15, &k);
+        assert!(cmd.v_mps.abs() < 1e-12 && cmd.omega_radps.abs() > 3.0);
+    }
 
     #[test]
     fn zero_error_gives_the_reference_twist() {

@@ -111,17 +111,12 @@ pub struct Situation<'a> {
 /// What the unstuck logic decided this step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UnstuckDecision {
-    /// The nominal to use instead of the given one, while following.
-    pub nominal: Option<Twist>,
-    /// Where it heads (robot frame, m), while following.
+    /// Where the way round heads (robot frame, m), while following one.
     pub waypoint: Option<Vec2>,
 }
 
 impl UnstuckDecision {
-    const NONE: UnstuckDecision = UnstuckDecision {
-        nominal: None,
-        waypoint: None,
-    };
+    const NONE: UnstuckDecision = UnstuckDecision { waypoint: None };
 }
 
 /// The progress monitor and the follow state.
@@ -223,10 +218,7 @@ impl Unstuck {
         if let Some((world, planned_s)) = self.cached {
             let point = ego.inverse_transform_point(world);
             if now_s - planned_s < REPLAN_S && now_s >= planned_s && point.norm() > WAYPOINT_REACHED_M {
-                return UnstuckDecision {
-                    nominal: Some(self.towards(point, p)),
-                    waypoint: Some(point),
-                };
+                return UnstuckDecision { waypoint: Some(point) };
             }
         }
         let cell = super::local_plan::CELL_M;
@@ -259,40 +251,30 @@ impl Unstuck {
             }
             free
         });
-        let w_max = p.control.omega_max_radps;
-        // Somewhere to go: a way that leaves the disc the robot is short by.
-        let (nominal, waypoint) = match way {
+        // Somewhere to go: a way that leaves the disc the robot is short by. Nowhere
+        // (boxed in): no waypoint; the DOAA's both-sides turn at ω_0 is the paper's case.
+        let waypoint = match way {
             Some(w) if w.point.norm() > 0.5 * cell && (w.end.norm() > own_m + cell || reaches(&w)) => {
                 self.cached = Some((ego.transform_point(w.point), now_s));
-                (self.towards(w.point, p), Some(w.point))
+                Some(w.point)
             }
-            // Nowhere to go from here: turn in place (the paper's ω_0 case), towards
-            // the reference's side.
             _ => {
                 self.cached = None;
-                let side = if g.target.y >= 0.0 { 1.0 } else { -1.0 };
-                (Twist::new(0.0, side * p.doaa.omega_0_radps.min(w_max)), None)
+                None
             }
         };
         log::trace!(
-            "t {now_s:.1}: going round: ahead {:?} way {way:?} side {:?} nominal {nominal:?}",
+            "t {now_s:.1}: going round: ahead {:?} way {way:?} side {:?}",
             g.ahead,
             self.side
         );
-        UnstuckDecision {
-            nominal: Some(nominal),
-            waypoint,
-        }
+        UnstuckDecision { waypoint }
     }
 
-    /// The nominal towards `point` (robot frame): turn towards it, and drive
-    /// at up to the nominal speed, the less the more it must turn.
-    fn towards(&self, point: Vec2, p: &Params) -> Twist {
-        let w_max = p.control.omega_max_radps;
-        let b = point.y.atan2(point.x);
-        let v = p.control.v_nom_mps * b.cos().max(0.0).powi(2);
-        let omega = (p.tracking.k_bearing_per_s.max(1.0) * b).clamp(-w_max, w_max);
-        Twist::new(v, omega)
+    /// The waypoint being followed, in the tracking frame (m): where the
+    /// tracking law aims while a way round is followed.
+    pub fn aim(&self) -> Option<Vec2> {
+        self.cached.filter(|_| self.following()).map(|(w, _)| w)
     }
 }
 
@@ -336,14 +318,14 @@ mod tests {
         let nominal = Twist::new(0.15, 0.0);
         for k in 0..60 {
             let d = u.step(Some(g), &at(k as f64 * 0.1, nominal, &pts, false), &p);
-            assert_eq!(d.nominal, None, "no stall before 6 s");
+            assert_eq!(d.waypoint, None, "no stall before 6 s");
         }
         let d = u.step(Some(g), &at(6.0, nominal, &pts, false), &p);
         assert!(u.following());
         // The wall ends 0.6 m to the right: the way round is to the right.
         let w = d.waypoint.unwrap();
         assert!(w.y < -0.4, "{d:?}");
-        assert!(d.nominal.unwrap().omega_radps < 0.0, "{d:?}");
+        assert_eq!(u.aim().map(|a| (a - w).norm() < 1e-12), Some(true), "{d:?}");
         // Progress made and the reference in sight: released.
         let g2 = Guidance {
             target: Vec2::new(1.2, -1.2),
@@ -352,7 +334,7 @@ mod tests {
             at_end: false,
         };
         let d = u.step(Some(g2), &at(8.0, nominal, &[], false), &p);
-        assert_eq!((d.nominal, u.following()), (None, false));
+        assert_eq!((d.waypoint, u.following()), (None, false));
     }
 
     #[test]
@@ -374,13 +356,13 @@ mod tests {
             .collect();
         u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
         let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, false), &p);
-        assert_eq!(d.nominal, Some(Twist::new(0.0, p.doaa.omega_0_radps)));
+        assert_eq!((d.waypoint, u.following(), u.aim()), (None, true, None));
         let d = u.step(None, &at(7.1, Twist::new(0.15, 0.0), &ring, false), &p);
-        assert_eq!((d.nominal, u.following()), (None, false));
+        assert_eq!((d.waypoint, u.following()), (None, false));
         // A mover near: no going round.
         u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
         let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, true), &p);
-        assert_eq!((d.nominal, u.following()), (None, false));
+        assert_eq!((d.waypoint, u.following()), (None, false));
     }
 
     #[test]
@@ -398,7 +380,7 @@ mod tests {
             };
             assert_eq!(
                 u.step(Some(g), &at(k as f64 * 0.1, Twist::new(0.15, 0.0), &pts, false), &p)
-                    .nominal,
+                    .waypoint,
                 None
             );
         }
@@ -412,7 +394,7 @@ mod tests {
         for k in 0..200 {
             assert_eq!(
                 u.step(Some(g), &at(k as f64 * 0.1, Twist::ZERO, &pts, false), &p)
-                    .nominal,
+                    .waypoint,
                 None
             );
         }

@@ -35,6 +35,8 @@ const ACCEL: Interval = Interval::open_closed(0.0, 100.0).unit("m/s²");
 const MARGIN_1: Interval = Interval::closed(0.0, 1.0).unit("m");
 /// A horizon or gain up to 10 s.
 const TIME_10_POS: Interval = Interval::open_closed(0.0, 10.0).unit("s");
+/// A critic's weight.
+const WEIGHT: Interval = Interval::closed(0.0, 1000.0);
 /// DTCBF ω candidates: odd (ω = 0 is one of them), at least 3, at most 201.
 const OMEGA_CANDIDATES: Interval = Interval::closed(3.0, 201.0);
 
@@ -255,6 +257,33 @@ impl Validate for Params {
             "passive.evasion_min_gain_s",
             pa.evasion_min_gain_s,
             Interval::closed(0.0, 10.0).unit("s"),
+        );
+
+        c.range("passive.evasion_max_speed_mps", pa.evasion_max_speed_mps, SPEED);
+
+        let se = &self.select;
+        c.range("select.omega_samples", se.omega_samples as f64, Interval::closed(3.0, 101.0));
+        c.range("select.speed_samples", se.speed_samples as f64, Interval::closed(2.0, 50.0));
+        c.range("select.horizon_s", se.horizon_s, TIME_10_POS);
+        c.range("select.clearance_band_m", se.clearance_band_m, DIST_10_POS);
+        let w = &se.weights;
+        for (key, weight) in [
+            ("select.weights.nominal", w.nominal),
+            ("select.weights.smoothness", w.smoothness),
+            ("select.weights.oscillation", w.oscillation),
+            ("select.weights.doaa", w.doaa),
+            ("select.weights.progress", w.progress),
+            ("select.weights.clearance", w.clearance),
+            ("select.weights.mover", w.mover),
+            ("select.weights.side", w.side),
+        ] {
+            c.range(key, weight, WEIGHT);
+        }
+        c.rule(
+            se.enabled || !pa.enabled,
+            "select.enabled",
+            se.enabled,
+            "true while passive.enabled is true: the paper's decision has no braking check",
         );
 
         let (dc, vo) = (&self.baselines.dcbf, &self.baselines.vo);

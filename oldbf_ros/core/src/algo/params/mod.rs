@@ -17,12 +17,14 @@ mod guidance;
 mod laser;
 mod obstacles;
 mod robot;
+mod select;
 pub use baselines::*;
 pub use filter::*;
 pub use guidance::*;
 pub use laser::*;
 pub use obstacles::*;
 pub use robot::*;
+pub use select::*;
 
 /// All algorithm parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -48,6 +50,8 @@ pub struct Params {
     pub passive: PassiveParams,
     /// Liveness: unstuck (§4b).
     pub unstuck: UnstuckParams,
+    /// The decision: one command chosen inside the dynamic window (§5c).
+    pub select: SelectParams,
     /// The baselines the paper compares against (§8).
     pub baselines: BaselineParams,
 }
@@ -78,6 +82,7 @@ impl Params {
         self.doaa.max_omega_change_radps = 0.0;
         self.unstuck.enabled = false;
         self.passive.enabled = false;
+        self.select.enabled = false;
         self.control.allow_reverse = false;
         self.obstacles.lookahead_s = obstacles::PAPER_LOOKAHEAD_S;
         self

@@ -82,6 +82,11 @@ pub struct PassiveParams {
     /// Evasion replaces the filter's command only if it gains at least this
     /// much predicted time to contact (s): no dithering between near-equals.
     pub evasion_min_gain_s: f64,
+    /// While a tracked mover threatens the upstream command, evasion may
+    /// command speeds up to this either way (m/s), faster than the upstream
+    /// or reversing where it does not (reversing only where the input box
+    /// allows: the rear seen); 0 = evasion only slows, steers and stops.
+    pub evasion_max_speed_mps: f64,
 }
 
 impl Default for PassiveParams {
@@ -93,6 +98,7 @@ impl Default for PassiveParams {
             closing_speed_mps: 0.02,
             evasion_horizon_s: 5.0,
             evasion_min_gain_s: 0.2,
+            evasion_max_speed_mps: 0.22,
         }
     }
 }

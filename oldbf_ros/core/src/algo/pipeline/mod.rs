@@ -21,12 +21,9 @@
 use super::barrier::compute_barriers;
 use super::beam_memory::BeamMemory;
 use super::blind::BlindDetector;
-use super::clearance::{
-    compute_clearances, compute_clearances_faded_seeded, side_crowding, Clearances, Sector, SideFade,
-};
+use super::clearance::{Clearances, Sector, SideFade};
 use super::clusters::{Cluster, Clusters};
-use super::collision_cone::collision_cone;
-use super::doaa::{sides_tie, Doaa, DoaaState};
+use super::doaa::{Doaa, DoaaState};
 use super::dtcbf::{DtcbfFilter, InputBox};
 use super::geometry::Pose2;
 use super::geometry::{Twist, Vec2};
@@ -35,11 +32,13 @@ use super::params::Params;
 use super::passive::{ClosingContact, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{LaserMount, LaserScan, ScanPoints, ScanRejection};
-use super::unstuck::{Guidance, Situation, Unstuck, UnstuckDecision};
+use super::select::{CriticCosts, Selector, Tier};
+use super::unstuck::{Guidance, Unstuck};
 
-mod admissible;
+mod paper;
 mod perceive;
-use admissible::{Lazy, PASSIVE_SPEEDS};
+mod predict;
+mod selection;
 use perceive::{Frame, Perceived};
 
 /// The goal is short of what is ahead when nearer by this (m).
@@ -90,11 +89,12 @@ pub struct SafetyPipeline {
     guidance: Option<Guidance>,
     filter: DtcbfFilter,
     passive: PassiveSafety,
-    candidates: Vec<Lazy>,
-    /// Candidate indices in their sort keys (low 32 bits: by cost; third: by h(k+1)).
-    order: Vec<u128>,
-    order_h: Vec<(u64, u64, u32)>,
+    selector: Selector,
+    /// The command last sent, when (s; NaN before the first), and the
+    /// change it made from the one sent before it.
     last_cmd: Twist,
+    last_sent_s: f64,
+    last_change: Twist,
     last_clearances: Clearances,
     last_box: InputBox,
     clusters: Clusters,
@@ -163,6 +163,7 @@ impl SafetyPipeline {
     pub fn new(params: Params) -> Self {
         let derived = Derived::new(&params);
         let cap = 1024;
+        let selector = Selector::with_capacity(cap, &params);
         let max_tracks = params.obstacles.max_tracks;
         let last_box = InputBox::from_params(&params);
         Self {
@@ -176,10 +177,10 @@ impl SafetyPipeline {
             guidance: None,
             filter: DtcbfFilter::with_capacity(cap),
             passive: PassiveSafety::with_capacity(max_tracks, cap),
-            candidates: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
-            order: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
-            order_h: Vec::with_capacity((PASSIVE_SPEEDS + 2) * 203),
+            selector,
             last_cmd: Twist::ZERO,
+            last_sent_s: f64::NAN,
+            last_change: Twist::ZERO,
             last_clearances: Clearances::OPEN,
             last_box,
             clusters: Clusters::with_capacity(cap),
@@ -269,7 +270,9 @@ impl SafetyPipeline {
     pub fn reset(&mut self) {
         self.doaa.reset();
         self.unstuck.reset();
+        self.selector.reset();
         self.last_cmd = Twist::ZERO;
+        self.last_change = Twist::ZERO;
         self.forget_surprise();
     }
 
@@ -285,48 +288,12 @@ impl SafetyPipeline {
         matches!(self.perceived, Perceived::Unusable(StopCause::Rejected(_)))
     }
 
-    fn forget_surprise(&mut self) {
-        self.surprise = [0.0; SURPRISE_STEPS];
-        self.last_h_next = f64::NAN;
-    }
-
-    /// Records this step's h (m) against the last prediction and returns
-    /// whether h has fallen, over the last [`SURPRISE_STEPS`] steps, by more
-    /// than the noise margin δ beyond what the predictions explain.
-    fn closing_in_unexplained(&mut self, h: f64) -> bool {
-        let change = h - self.last_h_next;
-        self.surprise[self.surprise_next] = if change.is_finite() { change } else { 0.0 };
-        self.surprise_next = (self.surprise_next + 1) % SURPRISE_STEPS;
-        self.closing_in_now()
-    }
-
-    /// Whether the unexplained falls of h recorded so far add up beyond δ
-    /// ([`Self::closing_in_unexplained`] without a new measurement).
-    fn closing_in_now(&self) -> bool {
-        self.surprise.iter().sum::<f64>() < -self.params.dtcbf.noise_margin_m
-    }
-
-    /// The scan's points less those of this step's moving tracks at
-    /// [`PLAN_THROUGH_SPEED_MPS`] or more, for the unstuck planner (§4b):
-    /// planning round people as if they were walls sent robots on long
-    /// detours away from their goal while people walked through the way;
-    /// evasion and the DTCBF still see every point.
-    fn fill_plan_points(&mut self) {
-        let n = self.points.points.len();
-        self.on_mover.clear();
-        self.on_mover.resize(n, false);
-        let (tracks, o) = (self.tracker.tracks(), &self.params.obstacles);
-        let walks_off = |t: usize| tracks[t].is_moving(o) && tracks[t].velocity().norm() >= PLAN_THROUGH_SPEED_MPS;
-        for (cluster, track) in self.clusters.as_slice().iter().zip(self.tracker.cluster_track()) {
-            if track.is_some_and(walks_off) {
-                for i in cluster.indices(n) {
-                    self.on_mover[i] = true;
-                }
-            }
-        }
-        self.plan_points.clear();
-        let kept = self.points.points.iter().zip(&self.on_mover).filter(|(_, m)| !**m);
-        self.plan_points.extend(kept.map(|(q, _)| *q));
+    /// The way round's waypoint while one is followed (§4b), in the
+    /// tracking frame (odometry's when there is odometry, m): where the
+    /// reference follower aims its tracking law, the reference being behind
+    /// what blocks the way.
+    pub fn aim_point(&self) -> Option<Vec2> {
+        self.unstuck.aim()
     }
 
     /// Where the nominal command is heading, for the next step only: the
@@ -348,7 +315,7 @@ impl SafetyPipeline {
     /// A stop step with no scan processing (missing scan, e-stop…).
     pub fn stop(&mut self, now_s: f64, nominal: Twist, cause: StopCause) -> StepRecord {
         self.doaa.reset();
-        self.last_cmd = Twist::ZERO;
+        self.command_sent(Twist::ZERO, now_s);
         self.last_h_next = f64::NAN;
         StepRecord::stop(now_s, nominal, cause)
     }
@@ -360,98 +327,6 @@ impl SafetyPipeline {
     /// command is used instead).
     pub fn step(&mut self, scan: &LaserScan<'_>, now_s: f64, nominal: Twist, current_v_mps: f64) -> StepRecord {
         self.step_with_pose(scan, now_s, nominal, current_v_mps, None)
-    }
-
-    /// For every moving track (predicted to the tick's time, in the robot
-    /// frame then): a [`Mover`] for the passive-safety check; and for one on
-    /// a collision course with a time to collision within `lookahead_s`: its
-    /// points advanced by v_o Δt in `points_next`, and its side's clearance
-    /// lowered to its clearance predicted at the time to collision.
-    fn predict_threats(&mut self, c: &mut Clearances, v_now: f64, frame: &Frame) {
-        self.any_advanced = false;
-        self.threats.clear();
-        self.passive.set_movers(std::iter::empty());
-        if !self.params.obstacles.enabled {
-            return;
-        }
-        let p = &self.params;
-        let (o, r, dt) = (&p.obstacles, p.robot_radius_m(), p.control.dt_s());
-        let robot = frame.pose.frame_map();
-        let ahead_s = self.tracker.last_stamp_s().map_or(0.0, |t| (frame.at_s - t).max(0.0));
-        let pts = &self.points.points;
-        let tracker = &self.tracker;
-        self.passive
-            .set_movers(tracker.tracks().iter().filter(|t| t.is_moving(o)).map(|t| {
-                let (position, velocity) = ObstacleTracker::predicted_disc(t, ahead_s, &robot);
-                Mover {
-                    position,
-                    velocity,
-                    radius_m: t.radius_m,
-                }
-            }));
-        let n = pts.len();
-        for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {
-            let Some(ti) = self.tracker.cluster_track().get(ci).copied().flatten() else {
-                continue;
-            };
-            let track = self.tracker.tracks()[ti];
-            if !track.is_moving(o) {
-                continue;
-            }
-            let (pos, vel) = ObstacleTracker::predicted(&track, ahead_s, &robot);
-            let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
-            log::trace!(
-                "t {:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}",
-                frame.at_s,
-                track.id,
-                pos.x,
-                pos.y,
-                vel.x,
-                vel.y,
-                track.radius_m,
-                cone
-            );
-            // Only an imminent collision counts: within the look-ahead.
-            let Some(ttc) = cone.time_to_collision_s.filter(|&t| t <= o.lookahead_s) else {
-                continue;
-            };
-            let horizon = ttc;
-            if !self.any_advanced {
-                // Sized to the points, then copied whole (a memory copy; a Vec2 is Copy).
-                self.points_next.resize(n, Vec2::zeros());
-                self.points_next.copy_from_slice(pts);
-                self.any_advanced = true;
-            }
-            let mut predicted = f64::INFINITY;
-            for i in cluster.indices(n) {
-                self.points_next[i] += vel * dt;
-                predicted = predicted.min((pts[i] + vel * horizon).norm() - r);
-            }
-            match &self.derived.fade {
-                Some(fade) => {
-                    let n = cluster.centroid.norm().max(1e-9);
-                    let (pl, pr) = fade.penalties(cluster.centroid.x / n, cluster.centroid.y / n);
-                    c.d_left_m = c.d_left_m.min(predicted + pl);
-                    c.d_right_m = c.d_right_m.min(predicted + pr);
-                    // A mover coming at the robot from ahead blocks the way ahead as a wall
-                    // there would (§4b): the robot commits to a side and swerves early,
-                    // rather than waiting for the mover to be within d_act.
-                    if self.derived.front.contains(cluster.centroid, n) {
-                        c.d_front_m = c.d_front_m.min(predicted);
-                    }
-                }
-                None if cluster.centroid.y >= 0.0 => c.d_left_m = c.d_left_m.min(predicted),
-                None => c.d_right_m = c.d_right_m.min(predicted),
-            }
-            self.threats.push(Threat {
-                track_id: track.id,
-                position: pos,
-                velocity: vel,
-                radius_m: track.radius_m,
-                time_to_collision_s: ttc,
-                cone_half_angle_rad: cone.half_angle_rad,
-            });
-        }
     }
 
     /// The first closing contact `cmd` would make braking to rest from the
@@ -478,190 +353,62 @@ impl SafetyPipeline {
     /// One command at `now_s` from the last scan's perception, predicted to
     /// `now_s` (§5c): at a scan's own tick, and at every tick between scans
     /// (an upstream command, an e-stop, the watchdog). `odom_pose` is the
-    /// robot's odometry pose now, when there is odometry.
+    /// robot's odometry pose now, when there is odometry. The command is
+    /// taken as sent; a caller that sends something else says so with
+    /// [`Self::command_sent`].
     pub fn decide(&mut self, now_s: f64, nominal: Twist, current_v_mps: f64, odom_pose: Option<Pose2>) -> StepRecord {
-        if !nominal.is_finite() {
-            return self.stop(now_s, nominal, StopCause::BadNominal);
-        }
-        match self.perceived {
-            Perceived::Nothing => return self.stop(now_s, nominal, StopCause::NoScan),
-            Perceived::Unusable(StopCause::SensorBlind) => {
-                let mut rec = self.stop(now_s, nominal, StopCause::SensorBlind);
-                rec.beams = self.points.beams;
-                rec.valid_beams = self.points.valid_count();
-                rec.unknown_beams = self.points.unknown;
-                rec.held_beams = self.points.held;
-                rec.unknown_front_fraction = self.blind_fraction;
-                return rec;
-            }
-            Perceived::Unusable(cause) => return self.stop(now_s, nominal, cause),
-            Perceived::Usable(f) => {
-                let age_s = now_s - f.stamp_s;
-                let timeout_s = self.params.laser.scan_timeout_s;
-                if age_s > timeout_s {
-                    let stale = ScanRejection::Stale { age_s, timeout_s };
-                    return self.stop(now_s, nominal, StopCause::Rejected(stale));
-                }
-            }
+        if let Some(stop) = self.unusable(now_s, nominal) {
+            return stop;
         }
         let Some(frame) = self.advance_to(now_s, odom_pose) else {
             return self.stop(now_s, nominal, StopCause::NoScan);
-        };
-        let unknown_front_fraction = frame.unknown_front_fraction;
-        let d = self.derived;
-        let mut c = match &d.fade {
-            Some(fade) => {
-                // Seeded by the points on the beams of the last step's minimisers.
-                let beams = &self.points.beam_index;
-                let seeds = self
-                    .minimiser_beams
-                    .map(|b| beams.binary_search(&b).unwrap_or(usize::MAX));
-                let (c, at) =
-                    compute_clearances_faded_seeded(&self.points.points, d.robot_radius_m, d.front, fade, &seeds);
-                self.minimiser_beams = at.map(|i| beams.get(i).copied().unwrap_or(u32::MAX));
-                c
-            }
-            None => compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front),
         };
         let v_now = if current_v_mps.is_finite() {
             current_v_mps
         } else {
             self.last_cmd.v_mps
         };
-        self.predict_threats(&mut c, v_now, &frame);
-        // The faded pass leaves the crowding sums out: they only break a tie between the
-        // sides (both +inf: no point counts for either side, and both sums are 0).
-        if let Some(fade) = &d.fade {
-            if sides_tie(&c) && c.d_left_m.is_finite() {
-                (c.crowding_left, c.crowding_right) = side_crowding(&self.points.points, fade);
-            }
-        }
-        self.passive.set_phantoms(&self.points.phantoms);
-        let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
-        self.passive.prepare(next, &self.params);
-        self.last_clearances = c;
+        let c = self.measure(&frame, v_now);
         let bx = InputBox::for_scan(&self.params, frame.rear_seen);
         self.last_box = bx;
-        // The planner's points only when unstuck may plan this step (it plans only then).
-        let plans = self.params.unstuck.enabled && self.unstuck.may_plan(now_s, &self.params);
-        if plans {
-            self.fill_plan_points();
-        }
-        let p = &self.params;
-        let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &p.barrier);
+        let b = compute_barriers(c.d_left_m, c.d_right_m, v_now, &self.params.barrier);
         let nominal_boxed = bx.clamp(nominal);
-        // Unstuck (§4b): when progress has stalled, a free direction replaces the nominal.
-        let guidance = self.guidance.take();
-        let unstuck = if p.unstuck.enabled {
-            let near = MOVER_NEAR_M + p.robot_radius_m();
-            // Only a mover on a collision course counts: a static object's track may look
-            // like a slow mover now and then while the robot goes round it.
-            let movers_near = self.threats.iter().any(|t| t.position.norm() - t.radius_m < near);
-            let now = Situation {
-                now_s,
-                nominal: nominal_boxed,
-                points: if plans { &self.plan_points } else { &self.points.points },
-                ego: frame.pose,
-                movers_near,
-            };
-            self.unstuck.step(guidance, &now, p)
-        } else {
-            UnstuckDecision {
-                nominal: None,
-                waypoint: None,
-            }
-        };
-        // Following a free direction, the DOAA's barriers (which only see the nearest
-        // point on each side) would steer it back at the obstacle; the direction is free
-        // with r + d_safe to spare by construction, and the DTCBF still judges it.
-        let (mut doaa_cmd, doaa_state) = match unstuck.nominal {
-            Some(follow) => {
-                self.doaa.release_commit();
-                (bx.clamp(follow), DoaaState::Follow)
-            }
-            None => {
-                // Something ahead beyond the goal does not block the way to it (a goal in
-                // front of a wall): no both-sides turn, no committed swerve.
-                let mut c_doaa = c;
-                let short = |g: &Guidance| g.at_end && g.target.norm() + GOAL_SHORT_M < c.d_front_m + d.robot_radius_m;
-                if p.unstuck.enabled && guidance.as_ref().is_some_and(short) {
-                    c_doaa.d_front_m = f64::INFINITY;
-                }
-                self.doaa.command(nominal_boxed, &c_doaa, &b, p)
-            }
-        };
-        let step = p.doaa.max_omega_change_radps;
-        if step > 0.0 {
-            // Smooth steering (§4b): the DOAA's yaw rate moves towards its target from the
-            // last command sent; the filter below judges whatever results.
-            let last = self.last_cmd.omega_radps;
-            doaa_cmd.omega_radps = doaa_cmd.omega_radps.clamp(last - step, last + step);
-        }
-        // Part of the defence against movers (§5b): off with the braking check.
         // Measured against the last scan's prediction: only a new scan measures anything.
         let closing_in = if frame.fresh {
-            self.closing_in_unexplained(c.d_min_m - p.barrier.d_safe_m)
+            self.closing_in_unexplained(c.d_min_m - self.params.barrier.d_safe_m)
         } else {
             self.closing_in_now()
         };
-        self.filter.set_closing_in(closing_in && self.params.passive.enabled);
-        let p = &self.params;
-        let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
-        let out = self.filter.filter_in(&self.points.points, next, doaa_cmd, p, &bx);
-        let mut infeasibility = out.infeasible.then_some(if out.escape {
-            Infeasibility::UnsafeSet
+        let d = if self.params.select.enabled {
+            self.decide_select(now_s, nominal_boxed, (&c, &b), &bx, &frame, closing_in)
         } else {
-            Infeasibility::Approaching
-        });
-        let (out, passive_changed, evading) = if self.params.passive.enabled {
-            self.passive_safety(out, doaa_cmd, &bx, &mut infeasibility)
-        } else {
-            (out, false, false)
+            self.decide_paper(nominal_boxed, &c, &b, &bx)
         };
-        let braking_held = self.braking_check(out.cmd).is_none();
-        // A step is feasible only if its command meets the logged condition: inside the
-        // unsafe set the filter may send an escape command that only raises h by ε,
-        // because no command of the box raises it by γ|h|.
-        if !out.condition_held && infeasibility.is_none() {
-            infeasibility = Some(if out.h_m < 0.0 {
-                Infeasibility::UnsafeSet
-            } else {
-                Infeasibility::Approaching
-            });
-        }
-
-        let state = if evading {
-            DoaaState::Evade
-        } else {
-            match (out.infeasible, out.escape) {
-                (true, false) => DoaaState::Stop,
-                (_, true) => DoaaState::Escape,
-                (false, false) => doaa_state,
-            }
-        };
-        let stop_cause = infeasibility.map(|_| StopCause::Infeasible);
-        let cmd = out.cmd;
         // Last line of defence: nothing non-finite leaves this function.
-        let cmd = if cmd.is_finite() { bx.clamp(cmd) } else { Twist::ZERO };
-        self.last_cmd = cmd;
+        let cmd = if d.cmd.is_finite() { bx.clamp(d.cmd) } else { Twist::ZERO };
+        let braking_held = self.braking_check(cmd).is_none();
+        self.command_sent(cmd, now_s);
         if frame.fresh {
             // The next scan's h is measured against this (one scan period on).
-            self.last_h_next = out.h_next_m;
+            self.last_h_next = d.h_next_m;
         }
         let p = &self.params;
         StepRecord {
             stamp_s: now_s,
             cmd,
             nominal,
-            doaa_cmd,
-            state,
-            h_m: out.h_m,
-            h_next_m: out.h_next_m,
-            filter_changed: out.changed,
-            condition_held: out.condition_held,
+            doaa_cmd: d.doaa_cmd,
+            state: d.state,
+            h_m: d.h_m,
+            h_next_m: d.h_next_m,
+            filter_changed: d.changed,
+            condition_held: d.condition_held,
             braking_held,
-            passive_changed,
-            infeasibility,
+            passive_changed: d.passive_changed,
+            infeasibility: d.infeasibility,
+            tier: d.tier,
+            costs: d.costs,
+            added_motion: d.added_motion,
             b_left: b.b_left,
             b_right: b.b_right,
             b_velocity: b.b_velocity,
@@ -675,7 +422,7 @@ impl SafetyPipeline {
             valid_beams: self.points.valid_count(),
             unknown_beams: self.points.unknown,
             held_beams: self.points.held,
-            unknown_front_fraction,
+            unknown_front_fraction: frame.unknown_front_fraction,
             tracked_obstacles: self
                 .tracker
                 .tracks()
@@ -688,9 +435,66 @@ impl SafetyPipeline {
                 .iter()
                 .map(|t| t.time_to_collision_s)
                 .fold(f64::INFINITY, f64::min),
-            stop_cause,
+            stop_cause: d.infeasibility.map(|_| StopCause::Infeasible),
         }
     }
+
+    /// The stop record when this tick has no usable perception: a bad
+    /// nominal, no scan, a rejected or stale one, a blind sensor.
+    fn unusable(&mut self, now_s: f64, nominal: Twist) -> Option<StepRecord> {
+        if !nominal.is_finite() {
+            return Some(self.stop(now_s, nominal, StopCause::BadNominal));
+        }
+        match self.perceived {
+            Perceived::Nothing => Some(self.stop(now_s, nominal, StopCause::NoScan)),
+            Perceived::Unusable(StopCause::SensorBlind) => {
+                let mut rec = self.stop(now_s, nominal, StopCause::SensorBlind);
+                rec.beams = self.points.beams;
+                rec.valid_beams = self.points.valid_count();
+                rec.unknown_beams = self.points.unknown;
+                rec.held_beams = self.points.held;
+                rec.unknown_front_fraction = self.blind_fraction;
+                Some(rec)
+            }
+            Perceived::Unusable(cause) => Some(self.stop(now_s, nominal, cause)),
+            Perceived::Usable(f) => {
+                let age_s = now_s - f.stamp_s;
+                let timeout_s = self.params.laser.scan_timeout_s;
+                (age_s > timeout_s).then(|| {
+                    let stale = ScanRejection::Stale { age_s, timeout_s };
+                    self.stop(now_s, nominal, StopCause::Rejected(stale))
+                })
+            }
+        }
+    }
+
+    /// The command actually sent at `at_s` (s), when it is not the one the
+    /// last [`Self::decide`] returned: an e-stop, a disabled filter, a
+    /// downstream clamp (§5c). The window, the dead reckoning and the speed
+    /// barrier B_v start from it.
+    pub fn command_sent(&mut self, cmd: Twist, at_s: f64) {
+        let cmd = if cmd.is_finite() { cmd } else { Twist::ZERO };
+        self.last_change = Twist::new(cmd.v_mps - self.last_cmd.v_mps, cmd.omega_radps - self.last_cmd.omega_radps);
+        self.last_cmd = cmd;
+        self.last_sent_s = at_s;
+    }
+}
+
+/// What one of the two decisions (the selector, or the paper's) made of a tick.
+#[derive(Debug, Clone, Copy)]
+struct Decision {
+    cmd: Twist,
+    doaa_cmd: Twist,
+    h_m: f64,
+    h_next_m: f64,
+    changed: bool,
+    condition_held: bool,
+    passive_changed: bool,
+    infeasibility: Option<Infeasibility>,
+    state: DoaaState,
+    tier: Option<Tier>,
+    costs: CriticCosts,
+    added_motion: bool,
 }
 
 /// Where the points will be after one step: the advanced copy when a cluster

@@ -1,6 +1,19 @@
 //! Selection (ALGORITHM.md §5c): the one command sent, chosen inside the
 //! base's dynamic window.
+//!
+//! [`window`] the commands the base can reach from the one last sent;
+//! [`candidates`] a fine sample of it, the speed exact per yaw rate;
+//! [`tiers`] the hard constraints as one ordered list of relaxations;
+//! [`critics`] the soft preferences, one file each; [`selector`] the
+//! decision that puts them together.
 
+pub mod candidates;
+pub mod critics;
+pub mod selector;
+pub mod tiers;
 pub mod window;
 
+pub use critics::{Critic, CriticCosts};
+pub use selector::{Geometry, SelectInput, Selection, Selector};
+pub use tiers::Tier;
 pub use window::Window;

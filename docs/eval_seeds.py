@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Pooled batch figures over many seeds (the tables of docs/RESULTS.md).
+
+    docs/eval_seeds.py run OUT [--templates a,b] [--seeds 1-14] [--controllers oldbf] [--exe BIN]
+    docs/eval_seeds.py table OUT [--seeds 1-7] [--controller oldbf] [--against OUT2]
+
+`run` calls `oldbf batch TEMPLATE --worlds 100 --seed S --json` for every
+template and seed and keeps each JSON in OUT/<template>_<seed>.json (a file
+already there is kept: a run can be resumed). `table` pools the seeds given
+(worlds, contacts, goals and steps summed; per-world means averaged over
+worlds) and prints one Markdown row per template; with --against, the
+figures of OUT2 (before) and OUT (after) side by side as `before → after`.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+TEMPLATES = ["static_clutter", "doorways", "slow_obstacles", "fast_obstacles", "movers_crossing",
+             "movers_head_on", "movers_overtaking", "mixed"]
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def seeds_of(text):
+    out = []
+    for part in text.split(","):
+        if "-" in part:
+            a, b = part.split("-")
+            out.extend(range(int(a), int(b) + 1))
+        else:
+            out.append(int(part))
+    return out
+
+
+def run(args):
+    os.makedirs(args.out, exist_ok=True)
+    exe = args.exe or os.path.join(ROOT, "target", "release", "oldbf")
+    for t in args.templates.split(","):
+        for s in seeds_of(args.seeds):
+            path = os.path.join(args.out, f"{t}_{s}.json")
+            if os.path.exists(path):
+                continue
+            cmd = [exe, "batch", os.path.join(ROOT, "config", "batch", f"{t}.yaml"), "--worlds",
+                   str(args.worlds), "--seed", str(s), "--controllers", args.controllers, "--json"]
+            res = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            line = res.stdout.strip().splitlines()[-1]
+            with open(path + ".tmp", "w") as f:
+                f.write(line)
+            os.replace(path + ".tmp", path)
+            print(f"{t} seed {s} done", file=sys.stderr)
+
+
+def pool(out, template, seeds, controller):
+    acc = None
+    for s in seeds:
+        path = os.path.join(out, f"{template}_{s}.json")
+        if not os.path.exists(path):
+            return None
+        with open(path) as f:
+            rows = [r for r in json.load(f)["rows"] if r["controller"] == controller]
+        if not rows:
+            return None
+        r = rows[0]
+        if acc is None:
+            acc = {k: 0.0 for k in ("worlds", "contact_worlds", "closing", "passive", "reached", "with_path",
+                                    "tv_v", "tv_w", "rev_w", "rev_v", "steps", "window", "switch_min",
+                                    "above", "rev_escape", "rev_evade", "rev_other", "sign", "moving", "evade",
+                                    "clear_med", "p99", "max_us", "infeasible", "cbf_feasible", "brake_feasible")}
+        w, n = r["worlds"], r["steps_total"]
+        acc["worlds"] += w
+        acc["contact_worlds"] += r["worlds_with_collision"]
+        acc["closing"] += r["closing_contacts_total"]
+        acc["passive"] += r["passive_contacts_total"]
+        acc["reached"] += r["worlds_reached_with_path"]
+        acc["with_path"] += r["worlds_with_path"]
+        acc["tv_v"] += r["mean_variation_v_per_s"] * w
+        acc["tv_w"] += r["mean_variation_omega_per_s"] * w
+        acc["rev_w"] += r["omega_reversal_rate"] * n
+        acc["rev_v"] += r["v_reversal_rate"] * n
+        acc["steps"] += n
+        acc["window"] += r["window_exceeded_total"]
+        acc["switch_min"] += r["state_switches_per_min"] * n
+        acc["above"] += r["above_upstream_steps_total"]
+        acc["rev_escape"] += r["reverse_escape_steps_total"]
+        acc["rev_evade"] += r["reverse_evade_steps_total"]
+        acc["rev_other"] += r["reverse_other_steps_total"]
+        acc["sign"] += r["v_sign_changes_total"]
+        acc["moving"] += r["moving_track_step_rate"] * n
+        acc["evade"] += r["evade_steps_total"]
+        acc["clear_med"] += r["min_clearance_median_m"] * w
+        acc["p99"] = max(acc["p99"], r["p99_step_us"])
+        acc["max_us"] = max(acc["max_us"], r["max_step_us"])
+        acc["infeasible"] += r["infeasible_steps_total"]
+        acc["cbf_feasible"] += r["cbf_violations_feasible_total"]
+        acc["brake_feasible"] += r["braking_violations_feasible_total"]
+    w, n = acc["worlds"], acc["steps"]
+    return {
+        "worlds": int(w),
+        "contact worlds": int(acc["contact_worlds"]),
+        "closing / passive": f"{int(acc['closing'])} / {int(acc['passive'])}",
+        "goal rate": f"{100 * acc['reached'] / max(acc['with_path'], 1):.1f} %",
+        "TV v": f"{acc['tv_v'] / w:.3f}",
+        "TV ω": f"{acc['tv_w'] / w:.3f}",
+        "rev Δv": f"{100 * acc['rev_v'] / n:.2f} %",
+        "rev Δω": f"{100 * acc['rev_w'] / n:.2f} %",
+        "outside window": int(acc["window"]),
+        "switches/min": f"{acc['switch_min'] / n:.1f}",
+        "above upstream": int(acc["above"]),
+        "reverse unasked (esc/eva/other)": f"{int(acc['rev_escape'])}/{int(acc['rev_evade'])}/{int(acc['rev_other'])}",
+        "v sign changes": int(acc["sign"]),
+        "moving track": f"{100 * acc['moving'] / n:.1f} %",
+        "evade": int(acc["evade"]),
+        "median least clearance": f"{acc['clear_med'] / w:.3f}",
+        "CBF / braking viol. (feasible)": f"{int(acc['cbf_feasible'])} / {int(acc['brake_feasible'])}",
+        "p99 / max step (µs)": f"{acc['p99']:.0f} / {acc['max_us']:.0f}",
+    }
+
+
+def table(args):
+    seeds = seeds_of(args.seeds)
+    header = None
+    for t in args.templates.split(","):
+        after = pool(args.out, t, seeds, args.controller)
+        if after is None:
+            continue
+        before = pool(args.against, t, seeds, args.controller) if args.against else None
+        if header is None:
+            header = list(after.keys())
+            print("| template | " + " | ".join(header) + " |")
+            print("|---" * (len(header) + 1) + "|")
+        cells = []
+        for k in header:
+            if before is not None and str(before[k]) != str(after[k]):
+                cells.append(f"{before[k]} → {after[k]}")
+            else:
+                cells.append(str(after[k]))
+        print(f"| {t} | " + " | ".join(cells) + " |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("out")
+    r.add_argument("--templates", default=",".join(TEMPLATES))
+    r.add_argument("--seeds", default="1-14")
+    r.add_argument("--worlds", type=int, default=100)
+    r.add_argument("--controllers", default="oldbf")
+    r.add_argument("--exe", help="the oldbf binary (default: target/release/oldbf)")
+    t = sub.add_parser("table")
+    t.add_argument("out")
+    t.add_argument("--templates", default=",".join(TEMPLATES))
+    t.add_argument("--seeds", default="1-14")
+    t.add_argument("--controller", default="oldbf")
+    t.add_argument("--against")
+    a = ap.parse_args()
+    run(a) if a.cmd == "run" else table(a)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,136 @@
+//! The selector's decision in the pipeline (ALGORITHM.md §5c): where the
+//! robot is going this tick (the way round or the reference ahead), the
+//! DOAA's command as the critics' guide, and the one selection.
+
+use super::perceive::Frame;
+use super::{next_points, Decision, SafetyPipeline, GOAL_SHORT_M, MOVER_NEAR_M};
+use crate::algo::barrier::Barriers;
+use crate::algo::clearance::Clearances;
+use crate::algo::doaa::DoaaState;
+use crate::algo::dtcbf::InputBox;
+use crate::algo::geometry::{Twist, Vec2};
+use crate::algo::select::{Geometry, SelectInput, Tier};
+use crate::algo::unstuck::Situation;
+
+/// Where the robot is going this tick.
+#[derive(Debug, Clone, Copy)]
+struct Heading {
+    /// The progress critic's target (robot frame, m).
+    target: Option<Vec2>,
+    /// A way round is being followed.
+    following: bool,
+    /// The goal lies short of what is ahead (a goal in front of a wall).
+    goal_short: bool,
+}
+
+impl SafetyPipeline {
+    /// Where the robot is going (§4b): the way-round waypoint while the
+    /// unstuck logic follows one (planned on the scan less walking people),
+    /// else the point ahead on the reference; nothing without a reference.
+    fn heading(&mut self, now_s: f64, nominal: Twist, frame: &Frame, c: &Clearances) -> Heading {
+        let p = &self.params;
+        let guidance = self.guidance.take();
+        if !p.unstuck.enabled {
+            return Heading {
+                target: guidance.map(|g| g.ahead),
+                following: false,
+                goal_short: false,
+            };
+        }
+        let plans = self.unstuck.may_plan(now_s, p);
+        if plans {
+            self.fill_plan_points();
+        }
+        let p = &self.params;
+        let r = p.robot_radius_m();
+        // Only a mover on a collision course counts: a static object's track may look
+        // like a slow mover now and then while the robot goes round it.
+        let movers_near = self.threats.iter().any(|t| t.position.norm() - t.radius_m < MOVER_NEAR_M + r);
+        let now = Situation {
+            now_s,
+            nominal,
+            points: if plans { &self.plan_points } else { &self.points.points },
+            ego: frame.pose,
+            movers_near,
+        };
+        let way = self.unstuck.step(guidance, &now, p);
+        // Following with nowhere to go (boxed in): the upstream and the DOAA steer, its
+        // both-sides turn at ω_0 being the paper's case of no gap.
+        let following = self.unstuck.following() && way.waypoint.is_some();
+        Heading {
+            target: if following { way.waypoint } else { guidance.map(|g| g.ahead) },
+            following,
+            goal_short: guidance.is_some_and(|g| g.at_end && g.target.norm() + GOAL_SHORT_M < c.d_front_m + r),
+        }
+    }
+
+    /// The selector's command for `nominal` (inside `bx`) at clearances `c`
+    /// and barriers `b`; `closing_in`: h has fallen beyond its predictions.
+    pub(super) fn decide_select(
+        &mut self,
+        now_s: f64,
+        nominal: Twist,
+        (c, b): (&Clearances, &Barriers),
+        bx: &InputBox,
+        frame: &Frame,
+        closing_in: bool,
+    ) -> Decision {
+        let heading = self.heading(now_s, nominal, frame, c);
+        let p = &self.params;
+        // Something ahead beyond the goal does not block the way to it: no both-sides turn.
+        let mut c_doaa = *c;
+        if heading.goal_short {
+            c_doaa.d_front_m = f64::INFINITY;
+        }
+        let (doaa_cmd, doaa_state) = self.doaa.command_with(nominal, &c_doaa, b, p, false);
+        let d_act = p.barrier.d_act_m();
+        let since_s = match now_s - self.last_sent_s {
+            s if s.is_finite() && s >= 0.0 => s,
+            _ => p.control.dt_s(),
+        };
+        let input = SelectInput {
+            nominal,
+            doaa: doaa_cmd,
+            last: self.last_cmd,
+            last_change: self.last_change,
+            since_s,
+            bx: *bx,
+            target: heading.target,
+            front_blocked: c.d_front_m < d_act,
+            front_clear: c.d_front_m >= d_act + p.doaa.both_sides_release_m,
+            closing_in: closing_in && p.passive.enabled,
+        };
+        let geometry = Geometry {
+            points: &self.points.points,
+            points_next: next_points(self.any_advanced, &self.points_next, &self.points.points),
+            filter: &mut self.filter,
+            passive: &mut self.passive,
+        };
+        let s = self.selector.select(&input, geometry, p);
+        let state = if s.h_m < 0.0 {
+            DoaaState::Escape
+        } else if matches!(s.tier, Tier::LeastBad | Tier::Brake) {
+            DoaaState::Stop
+        } else if s.threatened && !s.passed {
+            DoaaState::Evade
+        } else if heading.following {
+            DoaaState::Follow
+        } else {
+            doaa_state
+        };
+        Decision {
+            cmd: s.cmd,
+            doaa_cmd,
+            h_m: s.h_m,
+            h_next_m: s.h_next_m,
+            changed: !s.passed,
+            condition_held: s.condition_held,
+            passive_changed: s.threatened && !s.passed,
+            infeasibility: s.tier.infeasibility(s.h_m),
+            state,
+            tier: Some(s.tier),
+            costs: s.costs,
+            added_motion: s.added_motion,
+        }
+    }
+}

@@ -1,0 +1,98 @@
+//! Room to the surroundings along the horizon (ALGORITHM.md §5c): the DTCBF
+//! condition only looks one step ahead and, with the paper's one-step model,
+//! not at the turn at all; this critic follows the candidate held for
+//! `select.horizon_s` along its arc and prefers the one that keeps more
+//! room than `select.clearance_band_m` beyond d_safe. Its cost is
+//! ((band − c)/band)² for the least clearance c beyond d_safe on the way
+//! (0 with c ≥ band, 1 at d_safe, more inside it, at most 4).
+
+use super::Look;
+use crate::algo::geometry::{min_distance_squared, Vec2};
+use crate::algo::params::Params;
+
+/// The largest cost (a path deep inside d_safe).
+const MAX_COST: f64 = 4.0;
+
+/// The points any candidate's horizon can come near this step.
+#[derive(Debug, Clone, Default)]
+pub struct Clearance {
+    near: Vec<Vec2>,
+}
+
+impl Clearance {
+    /// Room for `points` points without reallocating.
+    pub fn with_capacity(points: usize) -> Self {
+        Self {
+            near: Vec::with_capacity(points),
+        }
+    }
+
+    /// Keeps the points of `points` (robot frame, m) within reach of a
+    /// horizon at the box's top speed, nearest first: the only ones that
+    /// can count.
+    pub fn prepare(&mut self, points: &[Vec2], p: &Params) {
+        let speed = p.control.v_max_mps.max(p.control.v_reverse_max_mps);
+        let reach = p.robot_radius_m() + p.barrier.d_safe_m + p.select.clearance_band_m + speed * p.select.horizon_s;
+        let reach2 = reach * reach;
+        self.near.clear();
+        self.near.extend(points.iter().filter(|q| q.norm_squared() <= reach2));
+        self.near.sort_unstable_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
+    }
+
+    /// The unweighted cost of the candidate `look` (0..4).
+    pub fn cost(&self, look: &Look, p: &Params) -> f64 {
+        let band = p.select.clearance_band_m;
+        let required = p.robot_radius_m() + p.barrier.d_safe_m;
+        // Only points within the band of the path count, and the path stays
+        // within |v|·horizon of the robot: the nearest points, a prefix.
+        let reach = required + band + look.cmd.v_mps.abs() * p.select.horizon_s;
+        let n = self.near.partition_point(|q| q.norm_squared() <= reach * reach);
+        let near = &self.near[..n];
+        if near.is_empty() {
+            return 0.0;
+        }
+        let far2 = (required + band).powi(2);
+        let least2 = look
+            .path
+            .iter()
+            .map(|&at| min_distance_squared(near, at))
+            .fold(f64::INFINITY, f64::min);
+        if least2 >= far2 {
+            return 0.0;
+        }
+        let c = least2.sqrt() - required;
+        (((band - c) / band).powi(2)).min(MAX_COST)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::geometry::Twist;
+
+    impl Clearance {
+        fn cost_of(&self, cmd: Twist, p: &Params) -> f64 {
+            self.cost(&Look::of(cmd, p), p)
+        }
+    }
+
+    #[test]
+    fn a_path_that_keeps_the_band_costs_nothing_and_one_at_d_safe_costs_one() {
+        // r + d_safe = 0.378 m, band 0.3 m, horizon 1.5 s. A point 1 m ahead.
+        let p = Params::default();
+        let mut c = Clearance::default();
+        c.prepare(&[Vec2::new(1.0, 0.0)], &p);
+        // Standing: 1 − 0.378 = 0.622 m of room, beyond the band.
+        assert_eq!(c.cost_of(Twist::ZERO, &p), 0.0);
+        // 0.1 m/s for 1.5 s: ends 0.85 m from it, 0.472 m of room: still beyond.
+        assert_eq!(c.cost_of(Twist::new(0.1, 0.0), &p), 0.0);
+        // 0.2 m/s straight at it: ends 0.7 m away, room 0.322 m: nothing yet...
+        assert_eq!(c.cost_of(Twist::new(0.2, 0.0), &p), 0.0);
+        // ...with the point at 0.8 m: room 0.122 m, ((0.3 − 0.122)/0.3)².
+        c.prepare(&[Vec2::new(0.8, 0.0)], &p);
+        let want = ((0.3f64 - 0.122) / 0.3).powi(2);
+        assert!((c.cost_of(Twist::new(0.2, 0.0), &p) - want).abs() < 1e-9);
+        // Turning away keeps more room than driving straight at it.
+        assert!(c.cost_of(Twist::new(0.2, 0.3), &p) < c.cost_of(Twist::new(0.2, 0.0), &p));
+    }
+}

@@ -1,0 +1,374 @@
+//! The one decision of a step (ALGORITHM.md §5c): window → candidates →
+//! the first level of the relaxation order with a candidate that passes
+//! the braking check → the lowest weighted sum of the critics there.
+//!
+//! * **Pass-through.** A nominal command that lies in the window, meets the
+//!   strictest level and the braking check, while no mover threatens it,
+//!   is sent unchanged: the filter changes a
+//!   safe command as little as possible, which is not at all.
+//! * **What a safety layer may add.** Against static surroundings the speed
+//!   stays between 0 and the upstream's (never faster, never reversing
+//!   unless the upstream does). Inside the unsafe set the escape may use
+//!   the whole input box; while a tracked mover threatens the upstream
+//!   command, evasion may go up to `passive.evasion_max_speed_mps` either
+//!   way (reversing only where the box allows it: the rear seen). The
+//!   window cuts all of this; if what is allowed lies outside the window,
+//!   the window's nearest speed (braking towards it) is the range.
+//! * **Search.** Within a level, candidates are taken in order of their
+//!   cheap critics; the clearance and mover critics (≥ 0) are added only
+//!   while a candidate could still beat the best so far, and the braking
+//!   check only for one that would: the result is the minimum over every
+//!   candidate of the level, found without weighing most of them in full.
+//! * **Side kept.** While something is ahead within d_act, the side the
+//!   selector steered to (against the upstream's yaw rate) is remembered
+//!   for the side critic, until the front is clear again.
+
+use super::candidates::{Candidate, Candidates, Sampling};
+use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
+use super::tiers::{escape_target, Tier};
+use super::window::{Window, WINDOW_TOL};
+use crate::algo::dtcbf::{condition_holds, predicted_displacement, DtcbfFilter, InputBox, TOL_M};
+use crate::algo::geometry::{Twist, Vec2};
+use crate::algo::params::Params;
+use crate::algo::passive::PassiveSafety;
+
+/// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
+const SIDE_MIN_RADPS: f64 = 0.03;
+
+/// What the step gives the selector besides the geometry.
+#[derive(Debug, Clone, Copy)]
+pub struct SelectInput {
+    /// The upstream command, inside the input box.
+    pub nominal: Twist,
+    /// The DOAA's command for it (§4).
+    pub doaa: Twist,
+    /// The command last sent, the change it made from the one before, and
+    /// the time since it was sent (s).
+    pub last: Twist,
+    pub last_change: Twist,
+    pub since_s: f64,
+    /// This step's input box (reverse only with the rear seen).
+    pub bx: InputBox,
+    /// Where progress is measured to (robot frame, m).
+    pub target: Option<Vec2>,
+    /// Something within d_act ahead; the front clear again (released).
+    pub front_blocked: bool,
+    pub front_clear: bool,
+    /// h has been falling faster than its predictions explain (§5).
+    pub closing_in: bool,
+}
+
+/// The geometry of the step: the points now and after one step.
+#[derive(Debug)]
+pub struct Geometry<'a> {
+    pub points: &'a [Vec2],
+    pub points_next: &'a [Vec2],
+    pub filter: &'a mut DtcbfFilter,
+    pub passive: &'a mut PassiveSafety,
+}
+
+/// What the selector decided.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Selection {
+    /// The command to send: in the window, finite.
+    pub cmd: Twist,
+    /// h(k) and the predicted h(k+1) for `cmd` (m).
+    pub h_m: f64,
+    pub h_next_m: f64,
+    /// The level it came from.
+    pub tier: Tier,
+    /// Each critic's weighted cost for `cmd`.
+    pub costs: CriticCosts,
+    /// The nominal was sent unchanged.
+    pub passed: bool,
+    /// A mover threatens the upstream command: the mover critic counted.
+    pub threatened: bool,
+    /// `cmd` goes faster than the upstream or reverses unasked.
+    pub added_motion: bool,
+    /// The braking check (§5b) holds for `cmd`.
+    pub braking_held: bool,
+    /// §5's condition holds for `cmd`.
+    pub condition_held: bool,
+}
+
+/// The selector's buffers and its one memory: the side kept.
+#[derive(Debug, Clone, Default)]
+pub struct Selector {
+    candidates: Candidates,
+    order: Vec<(f64, u32)>,
+    clearance: Clearance,
+    side: Option<f64>,
+}
+
+impl Selector {
+    /// Buffers sized for `points` scan points and the sampling of `p`.
+    pub fn with_capacity(points: usize, p: &Params) -> Self {
+        Self {
+            candidates: Candidates::with_capacity(p),
+            order: Vec::with_capacity((p.select.omega_samples + 3) * (p.select.speed_samples + 20)),
+            clearance: Clearance::with_capacity(points),
+            side: None,
+        }
+    }
+
+    /// Forgets the side kept.
+    pub fn reset(&mut self) {
+        self.side = None;
+    }
+
+    /// The side kept (+1 left, −1 right).
+    pub fn side(&self) -> Option<f64> {
+        self.side
+    }
+
+    /// One decision.
+    pub fn select(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
+        let bx = input.bx;
+        let window = Window::new(input.last, input.since_s, &p.control, &bx);
+        let h = g.filter.prepare(g.points, g.points_next, p, &bx);
+        let passive = p.passive.enabled;
+        let movers = passive && !g.passive.movers().is_empty();
+        if movers {
+            g.passive.select_reach(g.points_next, p);
+        }
+        let trigger = p.obstacles.lookahead_s.min(p.passive.evasion_horizon_s);
+        let threatened = movers && g.passive.evasion_score(input.nominal, p).mover_contact_s < trigger;
+        if self.side.is_some() && input.front_clear {
+            self.side = None;
+        }
+        let ctx = Context {
+            params: p,
+            nominal: input.nominal,
+            doaa: input.doaa,
+            last: input.last,
+            last_change: input.last_change,
+            target: input.target,
+            side: self.side,
+        };
+        self.clearance.prepare(g.points, p);
+        let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
+        let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
+
+        // Pass-through: the nominal, unchanged, when nothing asks otherwise.
+        if !threatened && window.contains(input.nominal) {
+            let h_next = h_next_of(g.filter, input.nominal);
+            let meets = target_of(first, f64::NAN).is_none_or(|t| h_next >= t - TOL_M);
+            if meets && (!passive || g.passive.closing_contact(input.nominal, p).is_none()) {
+                let look = Look::of(input.nominal, p);
+                let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), false, g.passive);
+                return Selection {
+                    cmd: input.nominal,
+                    h_m: h,
+                    h_next_m: h_next,
+                    tier: first,
+                    costs,
+                    passed: true,
+                    threatened,
+                    added_motion: false,
+                    braking_held: true,
+                    condition_held: condition_holds(h, h_next, p.dtcbf.gamma),
+                };
+            }
+        }
+
+        let sampling = Sampling {
+            window,
+            v_range: allowed_speeds(input, &window, h, threatened, p),
+            exact_target_m: target_of(first, f64::NAN),
+        };
+        self.candidates.sample(&sampling, g.filter, g.points_next, &ctx);
+        let best_h_next = self
+            .candidates
+            .items
+            .iter()
+            .map(|c| c.h_next_m)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let escape = escape_target(h, best_h_next, input.closing_in, p);
+        let mut chosen: Option<(usize, Tier, CriticCosts)> = None;
+        for tier in Tier::ORDER {
+            if !tier.applies(h) || tier == Tier::Brake {
+                continue;
+            }
+            let found = match tier {
+                Tier::LeastBad => self.least_bad(&ctx, threatened, g.passive),
+                _ => match target_of(tier, escape) {
+                    Some(t) => self.best_meeting(t, &ctx, threatened, g.passive),
+                    // Nothing visible: every candidate meets every level.
+                    None => self.best_meeting(f64::NEG_INFINITY, &ctx, threatened, g.passive),
+                },
+            };
+            if let Some((i, costs)) = found {
+                chosen = Some((i, tier, costs));
+                break;
+            }
+        }
+        let (cmd, tier, costs, h_next, braking_held) = match chosen {
+            Some((i, tier, costs)) => {
+                let c = &self.candidates.items[i];
+                (c.look.cmd, tier, costs, c.h_next_m, true)
+            }
+            None => {
+                let cmd = brake(input.last, &window);
+                let look = Look::of(cmd, p);
+                let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), threatened, g.passive);
+                let held = !passive || g.passive.closing_contact(cmd, p).is_none();
+                (cmd, Tier::Brake, costs, h_next_of(g.filter, cmd), held)
+            }
+        };
+        self.keep_side(input, cmd);
+        let (lo, hi) = (input.nominal.v_mps.min(0.0), input.nominal.v_mps.max(0.0));
+        Selection {
+            cmd,
+            h_m: h,
+            h_next_m: h_next,
+            tier,
+            costs,
+            passed: false,
+            threatened,
+            added_motion: cmd.v_mps > hi.max(window.v.0) + WINDOW_TOL || cmd.v_mps < lo.min(window.v.1) - WINDOW_TOL,
+            braking_held,
+            condition_held: condition_holds(h, h_next, p.dtcbf.gamma),
+        }
+    }
+
+    /// Every critic's weighted cost for `look`, from its cheap ones: the
+    /// clearance critic, and the mover critic while a mover threatens.
+    fn full_costs(
+        &self,
+        ctx: &Context<'_>,
+        look: &Look,
+        mut costs: CriticCosts,
+        threatened: bool,
+        passive: &mut PassiveSafety,
+    ) -> CriticCosts {
+        let p = ctx.params;
+        let w = &p.select.weights;
+        costs.set(Critic::Clearance, w.clearance * self.clearance.cost(look, p));
+        if threatened {
+            let score = passive.evasion_score(look.cmd, p);
+            costs.set(Critic::Mover, w.mover * mover::cost(&score, p));
+        }
+        costs
+    }
+
+    /// Candidate `i`'s braking check, done once.
+    fn braking(&mut self, i: usize, passive: &mut PassiveSafety, p: &Params) -> bool {
+        if !p.passive.enabled {
+            return true;
+        }
+        let c = &mut self.candidates.items[i];
+        *c.braking
+            .get_or_insert_with(|| passive.closing_contact(c.look.cmd, p).is_none())
+    }
+
+    /// The candidate with h(k+1) ≥ `target` that passes the braking check
+    /// with the lowest total cost, and its costs.
+    fn best_meeting(
+        &mut self,
+        target: f64,
+        ctx: &Context<'_>,
+        threatened: bool,
+        passive: &mut PassiveSafety,
+    ) -> Option<(usize, CriticCosts)> {
+        self.order.clear();
+        let items = &self.candidates.items;
+        self.order.extend(
+            items
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.h_next_m >= target - TOL_M)
+                .map(|(i, c)| (c.cheap_total, i as u32)),
+        );
+        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best: Option<(usize, CriticCosts, f64)> = None;
+        for k in 0..self.order.len() {
+            let (cheap, i) = self.order[k];
+            if best.as_ref().is_some_and(|b| cheap >= b.2) {
+                break; // the rest cost at least this much
+            }
+            let i = i as usize;
+            let c: Candidate = self.candidates.items[i];
+            let costs = self.full_costs(ctx, &c.look, c.cheap, threatened, passive);
+            let total = costs.total();
+            if best.as_ref().is_none_or(|b| total < b.2) && self.braking(i, passive, ctx.params) {
+                best = Some((i, costs, total));
+            }
+        }
+        best.map(|(i, costs, _)| (i, costs))
+    }
+
+    /// The candidate with the highest h(k+1) that passes the braking check
+    /// (among equals, the cheapest), and its costs.
+    fn least_bad(&mut self, ctx: &Context<'_>, threatened: bool, passive: &mut PassiveSafety) -> Option<(usize, CriticCosts)> {
+        self.order.clear();
+        self.order.extend(
+            self.candidates
+                .items
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (-c.h_next_m, i as u32)),
+        );
+        let items = &self.candidates.items;
+        self.order.sort_unstable_by(|a, b| {
+            a.0.total_cmp(&b.0)
+                .then(items[a.1 as usize].cheap_total.total_cmp(&items[b.1 as usize].cheap_total))
+                .then(a.1.cmp(&b.1))
+        });
+        for k in 0..self.order.len() {
+            let i = self.order[k].1 as usize;
+            if self.braking(i, passive, ctx.params) {
+                let c = self.candidates.items[i];
+                return Some((i, self.full_costs(ctx, &c.look, c.cheap, threatened, passive)));
+            }
+        }
+        None
+    }
+
+    /// Remembers the side steered to round something ahead.
+    fn keep_side(&mut self, input: &SelectInput, cmd: Twist) {
+        let turn = cmd.omega_radps - input.nominal.omega_radps;
+        if input.front_blocked && turn.abs() > SIDE_MIN_RADPS {
+            self.side = Some(turn.signum());
+        }
+    }
+}
+
+/// The speeds a safety layer may command this step (ALGORITHM.md §5c),
+/// inside the window: between 0 and the upstream's; the whole box inside
+/// the unsafe set (escape); up to `passive.evasion_max_speed_mps` either
+/// way while a mover threatens (evasion). If that lies wholly outside the
+/// window, the window's speed nearest it.
+fn allowed_speeds(input: &SelectInput, window: &Window, h: f64, threatened: bool, p: &Params) -> (f64, f64) {
+    let v_nom = input.nominal.v_mps;
+    let bx = input.bx;
+    let (mut lo, mut hi) = (v_nom.min(0.0), v_nom.max(0.0));
+    if h < 0.0 {
+        (lo, hi) = (bx.v_lo, bx.v_hi);
+    } else if threatened {
+        let extra = p.passive.evasion_max_speed_mps;
+        (lo, hi) = (lo.min(bx.v_lo.max(-extra)), hi.max(bx.v_hi.min(extra)));
+    }
+    let (w0, w1) = window.v;
+    if hi < w0 {
+        (w0, w0)
+    } else if lo > w1 {
+        (w1, w1)
+    } else {
+        (lo.max(w0), hi.min(w1))
+    }
+}
+
+/// Braking towards rest at the window's deceleration, on the curvature
+/// last sent where the window allows it: the stop the braking check counts
+/// on, always reachable.
+fn brake(last: Twist, window: &Window) -> Twist {
+    let v = 0.0f64.clamp(window.v.0, window.v.1);
+    let omega = if last.v_mps.abs() > 1e-9 {
+        last.omega_radps * v / last.v_mps
+    } else {
+        0.0
+    };
+    Twist::new(v, omega.clamp(window.omega.0, window.omega.1))
+}
