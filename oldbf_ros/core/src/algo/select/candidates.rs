@@ -149,6 +149,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
+            guide: true,
         }
     }
 

@@ -81,6 +81,8 @@ pub struct Selection {
     pub costs: CriticCosts,
     /// The nominal was sent unchanged.
     pub passed: bool,
+    /// The nominal was not safe as it was: the critics that steer counted.
+    pub guided: bool,
     /// A mover threatens the upstream command: the mover critic counted.
     pub threatened: bool,
     /// `cmd` goes faster than the upstream or reverses unasked.
@@ -136,6 +138,18 @@ impl Selector {
         if self.side.is_some() && input.front_clear {
             self.side = None;
         }
+        self.clearance.prepare(g.points, p);
+        let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
+        let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
+        // Is the upstream command safe as it is? Then it is sent unchanged if the base can
+        // follow it now, and approached through the window otherwise; the critics that
+        // steer (the DOAA's law, progress, clearance, the side kept) count only when it is not.
+        let nominal_h_next = h_next_of(g.filter, input.nominal);
+        let nominal_ok = !threatened
+            && target_of(first, f64::NAN).is_none_or(|t| nominal_h_next >= t - TOL_M)
+            && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {
             params: p,
             nominal: input.nominal,
@@ -144,33 +158,24 @@ impl Selector {
             last_change: input.last_change,
             target: input.target,
             side: self.side,
+            guide: !nominal_ok,
         };
-        self.clearance.prepare(g.points, p);
-        let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
-        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
-        let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
-
-        // Pass-through: the nominal, unchanged, when nothing asks otherwise.
-        if !threatened && window.contains(input.nominal) {
-            let h_next = h_next_of(g.filter, input.nominal);
-            let meets = target_of(first, f64::NAN).is_none_or(|t| h_next >= t - TOL_M);
-            if meets && (!passive || g.passive.closing_contact(input.nominal, p).is_none()) {
-                let look = Look::of(input.nominal, p);
-                let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), false, g.passive);
-                return Selection {
-                    cmd: input.nominal,
-                    h_m: h,
-                    h_next_m: h_next,
-                    tier: first,
-                    costs,
-                    passed: true,
-                    threatened,
-                    added_motion: false,
-                    braking_held: true,
-                    condition_held: condition_holds(h, h_next, p.dtcbf.gamma),
-                };
-            }
+        if nominal_ok && window.contains(input.nominal) {
+            let look = Look::of(input.nominal, p);
+            let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), false, g.passive);
+            return Selection {
+                cmd: input.nominal,
+                h_m: h,
+                h_next_m: nominal_h_next,
+                tier: first,
+                costs,
+                passed: true,
+                guided: false,
+                threatened,
+                added_motion: false,
+                braking_held: true,
+                condition_held: condition_holds(h, nominal_h_next, p.dtcbf.gamma),
+            };
         }
 
         let sampling = Sampling {
@@ -226,6 +231,7 @@ impl Selector {
             tier,
             costs,
             passed: false,
+            guided: ctx.guide,
             threatened,
             added_motion: cmd.v_mps > hi.max(window.v.0) + WINDOW_TOL || cmd.v_mps < lo.min(window.v.1) - WINDOW_TOL,
             braking_held,
@@ -245,7 +251,9 @@ impl Selector {
     ) -> CriticCosts {
         let p = ctx.params;
         let w = &p.select.weights;
-        costs.set(Critic::Clearance, w.clearance * self.clearance.cost(look, p));
+        if ctx.guide {
+            costs.set(Critic::Clearance, w.clearance * self.clearance.cost(look, p));
+        }
         if threatened {
             let score = passive.evasion_score(look.cmd, p);
             costs.set(Critic::Mover, w.mover * mover::cost(&score, p));

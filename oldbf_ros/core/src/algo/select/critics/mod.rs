@@ -122,6 +122,10 @@ pub struct Context<'a> {
     pub target: Option<Vec2>,
     /// The side kept for passing an obstacle ahead (+1 left, −1 right).
     pub side: Option<f64>,
+    /// The upstream command is not safe as it is: the critics that steer
+    /// (DOAA, progress, clearance, side) count. Otherwise the selector only
+    /// approaches the upstream command, and they cost 0.
+    pub guide: bool,
 }
 
 /// Points where a candidate held from now puts the robot (robot frame, m),
@@ -177,9 +181,11 @@ pub fn cheap_costs(ctx: &Context<'_>, look: &Look) -> CriticCosts {
     c.set(Critic::Nominal, w.nominal * nominal::cost(ctx, cmd));
     c.set(Critic::Smoothness, w.smoothness * smoothness::cost(ctx, cmd));
     c.set(Critic::Oscillation, w.oscillation * oscillation::cost(ctx, cmd));
-    c.set(Critic::Doaa, w.doaa * doaa::cost(ctx, cmd));
-    c.set(Critic::Progress, w.progress * progress::cost(ctx, look));
-    c.set(Critic::Side, w.side * side::cost(ctx, cmd));
+    if ctx.guide {
+        c.set(Critic::Doaa, w.doaa * doaa::cost(ctx, cmd));
+        c.set(Critic::Progress, w.progress * progress::cost(ctx, look));
+        c.set(Critic::Side, w.side * side::cost(ctx, cmd));
+    }
     c
 }
 

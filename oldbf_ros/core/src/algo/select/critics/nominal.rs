@@ -29,6 +29,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
+            guide: true,
         };
         assert_eq!(cost(&ctx, Twist::new(0.22, 0.3)), 0.0);
         assert!((cost(&ctx, Twist::new(0.0, 0.3)) - 1.0).abs() < 1e-12);

@@ -41,6 +41,7 @@ mod tests {
             last_change: Twist::new(-0.05, 0.1),
             target: None,
             side: None,
+            guide: true,
         };
         // Speeding up again by 0.03 after slowing by 0.05: a reversal; by 0.01: not.
         assert_eq!(cost(&ctx, Twist::new(0.08, 0.1)), 1.0);

@@ -53,6 +53,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: Some(Vec2::new(3.0, 0.0)),
             side: None,
+            guide: true,
         };
         assert!(cost(&ctx, Twist::new(0.22, 0.0)).abs() < 1e-12);
         assert!((cost(&ctx, Twist::ZERO) - 0.25).abs() < 1e-12);

@@ -35,6 +35,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: Some(1.0),
+            guide: true,
         };
         assert_eq!(cost(&ctx, Twist::new(0.15, 0.3)), 0.0);
         assert!((cost(&ctx, Twist::new(0.15, -0.2)) - 1.0).abs() < 1e-12);

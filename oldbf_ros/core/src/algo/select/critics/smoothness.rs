@@ -30,6 +30,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
+            guide: true,
         };
         assert_eq!(cost(&ctx, Twist::new(0.1, 0.1)), 0.0);
         assert!((cost(&ctx, Twist::new(0.15, 0.1)) - 1.0).abs() < 1e-12);
