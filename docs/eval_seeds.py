@@ -42,7 +42,7 @@ def run(args):
             if os.path.exists(path):
                 continue
             cmd = [exe, "batch", os.path.join(ROOT, "config", "batch", f"{t}.yaml"), "--worlds",
-                   str(args.worlds), "--seed", str(s), "--controllers", args.controllers, "--json"]
+                   str(args.worlds), "--seed", str(s), "--controllers", args.controllers, "--json"] + args.extra.split()
             res = subprocess.run(cmd, capture_output=True, text=True, check=True)
             line = res.stdout.strip().splitlines()[-1]
             with open(path + ".tmp", "w") as f:
@@ -148,6 +148,7 @@ def main():
     r.add_argument("--worlds", type=int, default=100)
     r.add_argument("--controllers", default="oldbf")
     r.add_argument("--exe", help="the oldbf binary (default: target/release/oldbf)")
+    r.add_argument("--extra", default="", help="more options for `oldbf batch`, e.g. --config FILE")
     t = sub.add_parser("table")
     t.add_argument("out")
     t.add_argument("--templates", default=",".join(TEMPLATES))

@@ -6,7 +6,7 @@ use super::perceive::Frame;
 use super::{next_points, Decision, SafetyPipeline, GOAL_SHORT_M, MOVER_NEAR_M};
 use crate::algo::barrier::Barriers;
 use crate::algo::clearance::Clearances;
-use crate::algo::doaa::DoaaState;
+use crate::algo::doaa::{sides_tie, DoaaState};
 use crate::algo::dtcbf::InputBox;
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::select::{Geometry, SelectInput, Tier};
@@ -21,6 +21,23 @@ struct Heading {
     following: bool,
     /// The goal lies short of what is ahead (a goal in front of a wall).
     goal_short: bool,
+}
+
+/// The side with more room (+1 left, −1 right): the clearer one, then the
+/// less crowded one, then the right (§4b: two robots running this law
+/// head-on both keep right and pass each other).
+fn clearer_side(c: &Clearances) -> f64 {
+    if !sides_tie(c) {
+        if c.d_left_m > c.d_right_m {
+            1.0
+        } else {
+            -1.0
+        }
+    } else if c.crowding_left < c.crowding_right {
+        1.0
+    } else {
+        -1.0
+    }
 }
 
 impl SafetyPipeline {
@@ -98,7 +115,9 @@ impl SafetyPipeline {
             target: heading.target,
             front_blocked: c.d_front_m < d_act,
             front_clear: c.d_front_m >= d_act + p.doaa.both_sides_release_m,
+            clearer_side: clearer_side(c),
             closing_in: closing_in && p.passive.enabled,
+            mover_closing: !self.threats.is_empty(),
         };
         let geometry = Geometry {
             points: &self.points.points,
@@ -106,6 +125,7 @@ impl SafetyPipeline {
             filter: &mut self.filter,
             passive: &mut self.passive,
         };
+        log::trace!("t {now_s:.1}: selecting for nominal {nominal:?}, DOAA {doaa_cmd:?}");
         let s = self.selector.select(&input, geometry, p);
         let state = if s.h_m < 0.0 {
             DoaaState::Escape

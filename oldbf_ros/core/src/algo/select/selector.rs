@@ -19,9 +19,10 @@
 //!   while a candidate could still beat the best so far, and the braking
 //!   check only for one that would: the result is the minimum over every
 //!   candidate of the level, found without weighing most of them in full.
-//! * **Side kept.** While something is ahead within d_act, the side the
-//!   selector steered to (against the upstream's yaw rate) is remembered
-//!   for the side critic, until the front is clear again.
+//! * **Side kept.** When something comes within d_act ahead, the side to
+//!   pass it on is chosen once (the way the DOAA's law turns, else the
+//!   clearer side, else the right) and kept for the side critic until the
+//!   front is clear again.
 
 use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
@@ -54,8 +55,14 @@ pub struct SelectInput {
     /// Something within d_act ahead; the front clear again (released).
     pub front_blocked: bool,
     pub front_clear: bool,
+    /// The side to pass something ahead on when nothing else says (+1 left,
+    /// −1 right): the clearer side, then the less crowded, then the right
+    /// (two robots head-on both keep right and pass).
+    pub clearer_side: f64,
     /// h has been falling faster than its predictions explain (§5).
     pub closing_in: bool,
+    /// A tracked mover is on a collision course within the look-ahead (§6).
+    pub mover_closing: bool,
 }
 
 /// The geometry of the step: the points now and after one step.
@@ -134,12 +141,29 @@ impl Selector {
             g.passive.select_reach(g.points_next, p);
         }
         let trigger = p.obstacles.lookahead_s.min(p.passive.evasion_horizon_s);
-        let threatened = movers && g.passive.evasion_score(input.nominal, p).mover_contact_s < trigger;
+        let threatened =
+            movers && (input.mover_closing || g.passive.evasion_score(input.nominal, p).mover_contact_s < trigger);
         if self.side.is_some() && input.front_clear {
             self.side = None;
         }
+        if self.side.is_none() && input.front_blocked {
+            // The side to pass on: the way the DOAA's law turns off the upstream's, else
+            // the clearer side.
+            let turn = input.doaa.omega_radps - input.nominal.omega_radps;
+            self.side = Some(if turn.abs() > SIDE_MIN_RADPS {
+                turn.signum()
+            } else {
+                input.clearer_side
+            });
+        }
         self.clearance.prepare(g.points, p);
-        let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
+        let first = if movers {
+            Tier::Clear
+        } else if h >= 0.0 {
+            Tier::Margin
+        } else {
+            Tier::Condition
+        };
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
         let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
         let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
@@ -193,16 +217,17 @@ impl Selector {
         let escape = escape_target(h, best_h_next, input.closing_in, p);
         let mut chosen: Option<(usize, Tier, CriticCosts)> = None;
         for tier in Tier::ORDER {
-            if !tier.applies(h) || tier == Tier::Brake {
+            if !tier.applies(h) || tier == Tier::Brake || (tier == Tier::Clear && !movers) {
                 continue;
             }
             let found = match tier {
                 Tier::LeastBad => self.least_bad(&ctx, threatened, g.passive),
-                _ => match target_of(tier, escape) {
-                    Some(t) => self.best_meeting(t, &ctx, threatened, g.passive),
-                    // Nothing visible: every candidate meets every level.
-                    None => self.best_meeting(f64::NEG_INFINITY, &ctx, threatened, g.passive),
-                },
+                // Nothing visible: every candidate meets every level.
+                _ => {
+                    let t = target_of(tier, escape).unwrap_or(f64::NEG_INFINITY);
+                    let clear = (tier == Tier::Clear).then_some(trigger);
+                    self.best_meeting(t, clear, &ctx, threatened, g.passive)
+                }
             };
             if let Some((i, costs)) = found {
                 chosen = Some((i, tier, costs));
@@ -222,7 +247,28 @@ impl Selector {
                 (cmd, Tier::Brake, costs, h_next_of(g.filter, cmd), held)
             }
         };
-        self.keep_side(input, cmd);
+        if log::log_enabled!(log::Level::Trace) {
+            let mut all: Vec<(f64, Twist, f64, CriticCosts)> = self
+                .candidates
+                .items
+                .iter()
+                .map(|c| {
+                    let mut pz = g.passive.clone();
+                    let costs = self.full_costs(&ctx, &c.look, c.cheap, threatened, &mut pz);
+                    (costs.total(), c.look.cmd, c.h_next_m, costs)
+                })
+                .collect();
+            all.sort_by(|a, b| a.0.total_cmp(&b.0));
+            log::trace!("select: h {h:.3} threatened {threatened} tier {tier:?} chosen {cmd:?} costs {:?} window {window:?} range {:?} last {:?} n {}", costs.0, sampling.v_range, input.last, self.candidates.items.len());
+            for (t, u, hn, c) in all.iter().take(4) {
+                log::trace!("  cand {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
+            }
+            all.sort_by(|a, b| a.3.get(Critic::Mover).total_cmp(&b.3.get(Critic::Mover)));
+            for (t, u, hn, c) in all.iter().take(3) {
+                let s = g.passive.evasion_score(*u, p);
+                log::trace!("  mover-best {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?} {s:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
+            }
+        }
         let (lo, hi) = (input.nominal.v_mps.min(0.0), input.nominal.v_mps.max(0.0));
         Selection {
             cmd,
@@ -272,10 +318,12 @@ impl Selector {
     }
 
     /// The candidate with h(k+1) ≥ `target` that passes the braking check
-    /// with the lowest total cost, and its costs.
+    /// (and, with `clear_s`, keeps clear of every mover's predicted disc
+    /// that long, held) with the lowest total cost, and its costs.
     fn best_meeting(
         &mut self,
         target: f64,
+        clear_s: Option<f64>,
         ctx: &Context<'_>,
         threatened: bool,
         passive: &mut PassiveSafety,
@@ -298,6 +346,9 @@ impl Selector {
             }
             let i = i as usize;
             let c: Candidate = self.candidates.items[i];
+            if clear_s.is_some_and(|t| passive.evasion_score(c.look.cmd, ctx.params).mover_contact_s < t) {
+                continue;
+            }
             let costs = self.full_costs(ctx, &c.look, c.cheap, threatened, passive);
             let total = costs.total();
             if best.as_ref().is_none_or(|b| total < b.2) && self.braking(i, passive, ctx.params) {
@@ -334,13 +385,6 @@ impl Selector {
         None
     }
 
-    /// Remembers the side steered to round something ahead.
-    fn keep_side(&mut self, input: &SelectInput, cmd: Twist) {
-        let turn = cmd.omega_radps - input.nominal.omega_radps;
-        if input.front_blocked && turn.abs() > SIDE_MIN_RADPS {
-            self.side = Some(turn.signum());
-        }
-    }
 }
 
 /// The speeds a safety layer may command this step (ALGORITHM.md §5c),

@@ -3,13 +3,43 @@
 //! side), or the both-sides turn at ±ω_0 with its reduced speed. When the
 //! filter has to change the upstream command, this is what says which way:
 //! the robot turns away from what is near, as the paper's robot does. Same
-//! scale as the nominal critic: each component over its full range, squared.
+//! scale as the nominal critic: each component over its full range, squared;
+//! the speed only when faster than the law's (it only ever slows: the
+//! both-sides turn near the front).
 
 use super::{sq, Context};
 use crate::algo::geometry::Twist;
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::params::Params;
+
+    #[test]
+    fn turning_off_the_law_and_going_faster_cost_but_slowing_does_not() {
+        let p = Params::default(); // v_max 0.22, ω_max 0.3
+        let ctx = Context {
+            params: &p,
+            nominal: Twist::new(0.22, 0.0),
+            doaa: Twist::new(0.11, -0.3),
+            last: Twist::ZERO,
+            last_change: Twist::ZERO,
+            target: None,
+            side: None,
+            guide: true,
+        };
+        assert_eq!(cost(&ctx, Twist::new(0.11, -0.3)), 0.0);
+        assert_eq!(cost(&ctx, Twist::new(0.0, -0.3)), 0.0);
+        assert!((cost(&ctx, Twist::new(0.22, -0.3)) - 0.25).abs() < 1e-12);
+        assert!((cost(&ctx, Twist::new(0.11, 0.0)) - 1.0).abs() < 1e-12);
+    }
+}
+
 /// The cost of `cmd` (about 0..2).
 pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     let c = &ctx.params.control;
-    sq(cmd.v_mps, ctx.doaa.v_mps, c.v_max_mps) + sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
+    // The law only ever slows (the both-sides turn near the front): faster than
+    // its speed costs, slower does not (the nominal critic says how much slower).
+    sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps)
+        + sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
 }

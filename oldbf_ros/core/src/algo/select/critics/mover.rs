@@ -14,7 +14,7 @@ use crate::algo::passive::{EvasionScore, GAP_CAP_M};
 /// contact at once.
 const LINE_SCALE_M: f64 = 0.5;
 /// Weight of the room kept, against the time to contact.
-const GAP_SHARE: f64 = 0.25;
+const GAP_SHARE: f64 = 1.0;
 
 /// The unweighted cost of a command whose evasion score is `s` (0..2.25).
 pub fn cost(s: &EvasionScore, p: &Params) -> f64 {
