@@ -83,6 +83,86 @@ impl ArcWalk {
     }
 }
 
+/// How a command evolves over an evasion horizon: from `cmd`, v and ω move
+/// towards `goal` at most `rates` (m/s², rad/s²) and then stay there. A
+/// command held is the profile whose goal is itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Profile {
+    /// The command now.
+    pub cmd: Twist,
+    /// Where v and ω go on to.
+    pub goal: Twist,
+    /// The rates they change at (m/s², rad/s²).
+    pub rates: (f64, f64),
+}
+
+impl Profile {
+    /// `cmd` held.
+    pub fn held(cmd: Twist) -> Self {
+        Self {
+            cmd,
+            goal: cmd,
+            rates: (0.0, 0.0),
+        }
+    }
+
+    /// The largest |v| on the way (m/s).
+    fn top_speed(&self) -> f64 {
+        self.cmd.v_mps.abs().max(self.goal.v_mps.abs())
+    }
+}
+
+/// A unicycle following a [`Profile`] from the origin, walked in equal time
+/// steps of a few sub-steps each (each sub-step the exact arc of its mean
+/// v and ω).
+#[derive(Debug, Clone, Copy)]
+struct ProfileWalk {
+    pos: Vec2,
+    theta: f64,
+    v: f64,
+    omega: f64,
+    profile: Profile,
+    sub_s: f64,
+    subs: usize,
+}
+
+/// Sub-steps per step of a [`ProfileWalk`].
+const PROFILE_SUBSTEPS: usize = 4;
+
+impl ProfileWalk {
+    fn new(profile: Profile, step_s: f64) -> Self {
+        Self {
+            pos: Vec2::zeros(),
+            theta: 0.0,
+            v: profile.cmd.v_mps,
+            omega: profile.cmd.omega_radps,
+            profile,
+            sub_s: step_s / PROFILE_SUBSTEPS as f64,
+            subs: PROFILE_SUBSTEPS,
+        }
+    }
+
+    fn step(&mut self) {
+        let towards = |x: f64, goal: f64, max: f64| x + (goal - x).clamp(-max, max);
+        let (rv, rw) = self.profile.rates;
+        for _ in 0..self.subs {
+            let v1 = towards(self.v, self.profile.goal.v_mps, rv * self.sub_s);
+            let w1 = towards(self.omega, self.profile.goal.omega_radps, rw * self.sub_s);
+            let (vm, wm) = (0.5 * (self.v + v1), 0.5 * (self.omega + w1));
+            let half = 0.5 * wm * self.sub_s;
+            let chord = vm * self.sub_s * sinc(half);
+            let heading = self.theta + half;
+            self.pos += Vec2::new(heading.cos(), heading.sin()) * chord;
+            self.theta += wm * self.sub_s;
+            (self.v, self.omega) = (v1, w1);
+        }
+    }
+
+    fn velocity(&self) -> Vec2 {
+        Vec2::new(self.theta.cos(), self.theta.sin()) * self.v
+    }
+}
+
 /// (cos, sin) of a small angle (rad) by their series; exact to 1e-12 below 0.05 rad.
 #[inline]
 fn small_turn(a: f64) -> (f64, f64) {
@@ -516,7 +596,47 @@ impl PassiveSafety {
         line_deficit_m
     }
 
+    /// [`Self::evasion_score`] of a command that changes as `profile` says
+    /// (not remembered: each profile is asked about once).
+    pub fn evasion_score_of(&self, profile: Profile, p: &Params) -> EvasionScore {
+        if profile.goal == profile.cmd {
+            return self.score_evasion(profile.cmd, p);
+        }
+        let horizon = p.passive.evasion_horizon_s;
+        let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
+        let mut walk = ProfileWalk::new(profile, horizon / n as f64);
+        self.score_path(
+            |k| {
+                if k > 0 {
+                    walk.step();
+                }
+                (walk.pos, walk.velocity())
+            },
+            profile.top_speed(),
+            p,
+        )
+    }
+
     fn score_evasion(&self, cmd: Twist, p: &Params) -> EvasionScore {
+        let horizon = p.passive.evasion_horizon_s;
+        let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
+        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
+        self.score_path(
+            |k| {
+                if k > 0 {
+                    walk.step();
+                }
+                (walk.pos, walk.heading * cmd.v_mps)
+            },
+            cmd.v_mps.abs(),
+            p,
+        )
+    }
+
+    /// The score of the path whose position and velocity at sample k (of
+    /// the horizon's samples, 0 = now) `at` gives, called for k = 0, 1, …
+    /// in turn; `speed` bounds the path's speed (m/s).
+    fn score_path(&self, mut at: impl FnMut(usize) -> (Vec2, Vec2), speed: f64, p: &Params) -> EvasionScore {
         let r = p.robot_radius_m();
         let horizon = p.passive.evasion_horizon_s;
         let threshold = 0.5 * p.passive.closing_speed_mps;
@@ -524,18 +644,14 @@ impl PassiveSafety {
         let mut contact: Option<f64> = None;
         let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
-        let speed = cmd.v_mps.abs();
         // No static point can be reached before this: the robot closes on any point no
         // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
         let mut static_clear_until = 0.0;
-        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
+        let mut end = Vec2::zeros();
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
-            if k > 0 {
-                walk.step();
-            }
-            let pos = walk.pos;
-            let vel = walk.heading * cmd.v_mps;
+            let (pos, vel) = at(k);
+            end = pos;
             let mut gap = f64::INFINITY;
             // A mover farther than this beyond r + its radius is past the gap cap and
             // its grown disc: it changes neither, and its distance needs no root.
@@ -576,7 +692,7 @@ impl PassiveSafety {
             }
         }
         EvasionScore {
-            line_deficit_m: self.line_deficit(walk.pos, p),
+            line_deficit_m: self.line_deficit(end, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_contact_s: mover_contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {
@@ -879,18 +995,14 @@ impl PassiveSafety {
         let mut contact: Option<f64> = None;
         let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
-        let speed = cmd.v_mps.abs();
         // No static point can be reached before this: the robot closes on any point no
         // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
         let mut static_clear_until = 0.0;
-        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
+        let mut end = Vec2::zeros();
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
-            if k > 0 {
-                walk.step();
-            }
-            let pos = walk.pos;
-            let vel = walk.heading * cmd.v_mps;
+            let (pos, vel) = at(k);
+            end = pos;
             let mut gap = f64::INFINITY;
             for m in &self.movers {
                 let c = m.position + m.velocity * t;
@@ -922,7 +1034,7 @@ impl PassiveSafety {
         }
         // The sidestep part has no fast path: shared with `score_evasion`.
         EvasionScore {
-            line_deficit_m: self.line_deficit(walk.pos, p),
+            line_deficit_m: self.line_deficit(end, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_contact_s: mover_contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {

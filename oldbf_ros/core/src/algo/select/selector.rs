@@ -31,7 +31,7 @@ use super::window::{Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, predicted_displacement, DtcbfFilter, InputBox, TOL_M};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
-use crate::algo::passive::PassiveSafety;
+use crate::algo::passive::{PassiveSafety, Profile};
 
 /// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
 const SIDE_MIN_RADPS: f64 = 0.03;
@@ -107,6 +107,11 @@ pub struct Selector {
     order: Vec<(f64, u32)>,
     clearance: Clearance,
     side: Option<f64>,
+    /// This step's window and allowed speeds (uncut by the window, m/s):
+    /// what a candidate at the window's edge goes on towards.
+    window: Option<Window>,
+    allowed: (f64, f64),
+    last: Twist,
 }
 
 impl Selector {
@@ -117,6 +122,9 @@ impl Selector {
             order: Vec::with_capacity((p.select.omega_samples + 3) * (p.select.speed_samples + 20)),
             clearance: Clearance::with_capacity(points),
             side: None,
+            window: None,
+            allowed: (0.0, 0.0),
+            last: Twist::ZERO,
         }
     }
 
@@ -202,9 +210,12 @@ impl Selector {
             };
         }
 
+        self.window = Some(window);
+        self.allowed = allowed_speeds(input, h, threatened, p);
+        self.last = input.last;
         let sampling = Sampling {
             window,
-            v_range: allowed_speeds(input, &window, h, threatened, p),
+            v_range: cut_to(self.allowed, &window),
             exact_target_m: target_of(first, f64::NAN),
         };
         self.candidates.sample(&sampling, g.filter, g.points_next, &ctx);
@@ -301,10 +312,47 @@ impl Selector {
             costs.set(Critic::Clearance, w.clearance * self.clearance.cost(look, p));
         }
         if threatened {
-            let score = passive.evasion_score(look.cmd, p);
+            let score = passive.evasion_score_of(self.profile(look.cmd, p), p);
             costs.set(Critic::Mover, w.mover * mover::cost(&score, p));
         }
         costs
+    }
+
+    /// How `cmd` goes on (§5c): a candidate at the edge of the window stands
+    /// for going on changing that way at the base's limits, braking to rest
+    /// (or on to the least speed allowed) or speeding up to the most allowed,
+    /// turning on to ±ω_max; any other candidate for holding it. So the
+    /// first step of stopping is judged as the stop it starts, not as a
+    /// crawl held for the whole horizon.
+    fn profile(&self, cmd: Twist, p: &Params) -> Profile {
+        let Some(w) = self.window else {
+            return Profile::held(cmd);
+        };
+        let c = &p.control;
+        let at = |x: f64, edge: f64| (x - edge).abs() <= WINDOW_TOL;
+        let (lo, hi) = self.allowed;
+        let last = self.last.v_mps;
+        let goal_v = if at(cmd.v_mps, w.v.0) && w.v.0 > lo + WINDOW_TOL {
+            if last > 0.0 { lo.max(0.0) } else { lo }
+        } else if at(cmd.v_mps, w.v.1) && w.v.1 < hi - WINDOW_TOL {
+            if last < 0.0 { hi.min(0.0) } else { hi }
+        } else {
+            cmd.v_mps
+        };
+        let w_max = c.omega_max_radps;
+        let goal_w = if at(cmd.omega_radps, w.omega.0) && w.omega.0 > -w_max + WINDOW_TOL {
+            -w_max
+        } else if at(cmd.omega_radps, w.omega.1) && w.omega.1 < w_max - WINDOW_TOL {
+            w_max
+        } else {
+            cmd.omega_radps
+        };
+        let rate_v = if goal_v.abs() < cmd.v_mps.abs() { c.decel_mps2 } else { c.accel_mps2 };
+        Profile {
+            cmd,
+            goal: Twist::new(goal_v, goal_w),
+            rates: (rate_v, c.angular_accel_radps2),
+        }
     }
 
     /// Candidate `i`'s braking check, done once.
@@ -387,12 +435,11 @@ impl Selector {
 
 }
 
-/// The speeds a safety layer may command this step (ALGORITHM.md §5c),
-/// inside the window: between 0 and the upstream's; the whole box inside
-/// the unsafe set (escape); up to `passive.evasion_max_speed_mps` either
-/// way while a mover threatens (evasion). If that lies wholly outside the
-/// window, the window's speed nearest it.
-fn allowed_speeds(input: &SelectInput, window: &Window, h: f64, threatened: bool, p: &Params) -> (f64, f64) {
+/// The speeds a safety layer may command this step (ALGORITHM.md §5c):
+/// between 0 and the upstream's; the whole box inside the unsafe set
+/// (escape); up to `passive.evasion_max_speed_mps` either way while a mover
+/// threatens (evasion).
+fn allowed_speeds(input: &SelectInput, h: f64, threatened: bool, p: &Params) -> (f64, f64) {
     let v_nom = input.nominal.v_mps;
     let bx = input.bx;
     let (mut lo, mut hi) = (v_nom.min(0.0), v_nom.max(0.0));
@@ -400,8 +447,14 @@ fn allowed_speeds(input: &SelectInput, window: &Window, h: f64, threatened: bool
         (lo, hi) = (bx.v_lo, bx.v_hi);
     } else if threatened {
         let extra = p.passive.evasion_max_speed_mps;
-        (lo, hi) = (lo.min(bx.v_lo.max(-extra)), hi.max(bx.v_hi.min(extra)));
+        (lo, hi) = (lo, hi.max(bx.v_hi.min(extra)));
     }
+    (lo, hi)
+}
+
+/// The allowed speeds cut to the window; if they lie wholly outside it, the
+/// window's speed nearest them (braking towards them).
+fn cut_to((lo, hi): (f64, f64), window: &Window) -> (f64, f64) {
     let (w0, w1) = window.v;
     if hi < w0 {
         (w0, w0)

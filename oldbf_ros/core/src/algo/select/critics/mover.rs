@@ -12,15 +12,17 @@ use crate::algo::passive::{EvasionScore, GAP_CAP_M};
 
 /// A line deficit this large (m, about a person's width) costs as much as
 /// contact at once.
-const LINE_SCALE_M: f64 = 0.5;
+const LINE_SCALE_M: f64 = 0.1;
+/// Contact sooner than this counts as this soon (s).
+const MIN_TIME_S: f64 = 0.1;
 /// Weight of the room kept, against the time to contact.
 const GAP_SHARE: f64 = 1.0;
 
 /// The unweighted cost of a command whose evasion score is `s` (0..2.25).
 pub fn cost(s: &EvasionScore, p: &Params) -> f64 {
     let horizon = p.passive.evasion_horizon_s;
-    let soon = (1.0 - s.time_to_contact_s / horizon).clamp(0.0, 1.0);
-    let line = (s.line_deficit_m.max(0.0) / LINE_SCALE_M).min(1.0);
+    let soon = (horizon / s.time_to_contact_s.max(MIN_TIME_S) - 1.0).max(0.0);
+    let line = (s.line_deficit_m.max(0.0) / LINE_SCALE_M).min(3.0);
     let gap = if s.mover_gap_m.is_finite() {
         GAP_SHARE * (GAP_CAP_M - s.mover_gap_m.clamp(0.0, GAP_CAP_M)) / GAP_CAP_M
     } else {
