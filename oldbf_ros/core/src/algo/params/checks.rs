@@ -266,6 +266,7 @@ impl Validate for Params {
         c.range("select.speed_samples", se.speed_samples as f64, Interval::closed(2.0, 50.0));
         c.range("select.horizon_s", se.horizon_s, TIME_10_POS);
         c.range("select.clearance_band_m", se.clearance_band_m, DIST_10_POS);
+        c.range("select.mover_near_m", se.mover_near_m, DIST_10);
         let w = &se.weights;
         for (key, weight) in [
             ("select.weights.nominal", w.nominal),

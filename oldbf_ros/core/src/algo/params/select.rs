@@ -26,6 +26,10 @@ pub struct SelectParams {
     /// The clearance critic prefers keeping this much beyond d_safe along
     /// the horizon (m); nothing farther counts.
     pub clearance_band_m: f64,
+    /// While a tracked mover is this near the body (m), the steering critics
+    /// count even when the upstream command is safe as it is: a person near
+    /// may step anywhere, and the DOAA's law keeps the robot away.
+    pub mover_near_m: f64,
     /// Weights of the critics (each critic's cost is about 0..1).
     pub weights: CriticWeights,
 }
@@ -60,6 +64,7 @@ impl Default for SelectParams {
             speed_samples: 6,
             horizon_s: 1.5,
             clearance_band_m: 0.3,
+            mover_near_m: 1.0,
             weights: CriticWeights::default(),
         }
     }
@@ -74,7 +79,7 @@ impl Default for CriticWeights {
             doaa: 2.0,
             progress: 2.0,
             clearance: 1.0,
-            mover: 8.0,
+            mover: 10.0,
             side: 1.0,
         }
     }

@@ -179,7 +179,14 @@ impl Selector {
         // follow it now, and approached through the window otherwise; the critics that
         // steer (the DOAA's law, progress, clearance, the side kept) count only when it is not.
         let nominal_h_next = h_next_of(g.filter, input.nominal);
-        let nominal_ok = !threatened
+        // A person near may step anywhere: the steering critics keep the robot away.
+        let near_m = p.select.mover_near_m;
+        let people_near = passive
+            && g.passive
+                .movers()
+                .iter()
+                .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
+        let nominal_ok = !threatened && !people_near
             && target_of(first, f64::NAN).is_none_or(|t| nominal_h_next >= t - TOL_M)
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {

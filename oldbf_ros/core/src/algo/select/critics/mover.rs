@@ -16,7 +16,7 @@ const LINE_SCALE_M: f64 = 0.1;
 /// Contact sooner than this counts as this soon (s).
 const MIN_TIME_S: f64 = 0.1;
 /// Weight of the room kept, against the time to contact.
-const GAP_SHARE: f64 = 1.0;
+const GAP_SHARE: f64 = 4.0;
 
 /// The unweighted cost of a command whose evasion score is `s` (0..2.25).
 pub fn cost(s: &EvasionScore, p: &Params) -> f64 {
