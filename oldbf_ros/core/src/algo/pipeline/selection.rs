@@ -108,6 +108,7 @@ impl SafetyPipeline {
         let input = SelectInput {
             nominal,
             doaa: doaa_cmd,
+            doaa_both_sides: doaa_state == DoaaState::BothSides,
             last: self.last_cmd,
             last_change: self.last_change,
             since_s,

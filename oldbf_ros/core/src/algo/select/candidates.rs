@@ -150,6 +150,7 @@ mod tests {
             target: None,
             side: None,
             guide: true,
+            doaa_both_sides: false,
         }
     }
 

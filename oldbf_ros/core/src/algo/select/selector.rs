@@ -41,8 +41,9 @@ const SIDE_MIN_RADPS: f64 = 0.03;
 pub struct SelectInput {
     /// The upstream command, inside the input box.
     pub nominal: Twist,
-    /// The DOAA's command for it (§4).
+    /// The DOAA's command for it (§4), and whether it is the both-sides turn.
     pub doaa: Twist,
+    pub doaa_both_sides: bool,
     /// The command last sent, the change it made from the one before, and
     /// the time since it was sent (s).
     pub last: Twist,
@@ -193,6 +194,7 @@ impl Selector {
             params: p,
             nominal: input.nominal,
             doaa: input.doaa,
+            doaa_both_sides: input.doaa_both_sides,
             last: input.last,
             last_change: input.last_change,
             target: input.target,

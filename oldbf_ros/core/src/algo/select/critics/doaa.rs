@@ -5,7 +5,10 @@
 //! the robot turns away from what is near, as the paper's robot does. Same
 //! scale as the nominal critic: each component over its full range, squared;
 //! the speed only when faster than the law's (it only ever slows: the
-//! both-sides turn near the front).
+//! both-sides turn near the front); the yaw rate in proportion to the
+//! candidate's speed up to `doaa.full_gain_speed_mps` (as the law scales its
+//! term: turning in place changes no clearance), except in the both-sides
+//! turn, which is meant for turning in place.
 
 use super::{sq, Context};
 use crate::algo::geometry::Twist;
@@ -27,11 +30,18 @@ mod tests {
             target: None,
             side: None,
             guide: true,
+            doaa_both_sides: false,
         };
         assert_eq!(cost(&ctx, Twist::new(0.11, -0.3)), 0.0);
         assert_eq!(cost(&ctx, Twist::new(0.0, -0.3)), 0.0);
         assert!((cost(&ctx, Twist::new(0.22, -0.3)) - 0.25).abs() < 1e-12);
         assert!((cost(&ctx, Twist::new(0.11, 0.0)) - 1.0).abs() < 1e-12);
+        // At half the full-gain speed (0.1 m/s) the yaw rate counts half; at rest not at all...
+        assert!((cost(&ctx, Twist::new(0.05, 0.0)) - 0.5).abs() < 1e-12);
+        assert_eq!(cost(&ctx, Twist::new(0.0, 0.3)), 0.0);
+        // ...but the both-sides turn counts whatever the speed.
+        let both = Context { doaa_both_sides: true, ..ctx };
+        assert!((cost(&both, Twist::new(0.0, 0.0)) - 1.0).abs() < 1e-12);
     }
 }
 
@@ -40,6 +50,14 @@ pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     let c = &ctx.params.control;
     // The law only ever slows (the both-sides turn near the front): faster than
     // its speed costs, slower does not (the nominal critic says how much slower).
-    sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps)
-        + sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
+    let speed = sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps);
+    // Its steering away from the nearer side matters as the robot moves: turning in
+    // place changes no clearance of a circular robot. Its both-sides turn is meant
+    // for turning in place and counts whatever the speed.
+    let moving = if ctx.doaa_both_sides {
+        1.0
+    } else {
+        (cmd.v_mps.abs() / ctx.params.doaa.full_gain_speed_mps).min(1.0)
+    };
+    speed + moving * sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
 }

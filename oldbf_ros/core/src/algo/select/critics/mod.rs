@@ -113,8 +113,10 @@ pub struct Context<'a> {
     pub params: &'a Params,
     /// The upstream command, inside the input box.
     pub nominal: Twist,
-    /// The DOAA's command for that nominal (§4).
+    /// The DOAA's command for that nominal (§4), and whether it is the
+    /// both-sides turn.
     pub doaa: Twist,
+    pub doaa_both_sides: bool,
     /// The command last sent, and the change it made from the one before.
     pub last: Twist,
     pub last_change: Twist,

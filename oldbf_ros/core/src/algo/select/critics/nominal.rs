@@ -30,6 +30,7 @@ mod tests {
             target: None,
             side: None,
             guide: true,
+            doaa_both_sides: false,
         };
         assert_eq!(cost(&ctx, Twist::new(0.22, 0.3)), 0.0);
         assert!((cost(&ctx, Twist::new(0.0, 0.3)) - 1.0).abs() < 1e-12);

@@ -54,6 +54,7 @@ mod tests {
             target: Some(Vec2::new(3.0, 0.0)),
             side: None,
             guide: true,
+            doaa_both_sides: false,
         };
         assert!(cost(&ctx, Twist::new(0.22, 0.0)).abs() < 1e-12);
         assert!((cost(&ctx, Twist::ZERO) - 0.25).abs() < 1e-12);
