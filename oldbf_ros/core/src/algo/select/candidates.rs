@@ -151,6 +151,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         }
     }
 

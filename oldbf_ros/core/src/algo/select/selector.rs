@@ -195,6 +195,7 @@ impl Selector {
             nominal: input.nominal,
             doaa: input.doaa,
             doaa_both_sides: input.doaa_both_sides,
+            movers_near: threatened || people_near,
             last: input.last,
             last_change: input.last_change,
             target: input.target,

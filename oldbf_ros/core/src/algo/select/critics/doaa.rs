@@ -31,6 +31,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         assert_eq!(cost(&ctx, Twist::new(0.11, -0.3)), 0.0);
         assert_eq!(cost(&ctx, Twist::new(0.0, -0.3)), 0.0);
@@ -53,8 +54,9 @@ pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     let speed = sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps);
     // Its steering away from the nearer side matters as the robot moves: turning in
     // place changes no clearance of a circular robot. Its both-sides turn is meant
-    // for turning in place and counts whatever the speed.
-    let moving = if ctx.doaa_both_sides {
+    // for turning in place, and with people near the heading at rest is where the
+    // robot goes next: those count whatever the speed.
+    let moving = if ctx.doaa_both_sides || ctx.movers_near {
         1.0
     } else {
         (cmd.v_mps.abs() / ctx.params.doaa.full_gain_speed_mps).min(1.0)

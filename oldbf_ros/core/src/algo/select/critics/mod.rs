@@ -117,6 +117,8 @@ pub struct Context<'a> {
     /// both-sides turn.
     pub doaa: Twist,
     pub doaa_both_sides: bool,
+    /// A tracked mover threatens, or is within `select.mover_near_m`.
+    pub movers_near: bool,
     /// The command last sent, and the change it made from the one before.
     pub last: Twist,
     pub last_change: Twist,

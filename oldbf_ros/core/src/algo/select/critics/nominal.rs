@@ -31,6 +31,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         assert_eq!(cost(&ctx, Twist::new(0.22, 0.3)), 0.0);
         assert!((cost(&ctx, Twist::new(0.0, 0.3)) - 1.0).abs() < 1e-12);

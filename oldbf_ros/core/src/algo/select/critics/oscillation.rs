@@ -43,6 +43,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         // Speeding up again by 0.03 after slowing by 0.05: a reversal; by 0.01: not.
         assert_eq!(cost(&ctx, Twist::new(0.08, 0.1)), 1.0);

@@ -55,6 +55,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         assert!(cost(&ctx, Twist::new(0.22, 0.0)).abs() < 1e-12);
         assert!((cost(&ctx, Twist::ZERO) - 0.25).abs() < 1e-12);

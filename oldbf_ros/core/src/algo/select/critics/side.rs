@@ -42,6 +42,7 @@ mod tests {
             side: Some(1.0),
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         // ω_nom 0.1, side left: 0.25 and more costs nothing; 0.1 (no turn) costs ½;
         // −0.05 (half ω_max the other way) costs 1.

@@ -32,6 +32,7 @@ mod tests {
             side: None,
             guide: true,
             doaa_both_sides: false,
+            movers_near: false,
         };
         assert_eq!(cost(&ctx, Twist::new(0.1, 0.1)), 0.0);
         assert!((cost(&ctx, Twist::new(0.15, 0.1)) - 1.0).abs() < 1e-12);
