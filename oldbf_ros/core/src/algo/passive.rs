@@ -575,8 +575,10 @@ impl PassiveSafety {
         let mut line_deficit_m: f64 = 0.0;
         for m in &self.movers {
             let speed = m.velocity.norm();
-            let head_on = m.velocity.x < 0.0 && m.velocity.y.abs() < -m.velocity.x;
-            if speed < LINE_MIN_SPEED_MPS || !head_on || m.velocity.dot(&m.position) >= 0.0 {
+            // Coming at the robot: within 45° of straight at it, from ahead (head-on) or
+            // from behind (overtaking): either way the robot is in its line.
+            let at_robot = -m.velocity.dot(&m.position) > std::f64::consts::FRAC_1_SQRT_2 * speed * m.position.norm();
+            if speed < LINE_MIN_SPEED_MPS || !at_robot {
                 continue;
             }
             let need = r + m.radius_m + p.passive.mover_margin_m;

@@ -141,6 +141,20 @@ impl Selector {
 
     /// One decision.
     pub fn select(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
+        // With a tracked mover on a collision course, the command to make safe is the
+        // DOAA's: its law steers from the mover's predicted clearance (§6), the paper's
+        // answer to a person coming, and evasion (the mover critic) takes over only when
+        // that is not enough.
+        let swapped;
+        let input = if input.mover_closing {
+            swapped = SelectInput {
+                nominal: input.doaa,
+                ..*input
+            };
+            &swapped
+        } else {
+            input
+        };
         let bx = input.bx;
         let window = Window::new(input.last, input.since_s, &p.control, &bx);
         let h = g.filter.prepare(g.points, g.points_next, p, &bx);
@@ -150,8 +164,9 @@ impl Selector {
             g.passive.select_reach(g.points_next, p);
         }
         let trigger = p.obstacles.lookahead_s.min(p.passive.evasion_horizon_s);
-        let threatened =
-            movers && (input.mover_closing || g.passive.evasion_score(input.nominal, p).mover_contact_s < trigger);
+        // Threatened: the DOAA's command, held, reaches a mover's predicted disc within
+        // the trigger horizon.
+        let threatened = movers && g.passive.evasion_score(input.doaa, p).mover_contact_s < trigger;
         if self.side.is_some() && input.front_clear {
             self.side = None;
         }
@@ -166,13 +181,7 @@ impl Selector {
             });
         }
         self.clearance.prepare(g.points, p);
-        let first = if movers {
-            Tier::Clear
-        } else if h >= 0.0 {
-            Tier::Margin
-        } else {
-            Tier::Condition
-        };
+        let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
         let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
         let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
@@ -238,7 +247,7 @@ impl Selector {
         let escape = escape_target(h, best_h_next, input.closing_in, p);
         let mut chosen: Option<(usize, Tier, CriticCosts)> = None;
         for tier in Tier::ORDER {
-            if !tier.applies(h) || tier == Tier::Brake || (tier == Tier::Clear && !movers) {
+            if !tier.applies(h) || tier == Tier::Brake {
                 continue;
             }
             let found = match tier {
@@ -246,8 +255,7 @@ impl Selector {
                 // Nothing visible: every candidate meets every level.
                 _ => {
                     let t = target_of(tier, escape).unwrap_or(f64::NEG_INFINITY);
-                    let clear = (tier == Tier::Clear).then_some(trigger);
-                    self.best_meeting(t, clear, &ctx, threatened, g.passive)
+                    self.best_meeting(t, &ctx, threatened, g.passive)
                 }
             };
             if let Some((i, costs)) = found {
@@ -376,12 +384,10 @@ impl Selector {
     }
 
     /// The candidate with h(k+1) ≥ `target` that passes the braking check
-    /// (and, with `clear_s`, keeps clear of every mover's predicted disc
-    /// that long, held) with the lowest total cost, and its costs.
+    /// with the lowest total cost, and its costs.
     fn best_meeting(
         &mut self,
         target: f64,
-        clear_s: Option<f64>,
         ctx: &Context<'_>,
         threatened: bool,
         passive: &mut PassiveSafety,
@@ -404,9 +410,6 @@ impl Selector {
             }
             let i = i as usize;
             let c: Candidate = self.candidates.items[i];
-            if clear_s.is_some_and(|t| passive.evasion_score(c.look.cmd, ctx.params).mover_contact_s < t) {
-                continue;
-            }
             let costs = self.full_costs(ctx, &c.look, c.cheap, threatened, passive);
             let total = costs.total();
             if best.as_ref().is_none_or(|b| total < b.2) && self.braking(i, passive, ctx.params) {
@@ -457,7 +460,7 @@ fn allowed_speeds(input: &SelectInput, h: f64, threatened: bool, p: &Params) -> 
         (lo, hi) = (bx.v_lo, bx.v_hi);
     } else if threatened {
         let extra = p.passive.evasion_max_speed_mps;
-        (lo, hi) = (lo, hi.max(bx.v_hi.min(extra)));
+        (lo, hi) = (lo.min(bx.v_lo.max(-extra)), hi.max(bx.v_hi.min(extra)));
     }
     (lo, hi)
 }

@@ -4,18 +4,14 @@
 //! level. The selector takes the first level that has a candidate passing
 //! the braking check; each level has its own infeasibility code.
 //!
-//! 1. [`Tier::Clear`]: while tracked movers are about (§5b), the next level
-//!    and, besides, no contact with any mover's predicted disc within the
-//!    evasion trigger's horizon with the command held: out of the way of
-//!    people before they arrive, not only able to brake for them.
-//! 2. [`Tier::Margin`]: §5's condition on h − δ (the noise margin), or
+//! 1. [`Tier::Margin`]: §5's condition on h − δ (the noise margin), or
 //!    "no closer" inside the margin band: outside the unsafe set only.
-//! 3. [`Tier::Condition`]: §5's condition itself, h(k+1) ≥ (1 − γ) h(k).
-//! 4. [`Tier::Escape`]: inside the unsafe set, h rises by at least ε (or,
+//! 2. [`Tier::Condition`]: §5's condition itself, h(k+1) ≥ (1 − γ) h(k).
+//! 3. [`Tier::Escape`]: inside the unsafe set, h rises by at least ε (or,
 //!    while h falls faster than the predictions explain, by half the best
 //!    rise the window offers: something the tracker missed walks in).
-//! 5. [`Tier::LeastBad`]: the highest h(k+1) there is.
-//! 6. [`Tier::Brake`]: no candidate passes the braking check: brake
+//! 4. [`Tier::LeastBad`]: the highest h(k+1) there is.
+//! 5. [`Tier::Brake`]: no candidate passes the braking check: brake
 //!    towards rest at the braking check's deceleration, which the window
 //!    always holds.
 
@@ -29,9 +25,6 @@ use std::fmt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Tier {
-    /// The strictest condition level, and clear of every mover's predicted
-    /// disc over the trigger horizon.
-    Clear,
     /// The condition with the noise margin.
     Margin,
     /// The condition of the definition.
@@ -46,19 +39,11 @@ pub enum Tier {
 
 impl Tier {
     /// Every level, in the order they are relaxed.
-    pub const ORDER: [Tier; 6] = [
-        Tier::Clear,
-        Tier::Margin,
-        Tier::Condition,
-        Tier::Escape,
-        Tier::LeastBad,
-        Tier::Brake,
-    ];
+    pub const ORDER: [Tier; 5] = [Tier::Margin, Tier::Condition, Tier::Escape, Tier::LeastBad, Tier::Brake];
 
     /// Short machine-readable name (CSV `tier` column, `~state`).
     pub fn code(&self) -> &'static str {
         match self {
-            Self::Clear => "clear",
             Self::Margin => "margin",
             Self::Condition => "condition",
             Self::Escape => "escape",
@@ -67,7 +52,7 @@ impl Tier {
         }
     }
 
-    /// Stable small integer for messages (clear 0 … brake 5).
+    /// Stable small integer for messages (margin 0 … brake 4).
     pub fn index(&self) -> u8 {
         *self as u8
     }
@@ -88,8 +73,6 @@ impl Tier {
     pub fn target(&self, h_m: f64, escape_target_m: f64, p: &Params) -> Option<f64> {
         let gamma = p.dtcbf.gamma;
         match self {
-            Self::Clear if h_m >= 0.0 => Some(margin_target(h_m, gamma, p.dtcbf.noise_margin_m)),
-            Self::Clear => Some(condition_target(h_m, gamma)),
             Self::Margin => Some(margin_target(h_m, gamma, p.dtcbf.noise_margin_m)),
             Self::Condition => Some(condition_target(h_m, gamma)),
             Self::Escape => Some(escape_target_m),
@@ -103,7 +86,7 @@ impl Tier {
     /// when nothing passes the braking check.
     pub fn infeasibility(&self, h_m: f64) -> Option<Infeasibility> {
         match self {
-            Self::Clear | Self::Margin | Self::Condition => None,
+            Self::Margin | Self::Condition => None,
             Self::Escape => Some(Infeasibility::UnsafeSet),
             Self::LeastBad if h_m < 0.0 => Some(Infeasibility::UnsafeSet),
             Self::LeastBad => Some(Infeasibility::Approaching),
@@ -159,7 +142,6 @@ mod tests {
 
     #[test]
     fn each_level_reports_its_infeasibility() {
-        assert_eq!(Tier::Clear.infeasibility(-0.1), None);
         assert_eq!(Tier::Margin.infeasibility(0.1), None);
         assert_eq!(Tier::Condition.infeasibility(-0.1), None);
         assert_eq!(Tier::Escape.infeasibility(-0.1), Some(Infeasibility::UnsafeSet));
@@ -167,6 +149,6 @@ mod tests {
         assert_eq!(Tier::LeastBad.infeasibility(-0.1), Some(Infeasibility::UnsafeSet));
         assert_eq!(Tier::Brake.infeasibility(0.1), Some(Infeasibility::NoPassiveCommand));
         let codes: Vec<_> = Tier::ORDER.iter().map(Tier::code).collect();
-        assert_eq!(codes, ["clear", "margin", "condition", "escape", "least_bad", "brake"]);
+        assert_eq!(codes, ["margin", "condition", "escape", "least_bad", "brake"]);
     }
 }
