@@ -702,7 +702,18 @@ mod tests {
             nominal_source: source,
             ..NodeSettings::default()
         };
-        NodeCore::new(Params::default(), settings, None)
+        NodeCore::new(agile(), settings, None)
+    }
+
+    /// The default parameters for a base that can change its command at once
+    /// (the dynamic window holds the whole input box): these tests are about
+    /// what the node passes and when, not about how fast the base follows.
+    fn agile() -> Params {
+        let mut p = Params::default();
+        p.control.accel_mps2 = 100.0;
+        p.control.decel_mps2 = 100.0;
+        p.control.angular_accel_radps2 = 1000.0;
+        p
     }
 
     #[test]
@@ -813,7 +824,7 @@ mod tests {
     #[test]
     fn reference_needs_odometry() {
         let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 2.0);
-        let mut n = NodeCore::new(Params::default(), NodeSettings::for_scenario(), Some(r));
+        let mut n = NodeCore::new(agile(), NodeSettings::for_scenario(), Some(r));
         n.on_scan(meta(1.0), &open(), &[]);
         let t = n.tick(1.0);
         assert_eq!((t.cmd, t.nominal_used), (Twist::ZERO, NominalUsed::ReferenceNoOdom));
@@ -836,7 +847,7 @@ mod tests {
         assert_eq!(t.reference_pose, None);
         // Without one: v_nom, read at the tick, so a reconfigured v_nom applies at once.
         let mut n = node(NominalSource::Constant);
-        let mut p = Params::default();
+        let mut p = agile();
         p.control.v_nom_mps = 0.1;
         n.set_params(p).unwrap();
         n.on_scan(meta(1.0), &open(), &[]);
@@ -851,7 +862,7 @@ mod tests {
         let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 10.0);
         // Reference time at each tick (s): the first tick advances by Δt.
         for (fixed, t_ref_s) in [(false, [0.0, 0.1, 0.35]), (true, [0.0, 0.1, 0.2])] {
-            let mut n = NodeCore::new(Params::default(), NodeSettings::for_scenario(), Some(r));
+            let mut n = NodeCore::new(agile(), NodeSettings::for_scenario(), Some(r));
             if fixed {
                 n = n.with_fixed_period();
             }
@@ -1027,7 +1038,7 @@ mod tests {
             n.on_scan(meta(1.4), &open(), &[]);
             assert_eq!(n.tick(1.45).cmd, Twist::new(0.15, 0.0), "fill {fill}: resumes");
         }
-        let mut p = Params::default();
+        let mut p = agile();
         p.laser.zero_is_no_return = true;
         let settings = NodeSettings {
             nominal_source: NominalSource::Constant,

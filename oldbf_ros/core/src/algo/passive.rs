@@ -879,7 +879,7 @@ mod tests {
     }
 
     #[test]
-    fn line_deficit_measures_how_far_a_command_leaves_a_head_on_movers_line() {
+    fn line_deficit_measures_how_far_a_command_leaves_the_line_of_a_mover_coming_at_it() {
         let p = params();
         let mut ps = PassiveSafety::default();
         let one = |ps: &mut PassiveSafety, position: Vec2, velocity: Vec2| {
@@ -904,12 +904,20 @@ mod tests {
         let y = (-0.1 / 0.3) * (1.0 - 1.5f64.cos());
         assert!((arc.line_deficit_m - (0.428 + y)).abs() < 1e-9, "{arc:?}");
         assert!((arc.line_deficit_m - 0.1182).abs() < 1e-3, "{arc:?}");
+        // The same from behind (overtaking) or straight from the side: the robot is in
+        // the line either way.
+        for (pos, vel) in [(Vec2::new(-1.0, 0.0), Vec2::new(0.1, 0.0)), (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1))] {
+            one(&mut ps, pos, vel);
+            let s = ps.evasion_score(Twist::ZERO, &p);
+            assert!((s.line_deficit_m - 0.428).abs() < 1e-9, "{pos:?} {vel:?} {s:?}");
+        }
         // No line to leave: the robot already beside it (0.5 ≥ 0.428 m), the mover
-        // walking away, crossing (90° off head-on), or too far to arrive within the look-ahead.
+        // walking away, crossing ahead (more than 45° off straight at the robot), or too
+        // far to arrive within the look-ahead.
         for (pos, vel) in [
             (Vec2::new(1.0, 0.5), Vec2::new(-0.1, 0.0)),
             (Vec2::new(1.0, 0.0), Vec2::new(0.1, 0.0)),
-            (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1)),
+            (Vec2::new(1.5, 1.0), Vec2::new(0.0, -0.1)),
             (Vec2::new(2.4, 0.0), Vec2::new(-0.1, 0.0)), // 2.4 − 0.428 > 1.92 m
         ] {
             one(&mut ps, pos, vel);
@@ -997,14 +1005,18 @@ impl PassiveSafety {
         let mut contact: Option<f64> = None;
         let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
+        let speed = cmd.v_mps.abs();
         // No static point can be reached before this: the robot closes on any point no
         // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
         let mut static_clear_until = 0.0;
-        let mut end = Vec2::zeros();
+        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
-            let (pos, vel) = at(k);
-            end = pos;
+            if k > 0 {
+                walk.step();
+            }
+            let pos = walk.pos;
+            let vel = walk.heading * cmd.v_mps;
             let mut gap = f64::INFINITY;
             for m in &self.movers {
                 let c = m.position + m.velocity * t;
@@ -1036,7 +1048,7 @@ impl PassiveSafety {
         }
         // The sidestep part has no fast path: shared with `score_evasion`.
         EvasionScore {
-            line_deficit_m: self.line_deficit(end, p),
+            line_deficit_m: self.line_deficit(walk.pos, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_contact_s: mover_contact.unwrap_or(horizon),
             mover_gap_m: if self.movers.is_empty() {

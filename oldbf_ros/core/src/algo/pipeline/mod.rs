@@ -512,6 +512,7 @@ fn next_points<'a>(any_advanced: bool, points_next: &'a [Vec2], points: &'a [Vec
 mod tests {
     use super::*;
     use crate::algo::scan::ScanHeader;
+    use crate::algo::select::Tier;
     use std::f32::consts::PI;
 
     #[test]
@@ -608,15 +609,25 @@ mod tests {
     }
 
     #[test]
-    fn obstacle_close_on_the_left_gives_a_right_turn() {
-        // Beam 180 + 45 = 45° left, 0.6 m away.
+    fn obstacle_close_on_the_left_turns_the_paper_right_and_leaves_a_safe_command_alone() {
+        // Beam 180 + 45 = 45° left, 0.6 m away: well outside d_safe, inside d_act.
         let ranges = ring(f32::INFINITY, &[(225, 0.6)]);
-        let mut pipe = SafetyPipeline::new(Params::default());
-        let rec = pipe.step(&scan(&ranges), 1.0, Twist::new(0.15, 0.0), 0.15);
+        let nominal = Twist::new(0.15, 0.0);
+        // The paper's decision: the DOAA's law turns away from the nearer side.
+        let mut paper = SafetyPipeline::new(Params::default().paper_method());
+        let rec = paper.step(&scan(&ranges), 1.0, nominal, 0.15);
         assert!(rec.cmd.omega_radps < 0.0, "{rec:?}");
-        assert_eq!(rec.state, DoaaState::Avoid);
-        assert!(rec.b_left > rec.b_right);
-        assert!(rec.condition_held);
+        assert_eq!((rec.state, rec.tier), (DoaaState::Avoid, None));
+        assert!(rec.b_left > rec.b_right && rec.condition_held);
+        // The selector: the command is safe as it is and the base is already at it: sent
+        // unchanged (§5c), at the strictest level, the DOAA's law only recorded.
+        let mut pipe = SafetyPipeline::new(Params::default());
+        pipe.command_sent(nominal, 0.9);
+        let rec = pipe.step(&scan(&ranges), 1.0, nominal, 0.15);
+        assert_eq!(rec.cmd, nominal, "{rec:?}");
+        assert!(rec.doaa_cmd.omega_radps < 0.0, "{rec:?}");
+        assert_eq!((rec.state, rec.tier), (DoaaState::Avoid, Some(Tier::Margin)));
+        assert!(rec.condition_held && rec.braking_held && !rec.filter_changed);
     }
 
     #[test]
@@ -654,11 +665,21 @@ mod tests {
     }
 
     #[test]
-    fn empty_world_passes_nominal() {
+    fn empty_world_passes_nominal_once_the_base_can_follow_it() {
         let ranges = ring(f32::INFINITY, &[]);
+        let nominal = Twist::new(0.15, 0.05);
+        // From rest, the window holds 0.5 m/s² × 0.1 s = 0.05 m/s and 0.1 rad/s: the
+        // command goes to the window's command nearest the nominal, (0.05, 0.05)...
         let mut pipe = SafetyPipeline::new(Params::default());
-        let rec = pipe.step(&scan(&ranges), 1.0, Twist::new(0.15, 0.05), 0.15);
-        assert_eq!(rec.cmd, Twist::new(0.15, 0.05));
+        let mut rec = pipe.step(&scan(&ranges), 1.0, nominal, 0.0);
+        assert!((rec.cmd.v_mps - 0.05).abs() < 1e-9 && (rec.cmd.omega_radps - 0.05).abs() < 1e-9, "{rec:?}");
+        for k in 1..3 {
+            let mut s = scan(&ranges);
+            s.header.stamp_s = 1.0 + 0.1 * k as f64;
+            rec = pipe.step(&s, s.header.stamp_s, nominal, rec.cmd.v_mps);
+        }
+        // ...and in the third step it is the nominal, unchanged.
+        assert_eq!(rec.cmd, nominal, "{rec:?}");
         assert_eq!(rec.state, DoaaState::Forward);
         assert_eq!(rec.valid_beams, 0);
         assert!(rec.h_m.is_infinite() && rec.condition_held && !rec.filter_changed);

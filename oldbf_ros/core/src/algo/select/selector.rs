@@ -211,22 +211,32 @@ impl Selector {
             side: self.side,
             guide: !nominal_ok,
         };
-        if nominal_ok && window.contains(input.nominal) {
-            let look = Look::of(input.nominal, p);
-            let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), false, g.passive);
-            return Selection {
-                cmd: input.nominal,
-                h_m: h,
-                h_next_m: nominal_h_next,
-                tier: first,
-                costs,
-                passed: true,
-                guided: false,
-                threatened,
-                added_motion: false,
-                braking_held: true,
-                condition_held: condition_holds(h, nominal_h_next, p.dtcbf.gamma),
-            };
+        if nominal_ok {
+            // Sent unchanged if the base can follow it now; else the command of the window
+            // nearest it, if that is as admissible: the quickest way there the base allows.
+            let passed = window.contains(input.nominal);
+            let near = if passed { input.nominal } else { window.clamp(input.nominal) };
+            let near_h_next = if passed { nominal_h_next } else { h_next_of(g.filter, near) };
+            let admissible = passed
+                || (target_of(first, f64::NAN).is_none_or(|t| near_h_next >= t - TOL_M)
+                    && (!passive || g.passive.closing_contact(near, p).is_none()));
+            if admissible {
+                let look = Look::of(near, p);
+                let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), false, g.passive);
+                return Selection {
+                    cmd: near,
+                    h_m: h,
+                    h_next_m: near_h_next,
+                    tier: first,
+                    costs,
+                    passed,
+                    guided: false,
+                    threatened,
+                    added_motion: false,
+                    braking_held: true,
+                    condition_held: condition_holds(h, near_h_next, p.dtcbf.gamma),
+                };
+            }
         }
 
         self.window = Some(window);
