@@ -96,10 +96,29 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
         "passive.evasion_horizon_s",
         "evasion ranks commands by predicted time to contact over this (s)",
     ),
-    ("doaa.commit_turns", "pass an obstacle ahead on one side, chosen once"),
     (
-        "doaa.max_omega_change_radps",
-        "largest change of the DOAA's yaw rate per step (rad/s); 0 = none",
+        "select.weights.nominal",
+        "weight of the critic of closeness to the upstream command",
+    ),
+    (
+        "select.weights.smoothness",
+        "weight of the critic of little change from the command last sent",
+    ),
+    (
+        "select.weights.doaa",
+        "weight of the critic of closeness to the DOAA's command (the paper's law)",
+    ),
+    (
+        "select.weights.progress",
+        "weight of the critic of progress towards the reference or the way round",
+    ),
+    (
+        "select.weights.clearance",
+        "weight of the critic of room to the surroundings along the horizon",
+    ),
+    (
+        "select.weights.mover",
+        "weight of the critic of time to contact with movers (evasion)",
     ),
     (
         "unstuck.enabled",

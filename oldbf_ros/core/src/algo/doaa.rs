@@ -30,6 +30,9 @@
 //! round zero would otherwise switch it on and off every few steps, turning
 //! the robot left and right on the spot for as long as that lasts.
 //!
+//! Passing something dead ahead on one side (§4b) is the selector's side
+//! critic, not a latch here.
+//!
 //! Departure from ALGORITHM.md §4: the "front is the nearest" condition is
 //! ours. In a corridor narrower than 2 (r + d_act) (2.8 m at the defaults)
 //! both sides are always inside d_act, so without it anything within d_act
@@ -121,18 +124,14 @@ pub fn sides_tie(c: &Clearances) -> bool {
     gap.is_nan() || gap <= TIE_M
 }
 
-/// The DOAA state machine: the latched both-sides turn and the committed
-/// turn direction.
+/// The DOAA state machine: the latched both-sides turn.
 #[derive(Debug, Default, Clone)]
 pub struct Doaa {
     both_sides: Option<TurnDirection>,
-    /// The side the robot passes the obstacle ahead on (§4b), while one is
-    /// within d_act in the front sector.
-    commit: Option<TurnDirection>,
 }
 
 impl Doaa {
-    /// No latched turn, no committed direction.
+    /// No latched turn.
     pub fn new() -> Self {
         Self::default()
     }
@@ -140,7 +139,6 @@ impl Doaa {
     /// Forgets the latched turn (after a stop, a reset, or a filter toggle).
     pub fn reset(&mut self) {
         self.both_sides = None;
-        self.commit = None;
     }
 
     /// The turn latched while both sides are blocked, if any.
@@ -148,32 +146,10 @@ impl Doaa {
         self.both_sides
     }
 
-    /// The side the robot is committed to passing the obstacle ahead on.
-    pub fn committed_turn(&self) -> Option<TurnDirection> {
-        self.commit
-    }
-
-    /// Drops the committed side: the unstuck logic steers towards a free
-    /// direction, which may lie either way.
-    pub fn release_commit(&mut self) {
-        self.commit = None;
-    }
-
-    /// The DOAA command for this step, before the DTCBF check.
+    /// The DOAA command for this step: the paper's law, or its both-sides
+    /// turn (the selector's critics, and the paper's DTCBF filter, then make
+    /// it safe).
     pub fn command(&mut self, nominal: Twist, c: &Clearances, b: &Barriers, p: &Params) -> (Twist, DoaaState) {
-        self.command_with(nominal, c, b, p, p.doaa.commit_turns)
-    }
-
-    /// As [`Self::command`], committing to a side only when `commit` (the
-    /// unstuck logic, heading for a free direction, turns it off).
-    pub fn command_with(
-        &mut self,
-        nominal: Twist,
-        c: &Clearances,
-        b: &Barriers,
-        p: &Params,
-        commit: bool,
-    ) -> (Twist, DoaaState) {
         let d_act = p.barrier.d_act_m();
         let w_max = p.control.omega_max_radps;
 
@@ -183,21 +159,8 @@ impl Doaa {
         if nominal.v_mps <= 0.0 {
             self.both_sides = None;
         }
-        // Commitment (§4b): once something is within d_act ahead, the robot picks
-        // the side to pass it on and keeps it until the front is clear again.
-        let front_blocked = c.d_front_m < d_act;
         let speed_scale = (nominal.v_mps / p.doaa.full_gain_speed_mps).clamp(0.0, 1.0);
         let avoid = p.doaa.gain_k_radps * speed_scale * (b.b_right - b.b_left);
-        if !commit {
-            self.commit = None;
-        } else {
-            if self.commit.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
-                self.commit = None;
-            }
-            if self.commit.is_none() && front_blocked && nominal.v_mps > p.doaa.both_sides_min_speed_mps {
-                self.commit = Some(commit_side(avoid, c, p));
-            }
-        }
         if self.both_sides.is_none()
             && nominal.v_mps > p.doaa.both_sides_min_speed_mps
             && c.d_left_m < d_act
@@ -205,7 +168,7 @@ impl Doaa {
             && c.d_front_m < d_act
             && front_is_nearest
         {
-            self.both_sides = Some(self.commit.unwrap_or_else(|| pick_turn(c, nominal)));
+            self.both_sides = Some(pick_turn(c, nominal));
         }
         if self.both_sides.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
             self.both_sides = None;
@@ -224,28 +187,7 @@ impl Doaa {
                 DoaaState::BothSides,
             );
         }
-
-        // Steering only changes clearances when the robot moves forward; at a standstill the
-        // term would only fight the nominal turn (and chatter where points cross a sector edge).
-        let omega = match self.commit {
-            // Committed, and driving (above the both-sides speed, the same hysteresis): the
-            // avoidance term keeps its sign, never steering towards the side given up, and
-            // while the front is blocked it turns at least `commit_min_turn` of ω_max the
-            // committed way, so an obstacle dead ahead (B_l = B_r, no term at all) is not
-            // driven at until the filter stops. The nominal adds, as in the paper's law; a
-            // nominal that (nearly) only turns in place, safe for a circular robot, passes.
-            Some(dir) if nominal.v_mps > p.doaa.both_sides_min_speed_mps => {
-                let s = dir.sign();
-                let floor = if front_blocked {
-                    p.doaa.commit_min_turn * w_max * speed_scale
-                } else {
-                    0.0
-                };
-                nominal.omega_radps + s * (s * avoid).max(floor)
-            }
-            _ => nominal.omega_radps + avoid,
-        }
-        .clamp(-w_max, w_max);
+        let omega = (nominal.omega_radps + avoid).clamp(-w_max, w_max);
         let state = if c.d_left_m < d_act || c.d_right_m < d_act {
             DoaaState::Avoid
         } else {
@@ -253,30 +195,6 @@ impl Doaa {
         };
         (Twist::new(nominal.v_mps, omega), state)
     }
-}
-
-/// The side to pass an obstacle ahead on: the way the barriers already steer
-/// when they do by more than a tie; else the side with more clearance, then
-/// the less crowded one; else the right (§4b right of way: two robots
-/// running this law head-on both turn right and pass each other).
-fn commit_side(avoid: f64, c: &Clearances, p: &Params) -> TurnDirection {
-    let pick = |left: bool| {
-        if left {
-            TurnDirection::Left
-        } else {
-            TurnDirection::Right
-        }
-    };
-    if avoid.abs() > 0.05 * p.doaa.gain_k_radps {
-        return pick(avoid > 0.0);
-    }
-    if !sides_tie(c) {
-        return pick(c.d_left_m > c.d_right_m);
-    }
-    if c.crowding_left != c.crowding_right {
-        return pick(c.crowding_left < c.crowding_right);
-    }
-    TurnDirection::Right
 }
 
 /// The side with more clearance; ties go to the less crowded side, then to

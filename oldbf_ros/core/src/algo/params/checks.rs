@@ -148,12 +148,6 @@ impl Validate for Params {
         c.range("doaa.front_nearest_tolerance_m", d.front_nearest_tolerance_m, DIST_10);
         // Divides the nominal speed: 0 would make the gain weight NaN at a standstill.
         c.range("doaa.full_gain_speed_mps", d.full_gain_speed_mps, SPEED_POS);
-        c.range("doaa.commit_min_turn", d.commit_min_turn, Interval::closed(0.0, 1.0));
-        c.range(
-            "doaa.max_omega_change_radps",
-            d.max_omega_change_radps,
-            Interval::closed(0.0, 20.0).unit("rad/s"),
-        );
 
         let f = &self.dtcbf;
         c.range("dtcbf.gamma", f.gamma, Interval::open_closed(0.0, 1.0));
@@ -253,11 +247,6 @@ impl Validate for Params {
             Interval::closed(0.0, 1.0).unit("m/s"),
         );
         c.range("passive.evasion_horizon_s", pa.evasion_horizon_s, TIME_10_POS);
-        c.range(
-            "passive.evasion_min_gain_s",
-            pa.evasion_min_gain_s,
-            Interval::closed(0.0, 10.0).unit("s"),
-        );
 
         c.range("passive.evasion_max_speed_mps", pa.evasion_max_speed_mps, SPEED);
 

@@ -75,17 +75,6 @@ pub struct DoaaParams {
     /// The avoidance term k (B_r − B_l) has full weight at nominal forward speeds ≥ this,
     /// and falls linearly to 0 at a standstill (m/s).
     pub full_gain_speed_mps: f64,
-    /// Commit to the side an obstacle ahead is passed on until the front is
-    /// clear (§4b); false = the differential law alone, whose sign follows the
-    /// nearest point across bearing 0.
-    pub commit_turns: bool,
-    /// While committed and the front is blocked, turn at least this fraction
-    /// of ω_max the committed way (scaled like the avoidance term by speed).
-    pub commit_min_turn: f64,
-    /// Largest change of the DOAA's yaw rate from the last command sent, per
-    /// control step (rad/s); the DTCBF then judges the command actually sent.
-    /// 0 = no limit.
-    pub max_omega_change_radps: f64,
 }
 
 impl Default for DoaaParams {
@@ -98,9 +87,6 @@ impl Default for DoaaParams {
             both_sides_min_speed_mps: 0.02,
             front_nearest_tolerance_m: 0.05,
             full_gain_speed_mps: 0.1,
-            commit_turns: true,
-            commit_min_turn: 0.5,
-            max_omega_change_radps: 0.25,
         }
     }
 }

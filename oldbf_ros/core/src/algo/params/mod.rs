@@ -65,9 +65,10 @@ impl Params {
     /// The same parameters with what this project added beyond the paper switched
     /// off: `laser.range_semantics: all_invalid_free` (every invalid range is
     /// free space: no hold, no blindness check), `barrier.side_fade_deg: 0` (hard
-    /// side sectors), `doaa.commit_turns: false`, `doaa.max_omega_change_radps:
-    /// 0` (no yaw-rate step limit), `unstuck.enabled: false`, `passive.enabled:
-    /// false` (no braking check or evasion), `control.allow_reverse: false` and
+    /// side sectors), `select.enabled: false` (the paper's decision: the DOAA
+    /// command, then the DTCBF filter's own search, no window, no critics),
+    /// `unstuck.enabled: false`, `passive.enabled: false` (no braking check
+    /// or evasion), `control.allow_reverse: false` and
     /// `obstacles.lookahead_s: 2` (the look-ahead it had). Everything else,
     /// obstacle tracking included, is left as given. This is the
     /// filter as it was before REP 117 semantics, passive motion safety and the
@@ -78,8 +79,6 @@ impl Params {
     pub fn paper_method(mut self) -> Self {
         self.laser.range_semantics = RangeSemantics::AllInvalidFree;
         self.barrier.side_fade_deg = 0.0;
-        self.doaa.commit_turns = false;
-        self.doaa.max_omega_change_radps = 0.0;
         self.unstuck.enabled = false;
         self.passive.enabled = false;
         self.select.enabled = false;

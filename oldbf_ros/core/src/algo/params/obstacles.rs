@@ -79,9 +79,6 @@ pub struct PassiveParams {
     /// ω_max = 0.3 rad/s (5.2 s): a robot that sees a person later cannot turn
     /// out of the way in time.
     pub evasion_horizon_s: f64,
-    /// Evasion replaces the filter's command only if it gains at least this
-    /// much predicted time to contact (s): no dithering between near-equals.
-    pub evasion_min_gain_s: f64,
     /// While a tracked mover threatens the upstream command, evasion may
     /// command speeds up to this either way (m/s), faster than the upstream
     /// or reversing where it does not (reversing only where the input box
@@ -97,7 +94,6 @@ impl Default for PassiveParams {
             mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,
             evasion_horizon_s: 5.0,
-            evasion_min_gain_s: 0.2,
             evasion_max_speed_mps: 0.22,
         }
     }

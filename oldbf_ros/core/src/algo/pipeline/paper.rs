@@ -20,7 +20,7 @@ impl SafetyPipeline {
     /// and barriers `b`.
     pub(super) fn decide_paper(&mut self, nominal: Twist, c: &Clearances, b: &Barriers, bx: &InputBox) -> Decision {
         let p = &self.params;
-        let (doaa_cmd, doaa_state) = self.doaa.command_with(nominal, c, b, p, false);
+        let (doaa_cmd, doaa_state) = self.doaa.command(nominal, c, b, p);
         self.filter.set_closing_in(false);
         let next = next_points(self.any_advanced, &self.points_next, &self.points.points);
         let out = self.filter.filter_in(&self.points.points, next, doaa_cmd, p, bx);

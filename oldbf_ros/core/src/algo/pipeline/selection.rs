@@ -99,7 +99,7 @@ impl SafetyPipeline {
         if heading.goal_short {
             c_doaa.d_front_m = f64::INFINITY;
         }
-        let (doaa_cmd, doaa_state) = self.doaa.command_with(nominal, &c_doaa, b, p, false);
+        let (doaa_cmd, doaa_state) = self.doaa.command(nominal, &c_doaa, b, p);
         let d_act = p.barrier.d_act_m();
         let since_s = match now_s - self.last_sent_s {
             s if s.is_finite() && s >= 0.0 => s,
