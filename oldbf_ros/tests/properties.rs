@@ -6,6 +6,7 @@
 
 use oldbf_ros::algo::barrier::distance_barrier;
 use oldbf_ros::algo::dtcbf::InputBox;
+use oldbf_ros::algo::select::Window;
 use oldbf_ros::algo::params::{BarrierParams, Params};
 use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist};
 use proptest::prelude::*;
@@ -154,8 +155,9 @@ proptest! {
     }
 
     /// Inside the unsafe set a safe command may or may not exist. Whenever one
-    /// does (found here by brute force over the whole input box, backing up
-    /// allowed), the filter must send one that satisfies the condition.
+    /// does among the commands the base can reach (found here by brute force
+    /// over the dynamic window from rest, backing up allowed), the filter
+    /// must send one that satisfies the condition.
     #[test]
     fn inside_the_unsafe_set_a_feasible_command_is_found(
         ranges in prop::collection::vec(prop_oneof![3 => 0.25f32..3.49, 1 => 0.2f32..0.4, 1 => Just(f32::INFINITY)], 1..300),
@@ -176,8 +178,10 @@ proptest! {
         let dt = p.control.dt_s();
         let target = (1.0 - gamma) * h;
         // Brute force: with the Euler model the yaw rate does not move the robot in one step.
+        let window = Window::new(Twist::ZERO, dt, &p.control, &InputBox::from_params(&p));
+        let (lo, hi) = window.v;
         let feasible = (0..=4000).any(|i| {
-            let v = -v_rev + (v_rev + p.control.v_max_mps) * i as f64 / 4000.0;
+            let v = lo + (hi - lo) * i as f64 / 4000.0;
             h_after(&pts, dt * v, &p) >= target + 1e-6
         });
         let rec = SafetyPipeline::new(p.clone()).step(&scan_of(&ranges, angle_min, inc), 5.0, Twist::new(v_nom, 0.0), v_nom);

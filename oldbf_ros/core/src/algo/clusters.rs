@@ -1,5 +1,6 @@
 //! Scan points → clusters (ALGORITHM.md §6): runs of consecutive valid beams
-//! whose points are closer than `cluster_gap_m` to their neighbour. Each
+//! (up to [`BRIDGED_BEAMS`] lost returns between two of them) whose points
+//! are closer than `cluster_gap_m` to their neighbour. Each
 //! cluster is summarised by a circle: the centroid of its points and the
 //! largest distance from it (m), and by where the centre of the round object
 //! it sees probably is (behind the centroid: [`Cluster::centre`]), where the
@@ -10,6 +11,13 @@
 //! cluster spanning the scan's seam is one cluster, not two.
 
 use super::geometry::{max_distance_squared, min_distance_squared, Vec2};
+
+/// Beams without a point (a return lost: `+inf` for one scan, a dropout)
+/// that may lie between two neighbours of a cluster, when the two points are
+/// still within the gap: a wall with a lost return is one wall, not two
+/// short pieces whose centroids jump as the loss moves along it (which the
+/// tracker would take for movers).
+pub const BRIDGED_BEAMS: u32 = 2;
 
 /// One cluster: points `start..end` of the scan's valid points (in beam
 /// order; when it wraps round the seam, `start > end` and it is
@@ -119,7 +127,7 @@ impl Clusters {
         // they are close enough; a cluster ends at every pair that is not.
         let mut start = 0;
         for (i, (p, b)) in points.windows(2).zip(beam_index.windows(2)).enumerate() {
-            let neighbours = b[1] == b[0] + 1 && (p[1] - p[0]).norm_squared() <= gap2;
+            let neighbours = b[1] <= b[0] + 1 + BRIDGED_BEAMS && (p[1] - p[0]).norm_squared() <= gap2;
             if !neighbours {
                 self.clusters.push(summarise(points, start, i + 1, n));
                 start = i + 1;

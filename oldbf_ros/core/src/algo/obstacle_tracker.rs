@@ -137,10 +137,14 @@ pub struct Track {
     pub hits: u32,
     /// Consecutive scans without an association.
     pub misses: u32,
-    /// Where it was first seen, tracking frame (m).
+    /// Where the centre of the object it sees was first estimated, tracking
+    /// frame (m): the centroid pushed back by its depth (`Cluster::centre`).
     pub born_at: Vec2,
-    /// The farthest it has been from `born_at` so far (m): proof that it really
-    /// moves, kept when it turns round (a pacing person stays a mover).
+    /// The farthest the centre estimate has been from `born_at` so far (m):
+    /// proof that it really moves, kept when it turns round (a pacing person
+    /// stays a mover). The centre, not the centroid: the centroid of the
+    /// visible side of a post slides round it as the robot drives by (as far
+    /// as the post is wide), its centre estimate much less.
     pub max_travel_m: f64,
     /// Born at a ghost: the same mover seen again, with no travel to prove.
     pub reacquired: bool,
@@ -278,6 +282,19 @@ impl ObstacleTracker {
         self.ghosts.clear();
     }
 
+    /// A track's centre estimate in the tracking frame, seen from `robot`:
+    /// its centroid pushed back along the bearing by its depth.
+    fn centre_of(t: &Track, robot: Vec2) -> Vec2 {
+        let pos = t.position();
+        let d = pos - robot;
+        let n = d.norm();
+        if n > 0.0 {
+            pos + d * (t.depth_m / n)
+        } else {
+            pos
+        }
+    }
+
     fn candidate(c: &Cluster, p: &ObstacleParams) -> bool {
         c.len >= p.min_cluster_points && 2.0 * c.radius_m <= p.max_cluster_diameter_m
     }
@@ -349,9 +366,13 @@ impl ObstacleTracker {
             t.fy.update(z.y, r);
             t.radius_m = 0.8 * t.radius_m + 0.2 * clusters[ci].radius_m;
             t.depth_m = 0.8 * t.depth_m + 0.2 * depth_of(&clusters[ci]);
-            t.max_travel_m = t.max_travel_m.max((t.position() - t.born_at).norm());
+            let centre = Self::centre_of(t, self.robot_pose.position());
+            t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
             t.hits += 1;
             t.misses = 0;
+            if log::log_enabled!(log::Level::Debug) && t.is_moving(p) {
+                log::debug!("t {stamp_s:.1}: track {} moving: pos {:?} v {:?} travel {:.2} reacq {} r {:.2} depth {:.2} cluster len {}", t.id, t.position(), t.velocity(), t.max_travel_m, t.reacquired, t.radius_m, t.depth_m, clusters[ci].len);
+            }
             if t.hits >= p.confirm_hits {
                 t.status = TrackStatus::Confirmed;
             }
@@ -426,7 +447,7 @@ impl ObstacleTracker {
                 depth_m: depth_of(c),
                 hits: 1,
                 misses: 0,
-                born_at: z,
+                born_at: to_tracking.point(c.centre),
                 max_travel_m: 0.0,
                 reacquired,
                 fx: CvFilter::new(z.x, r),

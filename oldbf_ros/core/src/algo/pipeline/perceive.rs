@@ -11,6 +11,7 @@
 //! two scans sees the movers where they are predicted to be, not nowhere.
 
 use super::{SafetyPipeline, REAR_HALF_ANGLE_RAD};
+use crate::algo::clusters::{Cluster, BRIDGED_BEAMS};
 use crate::algo::geometry::{FrameMap, Pose2, Vec2};
 use crate::algo::obstacle_tracker::ObstacleTracker;
 use crate::algo::params::RangeSemantics;
@@ -90,7 +91,7 @@ impl SafetyPipeline {
         };
         let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
-        self.track_obstacles(stamp_s, pose, full_circle);
+        self.track_obstacles(stamp_s, pose, full_circle, scan.header.range_max_m as f64);
         self.perceived = Perceived::Usable(Frame {
             stamp_s,
             odom: odom_pose.is_some(),
@@ -127,11 +128,15 @@ impl SafetyPipeline {
         pose
     }
 
-    /// Clusters of the scan's points and the tracker's update with them
-    /// (clusters of mostly held points excluded: held points are where
-    /// something was, not measurements, so a mover that steps inside
-    /// range_min coasts on its velocity instead of seeming to stop).
-    fn track_obstacles(&mut self, stamp_s: f64, pose: Pose2, full_circle: bool) {
+    /// Clusters of the scan's points and the tracker's update with them.
+    /// Excluded from tracking: clusters of mostly held points (held points
+    /// are where something was, not measurements, so a mover that steps
+    /// inside range_min coasts on its velocity instead of seeming to stop),
+    /// and clusters that are not a whole object ([`open_ended`]): a piece of
+    /// wall cut off by the range limit or by something nearer in front of it
+    /// slides along the wall as the robot moves, and would be taken for a
+    /// mover.
+    fn track_obstacles(&mut self, stamp_s: f64, pose: Pose2, full_circle: bool, range_max_m: f64) {
         self.clusters.clear();
         if !self.params.obstacles.enabled && !self.keep_clusters {
             return;
@@ -153,7 +158,8 @@ impl SafetyPipeline {
                 .indices(n_points)
                 .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
                 .count();
-            if 2 * held >= cluster.len && held > 0 {
+            let cut = open_ended(&cluster, &self.points.points, &self.points.beam_index, range_max_m);
+            if (2 * held >= cluster.len && held > 0) || cut {
                 self.clusters.exclude(k);
             }
         }
@@ -222,4 +228,35 @@ impl SafetyPipeline {
             self.clusters.shift(k, shift);
         }
     }
+}
+
+/// A cluster reaching within this of range_max may go on beyond it (m).
+const RANGE_EDGE_M: f64 = 0.25;
+
+/// Whether `cluster` (of `points`, robot frame, beam order) may be only part
+/// of what it sees: a point of it within [`RANGE_EDGE_M`] of the range limit
+/// (the object may go on beyond), or a neighbouring beam's point nearer the
+/// robot than the cluster's end next to it (something in front hides the
+/// rest). A whole object, a person or a post, stands in front of what is
+/// beside it.
+fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_m: f64) -> bool {
+    let n = points.len();
+    if cluster.len == 0 || n < 2 {
+        return false;
+    }
+    if cluster
+        .indices(n)
+        .any(|i| points[i].norm() > range_max_m - RANGE_EDGE_M)
+    {
+        return true;
+    }
+    let first = cluster.start;
+    let last = (cluster.end + n - 1) % n;
+    // A neighbour counts when it is (nearly) the adjacent beam: across a gap of
+    // lost returns the view is open.
+    let adjacent = |a: usize, b: usize| beam_index[a].abs_diff(beam_index[b]) <= 1 + BRIDGED_BEAMS;
+    let hidden_by = |end: usize, other: usize| {
+        other != end && adjacent(end, other) && points[other].norm() < points[end].norm()
+    };
+    cluster.len < n && (hidden_by(first, (first + n - 1) % n) || hidden_by(last, (last + 1) % n))
 }
