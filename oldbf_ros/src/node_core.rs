@@ -649,6 +649,7 @@ impl NodeCore {
         };
         let scan_stamp_s = self.scan.header.map_or(f64::NAN, |h| h.stamp_s);
 
+        let computed = record.cmd;
         let (cmd, record) = if self.e_stop_latched {
             (
                 Twist::ZERO,
@@ -664,6 +665,11 @@ impl NodeCore {
         } else {
             (record.cmd, record)
         };
+        // The pipeline's window, dead reckoning and speed barrier start from what was
+        // actually sent (§5c), not from what it computed under an e-stop or disable.
+        if cmd != computed {
+            self.pipeline.command_sent(cmd, now_s);
+        }
         Tick {
             cmd,
             record,
@@ -798,6 +804,41 @@ mod tests {
         assert!(t.e_stop);
         n.reset_e_stop().unwrap();
         assert_eq!(n.tick(1.2).cmd, Twist::new(0.15, 0.0));
+    }
+
+    #[test]
+    fn the_window_starts_from_the_command_actually_sent() {
+        // The default base: 0.5 m/s² up, so 0.05 m/s per 0.1 s tick.
+        let settings = NodeSettings {
+            nominal_source: NominalSource::CmdVelIn,
+            ..NodeSettings::default()
+        };
+        let mut n = NodeCore::new(Params::default(), settings, None);
+        let mut tick = |n: &mut NodeCore, k: usize| {
+            let t = 1.0 + 0.1 * k as f64;
+            n.on_scan(meta(t), &open(), &[]);
+            n.on_cmd_in(Twist::new(0.2, 0.0), t);
+            n.tick(t).cmd
+        };
+        // The filter ramps up: 0.05, 0.10.
+        assert!((tick(&mut n, 0).v_mps - 0.05).abs() < 1e-9);
+        assert!((tick(&mut n, 1).v_mps - 0.10).abs() < 1e-9);
+        // Disabled, the node passes 0.2 through; the base follows it.
+        n.set_enabled(false);
+        for k in 2..5 {
+            assert_eq!(tick(&mut n, k), Twist::new(0.2, 0.0));
+        }
+        // Enabled again, the window starts from the 0.2 the base was sent: the safe
+        // 0.2 goes on. Counted from the pipeline's own (ramping) output it would
+        // have fallen back to 0.15 or below.
+        n.set_enabled(true);
+        assert_eq!(tick(&mut n, 5), Twist::new(0.2, 0.0));
+        // An e-stop sends zero; released, the filter ramps up again from zero.
+        n.on_e_stop(true);
+        assert_eq!(tick(&mut n, 6), Twist::ZERO);
+        n.on_e_stop(false);
+        n.reset_e_stop().unwrap();
+        assert!((tick(&mut n, 7).v_mps - 0.05).abs() < 1e-9);
     }
 
     #[test]

@@ -94,7 +94,7 @@ impl Default for PassiveParams {
             mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,
             evasion_horizon_s: 5.0,
-            evasion_max_speed_mps: 0.22,
+            evasion_max_speed_mps: 0.15,
         }
     }
 }

@@ -266,12 +266,13 @@ impl SafetyPipeline {
         self.last_box
     }
 
-    /// Forget latched DOAA state (after an e-stop release or a filter toggle).
+    /// Forget latched DOAA state, the way round and the side kept (after an
+    /// e-stop release or a filter toggle). The command last sent stays: it
+    /// is what the base is doing ([`Self::command_sent`]).
     pub fn reset(&mut self) {
         self.doaa.reset();
         self.unstuck.reset();
         self.selector.reset();
-        self.last_cmd = Twist::ZERO;
         self.last_change = Twist::ZERO;
         self.forget_surprise();
     }
