@@ -2,6 +2,7 @@
 //! plots (trajectory with the safety perimeter; B_l and B_r over time; v and
 //! ω over time: the paper's Figs. 4-6).
 
+use crate::algo::select::Critic;
 use crate::plot::{plot_time_series, plot_trajectory, Series, TimePanel, TrajectoryPlot};
 use crate::sim::run::{RunResult, RunSummary, StepRow};
 use crate::sim::scenario::Scenario;
@@ -135,7 +136,8 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
          v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
          clearance_true_m,state,filter_changed,condition_held,braking_held,infeasible,unknown_beams,held_beams,\
-         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us"
+         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us,tier,added_motion,{}",
+        Critic::ALL.map(|c| format!("cost_{}", c.name())).join(",")
     )?;
     for r in rows {
         let nums = [
@@ -180,6 +182,10 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
             csv_value(r.min_ttc_s),
             r.step_us
         );
+        let _ = write!(line, ",{},{}", r.tier, u8::from(r.added_motion));
+        for c in r.costs.0 {
+            let _ = write!(line, ",{}", csv_value(c));
+        }
         writeln!(w, "{line}")?;
     }
     w.flush()?;

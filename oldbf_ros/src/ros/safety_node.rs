@@ -38,6 +38,7 @@ use super::pacer::Pacer;
 use super::params::{private_namespace, RosParamError};
 use super::reconfigure as ros_reconfigure;
 use super::RosError;
+use crate::algo::select::Critic;
 use crate::config::ConfigError;
 use crate::node_config::{node_config_from_params, NodeConfig};
 use crate::node_core::{NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
@@ -66,6 +67,10 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
         condition_held: r.condition_held,
         braking_held: r.braking_held,
         infeasible: r.infeasibility.map(|i| i.code().to_string()).unwrap_or_default(),
+        tier: r.tier.map(|t| t.code().to_string()).unwrap_or_default(),
+        added_motion: r.added_motion,
+        critic_names: Critic::ALL.iter().map(|c| c.name().to_string()).collect(),
+        critic_costs: r.costs.0.to_vec(),
         e_stop: tick.e_stop,
         stop_reason: tick.stop_reason(),
         nominal: twist_to_msg(r.nominal),

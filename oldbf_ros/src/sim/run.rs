@@ -26,6 +26,7 @@ use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 use crate::algo::record::{StepRecord, StopCause};
+use crate::algo::select::CriticCosts;
 use crate::algo::scan::ScanHeader;
 use crate::algo::scan::{classify_range, BeamStatus, RangeKind};
 use crate::algo::tracking::TrackingError;
@@ -90,6 +91,14 @@ pub struct StepRow {
     pub braking_held: bool,
     /// Why no command met the checks (empty when one did).
     pub infeasible: &'static str,
+    /// The level of the relaxation order the command came from (§5c; empty
+    /// for stops without a scan and for the paper's decision).
+    pub tier: &'static str,
+    /// Each critic's weighted cost for the command sent.
+    pub costs: CriticCosts,
+    /// The command went faster than the upstream or reversed where it did
+    /// not (escape or evasion, §5c).
+    pub added_motion: bool,
     /// Beams reading unknown, and held of those.
     pub unknown_beams: usize,
     pub held_beams: usize,
@@ -426,6 +435,9 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 condition_held: held,
                 braking_held,
                 infeasible: rec.infeasibility.map_or("", |r| r.code()),
+                tier: rec.tier.map_or("", |t| t.code()),
+                costs: rec.costs,
+                added_motion: rec.added_motion,
                 unknown_beams: rec.unknown_beams,
                 held_beams: rec.held_beams,
                 driven_blind,
