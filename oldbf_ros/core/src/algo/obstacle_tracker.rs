@@ -624,6 +624,7 @@ mod tests {
             let t = 0.1 * k as f64;
             let c = Cluster {
                 centroid: at(t).centroid + Vec2::new(0.0, offset_m),
+                centre: at(t).centre + Vec2::new(0.0, offset_m),
                 ..at(t)
             };
             tr.update(&[c], t, Pose2::default(), &p);

@@ -197,7 +197,7 @@ impl Selector {
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
         let nominal_ok = !threatened && !people_near
-            && target_of(first, f64::NAN).is_none_or(|t| nominal_h_next >= t - TOL_M)
+            && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, p) >= t - TOL_M)
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {
             params: p,
@@ -218,7 +218,7 @@ impl Selector {
             let near = if passed { input.nominal } else { window.clamp(input.nominal) };
             let near_h_next = if passed { nominal_h_next } else { h_next_of(g.filter, near) };
             let admissible = passed
-                || (target_of(first, f64::NAN).is_none_or(|t| near_h_next >= t - TOL_M)
+                || (target_of(first, f64::NAN).is_none_or(|t| braking_room(first, near_h_next, near, p) >= t - TOL_M)
                     && (!passive || g.passive.closing_contact(near, p).is_none()));
             if admissible {
                 let look = Look::of(near, p);
@@ -265,7 +265,7 @@ impl Selector {
                 // Nothing visible: every candidate meets every level.
                 _ => {
                     let t = target_of(tier, escape).unwrap_or(f64::NEG_INFINITY);
-                    self.best_meeting(t, &ctx, threatened, g.passive)
+                    self.best_meeting(tier, t, &ctx, threatened, g.passive)
                 }
             };
             if let Some((i, costs)) = found {
@@ -397,6 +397,7 @@ impl Selector {
     /// with the lowest total cost, and its costs.
     fn best_meeting(
         &mut self,
+        tier: Tier,
         target: f64,
         ctx: &Context<'_>,
         threatened: bool,
@@ -408,7 +409,7 @@ impl Selector {
             items
                 .iter()
                 .enumerate()
-                .filter(|(_, c)| c.h_next_m >= target - TOL_M)
+                .filter(|(_, c)| braking_room(tier, c.h_next_m, c.look.cmd, ctx.params) >= target - TOL_M)
                 .map(|(i, c)| (c.cheap_total, i as u32)),
         );
         self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -485,6 +486,19 @@ fn cut_to((lo, hi): (f64, f64), window: &Window) -> (f64, f64) {
         (w1, w1)
     } else {
         (lo.max(w0), hi.min(w1))
+    }
+}
+
+/// What a level judges of `cmd`'s predicted h(k+1) (m): at the margin, h(k+1)
+/// less the braking distance v²/2a at the window's deceleration, since a
+/// base that cannot stop at once must slow before the margin band, not in
+/// it (else the one-step condition, met on the way in, is broken by the
+/// steps the base needs to stop); at every other level h(k+1) itself.
+fn braking_room(tier: Tier, h_next_m: f64, cmd: Twist, p: &Params) -> f64 {
+    if tier == Tier::Margin {
+        h_next_m - cmd.v_mps * cmd.v_mps / (2.0 * p.control.decel_mps2)
+    } else {
+        h_next_m
     }
 }
 
