@@ -113,6 +113,8 @@ pub struct Selector {
     window: Option<Window>,
     allowed: (f64, f64),
     last: Twist,
+    /// The cosine of the nearest point's bearing (0 with none).
+    towards_nearest: f64,
 }
 
 impl Selector {
@@ -126,6 +128,7 @@ impl Selector {
             window: None,
             allowed: (0.0, 0.0),
             last: Twist::ZERO,
+            towards_nearest: 0.0,
         }
     }
 
@@ -158,6 +161,11 @@ impl Selector {
         let bx = input.bx;
         let window = Window::new(input.last, input.since_s, &p.control, &bx);
         let h = g.filter.prepare(g.points, g.points_next, p, &bx);
+        self.towards_nearest = g
+            .points
+            .iter()
+            .min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))
+            .map_or(0.0, |q| q.x / q.norm().max(1e-9));
         let passive = p.passive.enabled;
         let movers = passive && !g.passive.movers().is_empty();
         if movers {
@@ -197,7 +205,7 @@ impl Selector {
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
         let nominal_ok = !threatened && !people_near
-            && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, p) >= t - TOL_M)
+            && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M)
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {
             params: p,
@@ -218,7 +226,7 @@ impl Selector {
             let near = if passed { input.nominal } else { window.clamp(input.nominal) };
             let near_h_next = if passed { nominal_h_next } else { h_next_of(g.filter, near) };
             let admissible = passed
-                || (target_of(first, f64::NAN).is_none_or(|t| braking_room(first, near_h_next, near, p) >= t - TOL_M)
+                || (target_of(first, f64::NAN).is_none_or(|t| braking_room(first, near_h_next, near, self.towards_nearest, p) >= t - TOL_M)
                     && (!passive || g.passive.closing_contact(near, p).is_none()));
             if admissible {
                 let look = Look::of(near, p);
@@ -405,11 +413,12 @@ impl Selector {
     ) -> Option<(usize, CriticCosts)> {
         self.order.clear();
         let items = &self.candidates.items;
+        let towards = self.towards_nearest;
         self.order.extend(
             items
                 .iter()
                 .enumerate()
-                .filter(|(_, c)| braking_room(tier, c.h_next_m, c.look.cmd, ctx.params) >= target - TOL_M)
+                .filter(|(_, c)| braking_room(tier, c.h_next_m, c.look.cmd, towards, ctx.params) >= target - TOL_M)
                 .map(|(i, c)| (c.cheap_total, i as u32)),
         );
         self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -490,13 +499,16 @@ fn cut_to((lo, hi): (f64, f64), window: &Window) -> (f64, f64) {
 }
 
 /// What a level judges of `cmd`'s predicted h(k+1) (m): at the margin, h(k+1)
-/// less the braking distance v²/2a at the window's deceleration, since a
-/// base that cannot stop at once must slow before the margin band, not in
-/// it (else the one-step condition, met on the way in, is broken by the
-/// steps the base needs to stop); at every other level h(k+1) itself.
-fn braking_room(tier: Tier, h_next_m: f64, cmd: Twist, p: &Params) -> f64 {
+/// less the distance the base needs to stop its approach to the nearest
+/// point (at bearing cosine `towards_nearest`, m) at the window's
+/// deceleration, (v cos φ)²/2a: a base that cannot stop at once must slow
+/// before the margin band, not in it (else the one-step condition, met on
+/// the way in, is broken by the steps the base needs to stop); at every
+/// other level h(k+1) itself.
+fn braking_room(tier: Tier, h_next_m: f64, cmd: Twist, towards_nearest: f64, p: &Params) -> f64 {
     if tier == Tier::Margin {
-        h_next_m - cmd.v_mps * cmd.v_mps / (2.0 * p.control.decel_mps2)
+        let approach = (cmd.v_mps * towards_nearest).max(0.0);
+        h_next_m - approach * approach / (2.0 * p.control.decel_mps2)
     } else {
         h_next_m
     }
