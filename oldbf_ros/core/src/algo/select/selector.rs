@@ -204,7 +204,10 @@ impl Selector {
                 .movers()
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
-        let nominal_ok = !threatened && !people_near
+        // Heading into something: held for the horizon, the nominal leaves the clearance
+        // band; the steering critics act now, gently, not at the last moment.
+        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p) > 0.0;
+        let nominal_ok = !threatened && !people_near && !heading_in
             && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M)
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {
@@ -309,6 +312,15 @@ impl Selector {
             log::trace!("select: h {h:.3} threatened {threatened} tier {tier:?} chosen {cmd:?} costs {:?} window {window:?} range {:?} last {:?} n {}", costs.0, sampling.v_range, input.last, self.candidates.items.len());
             for (t, u, hn, c) in all.iter().take(4) {
                 log::trace!("  cand {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
+            }
+            let mut seen_v: Vec<u64> = Vec::new();
+            for (t, u, hn, c) in all.iter() {
+                let key = (u.v_mps * 1000.0).round() as i64 as u64;
+                if seen_v.contains(&key) { continue; }
+                seen_v.push(key);
+                let ok = ["margin","condition"].iter().map(|_| 0).count();
+                let _ = ok;
+                log::trace!("  best-at-v {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
             }
             all.sort_by(|a, b| a.3.get(Critic::Mover).total_cmp(&b.3.get(Critic::Mover)));
             for (t, u, hn, c) in all.iter().take(3) {

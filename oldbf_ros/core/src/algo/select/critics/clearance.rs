@@ -1,10 +1,13 @@
 //! Room to the surroundings along the horizon (ALGORITHM.md §5c): the DTCBF
 //! condition only looks one step ahead and, with the paper's one-step model,
 //! not at the turn at all; this critic follows the candidate held for
-//! `select.horizon_s` along its arc and prefers the one that keeps more
-//! room than `select.clearance_band_m` beyond d_safe. Its cost is
-//! ((band − c)/band)² for the least clearance c beyond d_safe on the way
-//! (0 with c ≥ band, 1 at d_safe, more inside it, at most 4).
+//! `select.horizon_s` along its arc and counts the room it gives up within
+//! `select.clearance_band_m` beyond d_safe. With the shortfall
+//! s(c) = ((band − c)/band)² for a clearance c beyond d_safe (0 with
+//! c ≥ band, 1 at d_safe, more inside it, at most 4), its cost is
+//! s(least c on the way) − s(c now), when positive: only getting nearer
+//! costs, so standing still is never the cheapest way to keep room, and
+//! driving along a wall at the same distance costs nothing.
 
 use super::Look;
 use crate::algo::geometry::{min_distance_squared, Vec2};
@@ -60,8 +63,10 @@ impl Clearance {
         if least2 >= far2 {
             return 0.0;
         }
-        let c = least2.sqrt() - required;
-        (((band - c) / band).powi(2)).min(MAX_COST)
+        let shortfall = |c: f64| (((band - c.min(band)) / band).powi(2)).min(MAX_COST);
+        // The nearest point now is the first (sorted by distance).
+        let now = near[0].norm() - required;
+        (shortfall(least2.sqrt() - required) - shortfall(now)).max(0.0)
     }
 }
 
@@ -77,7 +82,7 @@ mod tests {
     }
 
     #[test]
-    fn a_path_that_keeps_the_band_costs_nothing_and_one_at_d_safe_costs_one() {
+    fn only_room_given_up_within_the_band_costs() {
         // r + d_safe = 0.378 m, band 0.3 m, horizon 1.5 s. A point 1 m ahead.
         let p = Params::default();
         let mut c = Clearance::default();
@@ -88,11 +93,20 @@ mod tests {
         assert_eq!(c.cost_of(Twist::new(0.1, 0.0), &p), 0.0);
         // 0.2 m/s straight at it: ends 0.7 m away, room 0.322 m: nothing yet...
         assert_eq!(c.cost_of(Twist::new(0.2, 0.0), &p), 0.0);
-        // ...with the point at 0.8 m: room 0.122 m, ((0.3 − 0.122)/0.3)².
+        // ...with the point at 0.8 m: room 0.422 m now, 0.122 m at the end,
+        // ((0.3 − 0.122)/0.3)², nothing given up now.
         c.prepare(&[Vec2::new(0.8, 0.0)], &p);
         let want = ((0.3f64 - 0.122) / 0.3).powi(2);
         assert!((c.cost_of(Twist::new(0.2, 0.0), &p) - want).abs() < 1e-9);
         // Turning away keeps more room than driving straight at it.
         assert!(c.cost_of(Twist::new(0.2, 0.3), &p) < c.cost_of(Twist::new(0.2, 0.0), &p));
+        // Already 0.1 m inside the band (0.578 m away): standing costs nothing, nor does
+        // backing off; 0.1 m/s on for 1.5 s ends 0.428 m away, room 0.05 m:
+        // ((0.3 − 0.05)/0.3)² − ((0.3 − 0.2)/0.3)².
+        c.prepare(&[Vec2::new(0.578, 0.0)], &p);
+        assert_eq!(c.cost_of(Twist::ZERO, &p), 0.0);
+        assert_eq!(c.cost_of(Twist::new(-0.1, 0.0), &p), 0.0);
+        let want = (0.25f64 / 0.3).powi(2) - (0.1f64 / 0.3).powi(2);
+        assert!((c.cost_of(Twist::new(0.1, 0.0), &p) - want).abs() < 1e-9);
     }
 }

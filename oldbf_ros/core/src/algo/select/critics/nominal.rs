@@ -1,7 +1,8 @@
 //! Closeness to the upstream command: the filter changes a safe command as
 //! little as it can (ALGORITHM.md §5c). The deviation in v and in ω, each
 //! over its full range (v_max, ω_max), squared: 1 for a command a whole
-//! range away. (A nominal that meets every constraint and lies in the
+//! range away; while the steering critics count, only the speed (the DOAA
+//! critic's command already holds the nominal's yaw rate). (A nominal that meets every constraint and lies in the
 //! window is not scored at all: it is sent unchanged.)
 
 use super::{sq, Context};
@@ -10,7 +11,15 @@ use crate::algo::geometry::Twist;
 /// The cost of `cmd` (about 0..2).
 pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     let c = &ctx.params.control;
-    sq(cmd.v_mps, ctx.nominal.v_mps, c.v_max_mps) + sq(cmd.omega_radps, ctx.nominal.omega_radps, c.omega_max_radps)
+    // While the steering critics count, the DOAA's command (the nominal's yaw rate
+    // plus the law's avoidance term) stands for the nominal's yaw rate: counting it
+    // twice would pull the robot back at what the law steers it from.
+    let turn = if ctx.guide {
+        0.0
+    } else {
+        sq(cmd.omega_radps, ctx.nominal.omega_radps, c.omega_max_radps)
+    };
+    sq(cmd.v_mps, ctx.nominal.v_mps, c.v_max_mps) + turn
 }
 
 #[cfg(test)]
@@ -29,7 +38,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
-            guide: true,
+            guide: false,
             doaa_both_sides: false,
             movers_near: false,
         };
