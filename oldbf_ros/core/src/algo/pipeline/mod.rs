@@ -39,7 +39,7 @@ mod paper;
 mod perceive;
 mod predict;
 mod selection;
-use perceive::{Frame, Perceived};
+use perceive::Perceived;
 
 /// The goal is short of what is ahead when nearer by this (m).
 const GOAL_SHORT_M: f64 = 0.05;

@@ -28,8 +28,9 @@ pub struct Candidate {
     pub look: Look,
     /// Predicted h(k+1) (m).
     pub h_next_m: f64,
-    /// The critics that need no scan points, weighted, and their sum.
+    /// The critics that need no scan points, weighted.
     pub cheap: CriticCosts,
+    /// Their sum.
     pub cheap_total: f64,
     /// The braking check (§5b), once done.
     pub braking: Option<bool>,
@@ -50,6 +51,7 @@ pub struct Sampling {
 /// The candidates of the step and scratch buffers, reused.
 #[derive(Debug, Clone, Default)]
 pub struct Candidates {
+    /// The candidates of the step.
     pub items: Vec<Candidate>,
     omegas: Vec<f64>,
     speeds: Vec<f64>,

@@ -33,6 +33,11 @@ use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
 use crate::algo::passive::{PassiveSafety, Profile};
 
+/// A safe nominal whose clearance critic's (unweighted) cost exceeds this is
+/// heading into something: about half the clearance band given up over the
+/// horizon ((½)² of the band's shortfall).
+const HEADING_IN_SHORTFALL: f64 = 0.25;
+
 /// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
 const SIDE_MIN_RADPS: f64 = 0.03;
 
@@ -41,20 +46,23 @@ const SIDE_MIN_RADPS: f64 = 0.03;
 pub struct SelectInput {
     /// The upstream command, inside the input box.
     pub nominal: Twist,
-    /// The DOAA's command for it (§4), and whether it is the both-sides turn.
+    /// The DOAA's command for it (§4).
     pub doaa: Twist,
+    /// The DOAA's command is its both-sides turn.
     pub doaa_both_sides: bool,
-    /// The command last sent, the change it made from the one before, and
-    /// the time since it was sent (s).
+    /// The command last sent.
     pub last: Twist,
+    /// The change it made from the one sent before it.
     pub last_change: Twist,
+    /// The time since it was sent (s).
     pub since_s: f64,
     /// This step's input box (reverse only with the rear seen).
     pub bx: InputBox,
     /// Where progress is measured to (robot frame, m).
     pub target: Option<Vec2>,
-    /// Something within d_act ahead; the front clear again (released).
+    /// Something is within d_act ahead.
     pub front_blocked: bool,
+    /// The front is clear again (beyond d_act and the release margin).
     pub front_clear: bool,
     /// The side to pass something ahead on when nothing else says (+1 left,
     /// −1 right): the clearer side, then the less crowded, then the right
@@ -69,9 +77,13 @@ pub struct SelectInput {
 /// The geometry of the step: the points now and after one step.
 #[derive(Debug)]
 pub struct Geometry<'a> {
+    /// The points now (robot frame, m).
     pub points: &'a [Vec2],
+    /// Where they will be after one step (movers advanced).
     pub points_next: &'a [Vec2],
+    /// The DTCBF's exact geometry, prepared by the selector.
     pub filter: &'a mut DtcbfFilter,
+    /// The braking check and the evasion score, prepared for the step.
     pub passive: &'a mut PassiveSafety,
 }
 
@@ -80,8 +92,9 @@ pub struct Geometry<'a> {
 pub struct Selection {
     /// The command to send: in the window, finite.
     pub cmd: Twist,
-    /// h(k) and the predicted h(k+1) for `cmd` (m).
+    /// h(k) (m).
     pub h_m: f64,
+    /// The predicted h(k+1) for `cmd` (m).
     pub h_next_m: f64,
     /// The level it came from.
     pub tier: Tier,
@@ -204,9 +217,10 @@ impl Selector {
                 .movers()
                 .iter()
                 .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
-        // Heading into something: held for the horizon, the nominal leaves the clearance
-        // band; the steering critics act now, gently, not at the last moment.
-        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p) > 0.0;
+        // Heading into something: held for the horizon, the nominal gives up room well
+        // inside the clearance band; the steering critics act now, gently, rather than
+        // at the last moment.
+        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p) > HEADING_IN_SHORTFALL;
         let nominal_ok = !threatened && !people_near && !heading_in
             && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M)
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
@@ -297,37 +311,7 @@ impl Selector {
                 (cmd, Tier::Brake, costs, h_next_of(g.filter, cmd), held)
             }
         };
-        if log::log_enabled!(log::Level::Trace) {
-            let mut all: Vec<(f64, Twist, f64, CriticCosts)> = self
-                .candidates
-                .items
-                .iter()
-                .map(|c| {
-                    let mut pz = g.passive.clone();
-                    let costs = self.full_costs(&ctx, &c.look, c.cheap, threatened, &mut pz);
-                    (costs.total(), c.look.cmd, c.h_next_m, costs)
-                })
-                .collect();
-            all.sort_by(|a, b| a.0.total_cmp(&b.0));
-            log::trace!("select: h {h:.3} threatened {threatened} tier {tier:?} chosen {cmd:?} costs {:?} window {window:?} range {:?} last {:?} n {}", costs.0, sampling.v_range, input.last, self.candidates.items.len());
-            for (t, u, hn, c) in all.iter().take(4) {
-                log::trace!("  cand {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
-            }
-            let mut seen_v: Vec<u64> = Vec::new();
-            for (t, u, hn, c) in all.iter() {
-                let key = (u.v_mps * 1000.0).round() as i64 as u64;
-                if seen_v.contains(&key) { continue; }
-                seen_v.push(key);
-                let ok = ["margin","condition"].iter().map(|_| 0).count();
-                let _ = ok;
-                log::trace!("  best-at-v {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
-            }
-            all.sort_by(|a, b| a.3.get(Critic::Mover).total_cmp(&b.3.get(Critic::Mover)));
-            for (t, u, hn, c) in all.iter().take(3) {
-                let s = g.passive.evasion_score(*u, p);
-                log::trace!("  mover-best {:.3} {:.3}: total {t:.3} h+ {hn:.3} {:?} {s:?}", u.v_mps, u.omega_radps, c.0.map(|x| (x * 100.0).round() / 100.0));
-            }
-        }
+        log::trace!("select: h {h:.3} threatened {threatened} tier {tier} cmd {cmd:?} costs {:?}", costs.0);
         let (lo, hi) = (input.nominal.v_mps.min(0.0), input.nominal.v_mps.max(0.0));
         Selection {
             cmd,

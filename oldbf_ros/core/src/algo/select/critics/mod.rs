@@ -31,13 +31,21 @@ pub mod smoothness;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Critic {
+    /// [`nominal`]: closeness to the upstream command.
     Nominal,
+    /// [`smoothness`]: little change from the command last sent.
     Smoothness,
+    /// [`oscillation`]: no swinging straight back.
     Oscillation,
+    /// [`doaa`]: closeness to the DOAA's command.
     Doaa,
+    /// [`progress`]: progress towards the target.
     Progress,
+    /// [`clearance`]: room kept along the horizon.
     Clearance,
+    /// [`mover`]: evasion of tracked movers.
     Mover,
+    /// [`side`]: keeping the side chosen.
     Side,
 }
 
@@ -110,17 +118,19 @@ impl CriticCosts {
 /// What the critics of one step judge against (robot frame now).
 #[derive(Debug, Clone, Copy)]
 pub struct Context<'a> {
+    /// The parameters of the step.
     pub params: &'a Params,
     /// The upstream command, inside the input box.
     pub nominal: Twist,
-    /// The DOAA's command for that nominal (§4), and whether it is the
-    /// both-sides turn.
+    /// The DOAA's command for that nominal (§4).
     pub doaa: Twist,
+    /// The DOAA's command is its both-sides turn.
     pub doaa_both_sides: bool,
     /// A tracked mover threatens, or is within `select.mover_near_m`.
     pub movers_near: bool,
-    /// The command last sent, and the change it made from the one before.
+    /// The command last sent.
     pub last: Twist,
+    /// The change it made from the one sent before it.
     pub last_change: Twist,
     /// Where progress is measured to (robot frame, m), if anywhere.
     pub target: Option<Vec2>,
@@ -141,7 +151,9 @@ pub const PATH_SAMPLES: usize = 5;
 /// the horizon takes the robot.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Look {
+    /// The command.
     pub cmd: Twist,
+    /// Where holding it puts the robot at each path sample (robot frame, m).
     pub path: [Vec2; PATH_SAMPLES],
 }
 
