@@ -73,10 +73,10 @@ impl Default for SelectParams {
 impl Default for CriticWeights {
     fn default() -> Self {
         Self {
-            nominal: 0.5,
+            nominal: 1.0,
             smoothness: 0.05,
             oscillation: 1.0,
-            doaa: 2.0,
+            doaa: 1.0,
             progress: 2.0,
             clearance: 1.0,
             mover: 10.0,
