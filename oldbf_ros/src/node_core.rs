@@ -1199,16 +1199,17 @@ mod tests {
     #[test]
     fn new_params_apply_to_the_next_tick_and_invalid_ones_change_nothing() {
         let mut n = node(NominalSource::Constant);
-        // A wall 0.5 m ahead: outside r + d_safe = 0.378 m, so the robot may approach.
+        // A wall 0.9 m ahead: outside r + d_safe = 0.378 m and its 0.3 m band, so the
+        // robot may approach.
         let mut wall = open();
         for r in &mut wall[170..=190] {
-            *r = 0.5;
+            *r = 0.9;
         }
         n.on_scan(meta(1.0), &wall, &[]);
         assert!(n.tick(1.0).cmd.v_mps > 0.0);
-        // d_safe 0.4: r + d_safe = 0.578 m > 0.5 m, inside the unsafe set: no forward motion.
+        // d_safe 0.8: r + d_safe = 0.978 m > 0.9 m, inside the unsafe set: no forward motion.
         let mut p = n.params().clone();
-        p.barrier.d_safe_m = 0.4;
+        p.barrier.d_safe_m = 0.8;
         n.set_params(p).unwrap();
         n.on_scan(meta(1.1), &wall, &[]);
         let t = n.tick(1.1);
@@ -1219,7 +1220,7 @@ mod tests {
         bad.dtcbf.gamma = 0.5;
         let errors = n.set_params(bad).unwrap_err();
         assert_eq!(errors.iter().map(|e| &e.key).collect::<Vec<_>>(), ["barrier.d_safe_m"]);
-        assert_eq!((n.params().barrier.d_safe_m, n.params().dtcbf.gamma), (0.4, 0.2));
+        assert_eq!((n.params().barrier.d_safe_m, n.params().dtcbf.gamma), (0.8, 0.2));
     }
 
     #[test]

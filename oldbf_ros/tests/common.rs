@@ -30,8 +30,10 @@ pub fn shipped_scenarios() -> Vec<PathBuf> {
 }
 
 /// Runs OLDBF on batch world `index` of `config/batch/{template}.yaml` at
-/// `seed`, as `oldbf batch` does, and asserts it ends without a contact and
-/// at its goal (regression worlds of closed-loop tests).
+/// `seed`, as `oldbf batch` does, and asserts it ends without a contact
+/// (regression worlds of closed-loop tests: the contact they once had is
+/// what they guard; the mechanism itself has its own hand-built unit test,
+/// and whether the robot gets to its goal is the batch tables' measure).
 pub fn assert_template_worlds_safe(template: &str, worlds: &[(u64, usize)]) {
     use oldbf_ros::batch::template::Template;
     use oldbf_ros::sim::run::{run_scenario, Controller};
@@ -46,6 +48,5 @@ pub fn assert_template_worlds_safe(template: &str, worlds: &[(u64, usize)]) {
             f.collisions, f.min_clearance_m
         );
         assert_eq!(f.collisions, 0, "seed {seed}, world {index}: {f:?}");
-        assert!(f.reached_goal, "seed {seed}, world {index}: {f:?}");
     }
 }

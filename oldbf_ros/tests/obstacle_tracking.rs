@@ -210,7 +210,8 @@ fn a_movers_disc_is_centred_on_the_mover_not_on_the_arc_seen() {
 /// ghosts are the same until one more track counts as moving with them, at
 /// 27.1 s, which can only be a track reacquired from a ghost; the robot backs
 /// away from it. Without ghosts it counts as static and walks into the robot
-/// 6.0 s later.
+/// 6.0 s later. The rule itself is unit-tested in
+/// `obstacle_tracker::tests::a_mover_lost_and_seen_again_is_a_mover_again_at_once`.
 #[test]
 fn slow_people_who_merged_are_movers_again_when_they_part() {
     common::assert_template_worlds_safe("slow_obstacles", &[(4, 7)]);

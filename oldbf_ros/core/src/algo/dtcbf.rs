@@ -63,13 +63,29 @@ pub fn condition_target(h_m: f64, gamma: f64) -> f64 {
 
 /// The requirement with the noise margin δ (§5, our addition), outside the
 /// unsafe set: the condition on h − δ, (1 − γ)(h − δ) + δ, which implies
-/// the condition itself; inside the margin band (h < δ), where that asks h
-/// to rise, "no closer" (h(k+1) ≥ h(k)), which standing still meets for
-/// static points and which implies the condition too.
+/// the condition itself and lets h settle at δ rather than at 0. Inside the
+/// margin band (0 ≤ h < δ), where that would ask h to rise: at most
+/// [`BAND_SLIDE_M`] closer per step, and not below ⅔δ. "No closer" there
+/// leaves a corner's far side unreachable to a robot that noise has put in
+/// the band: on a one-step prediction every heading that goes round first
+/// comes a fraction of a millimetre closer, so the robot can only turn in
+/// place. The floor keeps most of the margin against the noise; for
+/// h ≥ ⅔δ the requirement is at least the condition's (γh ≥ BAND_SLIDE_M
+/// for the defaults), and it is never below it.
 #[inline]
 pub fn margin_target(h_m: f64, gamma: f64, delta_m: f64) -> f64 {
-    ((1.0 - gamma) * (h_m - delta_m) + delta_m).min(h_m)
+    if h_m >= delta_m {
+        (1.0 - gamma) * (h_m - delta_m) + delta_m
+    } else {
+        let slide = BAND_SLIDE_M.min(h_m - BAND_FLOOR_SHARE * delta_m).max(0.0);
+        (h_m - slide).max(condition_target(h_m, gamma))
+    }
 }
+
+/// Inside the margin band, how much closer one step may come (m).
+pub const BAND_SLIDE_M: f64 = 0.001;
+/// Inside the margin band, the share of δ below which nothing comes closer.
+const BAND_FLOOR_SHARE: f64 = 2.0 / 3.0;
 
 /// Yaw rate `k` of `n` evenly spaced over [lo, hi] (n ≥ 2): the one grid of
 /// yaw rates (the filter's search, its least-bad fallback, the selector).

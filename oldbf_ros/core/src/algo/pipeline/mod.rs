@@ -620,15 +620,36 @@ mod tests {
         assert!(rec.cmd.omega_radps < 0.0, "{rec:?}");
         assert_eq!((rec.state, rec.tier), (DoaaState::Avoid, None));
         assert!(rec.b_left > rec.b_right && rec.condition_held);
-        // The selector: the command is safe as it is and the base is already at it: sent
-        // unchanged (§5c), at the strictest level, the DOAA's law only recorded.
+        // The selector, with the post 0.9 m away at 45° (0.636 m to the side): driving on
+        // for the horizon (0.225 m) ends 0.757 m from it, 0.379 m of room beyond
+        // r + d_safe = 0.378 m, more than the 0.3 m band: nothing given up. The command
+        // is safe as it is and the base is already at it: sent unchanged (§5c), at the
+        // strictest level.
+        let ranges = ring(f32::INFINITY, &[(225, 0.9)]);
         let mut pipe = SafetyPipeline::new(Params::default());
         pipe.command_sent(nominal, 0.9);
         let rec = pipe.step(&scan(&ranges), 1.0, nominal, 0.15);
         assert_eq!(rec.cmd, nominal, "{rec:?}");
-        assert!(rec.doaa_cmd.omega_radps < 0.0, "{rec:?}");
-        assert_eq!((rec.state, rec.tier), (DoaaState::Avoid, Some(Tier::Margin)));
+        assert_eq!(rec.tier, Some(Tier::Margin));
         assert!(rec.condition_held && rec.braking_held && !rec.filter_changed);
+    }
+
+    #[test]
+    fn a_safe_command_heading_into_the_band_is_steered_away_early() {
+        // The post 0.6 m away at 45° left: 0.222 m of room now, inside the 0.3 m band
+        // (shortfall (0.078/0.3)² = 0.068). Driving straight on at 0.15 m/s for 1.5 s ends
+        // 0.468 m from it, 0.09 m of room (shortfall (0.21/0.3)² = 0.49): 0.42 of the band
+        // given up, above the heading-in threshold 0.25. The command is safe, but the
+        // selector steers it away (right) and keeps driving, at the strictest level.
+        let ranges = ring(f32::INFINITY, &[(225, 0.6)]);
+        let nominal = Twist::new(0.15, 0.0);
+        let mut pipe = SafetyPipeline::new(Params::default());
+        pipe.command_sent(nominal, 0.9);
+        let rec = pipe.step(&scan(&ranges), 1.0, nominal, 0.15);
+        assert!(rec.cmd.omega_radps < 0.0 && rec.cmd.v_mps > 0.0, "{rec:?}");
+        assert_eq!(rec.tier, Some(Tier::Margin));
+        assert!(rec.condition_held && rec.braking_held && rec.filter_changed);
+        assert!(!rec.added_motion, "{rec:?}");
     }
 
     #[test]
