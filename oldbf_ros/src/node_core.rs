@@ -814,7 +814,7 @@ mod tests {
             ..NodeSettings::default()
         };
         let mut n = NodeCore::new(Params::default(), settings, None);
-        let mut tick = |n: &mut NodeCore, k: usize| {
+        let tick = |n: &mut NodeCore, k: usize| {
             let t = 1.0 + 0.1 * k as f64;
             n.on_scan(meta(t), &open(), &[]);
             n.on_cmd_in(Twist::new(0.2, 0.0), t);

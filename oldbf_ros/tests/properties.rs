@@ -6,8 +6,8 @@
 
 use oldbf_ros::algo::barrier::distance_barrier;
 use oldbf_ros::algo::dtcbf::InputBox;
-use oldbf_ros::algo::select::Window;
 use oldbf_ros::algo::params::{BarrierParams, Params};
+use oldbf_ros::algo::select::Window;
 use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;

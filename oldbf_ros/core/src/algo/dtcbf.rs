@@ -369,7 +369,8 @@ impl DtcbfFilter {
     pub fn forbidden_speeds(&mut self, omega_radps: f64, target_m: f64, p: &Params) -> &[(f64, f64)] {
         let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target_m;
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        self.forbidden.build(&self.near.points, omega_radps, clearance, model, dt);
+        self.forbidden
+            .build(&self.near.points, omega_radps, clearance, model, dt);
         &self.forbidden.intervals
     }
 

@@ -906,7 +906,10 @@ mod tests {
         assert!((arc.line_deficit_m - 0.1182).abs() < 1e-3, "{arc:?}");
         // The same from behind (overtaking) or straight from the side: the robot is in
         // the line either way.
-        for (pos, vel) in [(Vec2::new(-1.0, 0.0), Vec2::new(0.1, 0.0)), (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1))] {
+        for (pos, vel) in [
+            (Vec2::new(-1.0, 0.0), Vec2::new(0.1, 0.0)),
+            (Vec2::new(0.0, 1.0), Vec2::new(0.0, -0.1)),
+        ] {
             one(&mut ps, pos, vel);
             let s = ps.evasion_score(Twist::ZERO, &p);
             assert!((s.line_deficit_m - 0.428).abs() < 1e-9, "{pos:?} {vel:?} {s:?}");

@@ -152,7 +152,10 @@ mod tests {
         let robot = Pose2::new(1.0, 1.0, std::f64::consts::FRAC_PI_2);
         // 1 m straight ahead (north): full speed, no turn.
         let cmd = towards_point(robot, Vec2::new(1.0, 2.0), 0.15, &k);
-        assert!((cmd.v_mps - 0.15).abs() < 1e-12 && cmd.omega_radps.abs() < 1e-12, "{cmd:?}");
+        assert!(
+            (cmd.v_mps - 0.15).abs() < 1e-12 && cmd.omega_radps.abs() < 1e-12,
+            "{cmd:?}"
+        );
         // 45° to the right: 2 cos 45° > 1, full speed, turning right at π/4 rad/s.
         let cmd = towards_point(robot, Vec2::new(2.0, 2.0), 0.15, &k);
         assert!((cmd.v_mps - 0.15).abs() < 1e-12 && (cmd.omega_radps + FRAC_PI_4).abs() < 1e-12);

@@ -251,8 +251,16 @@ impl Validate for Params {
         c.range("passive.evasion_max_speed_mps", pa.evasion_max_speed_mps, SPEED);
 
         let se = &self.select;
-        c.range("select.omega_samples", se.omega_samples as f64, Interval::closed(3.0, 101.0));
-        c.range("select.speed_samples", se.speed_samples as f64, Interval::closed(2.0, 50.0));
+        c.range(
+            "select.omega_samples",
+            se.omega_samples as f64,
+            Interval::closed(3.0, 101.0),
+        );
+        c.range(
+            "select.speed_samples",
+            se.speed_samples as f64,
+            Interval::closed(2.0, 50.0),
+        );
         c.range("select.horizon_s", se.horizon_s, TIME_10_POS);
         c.range("select.clearance_band_m", se.clearance_band_m, DIST_10_POS);
         c.range("select.mover_near_m", se.mover_near_m, DIST_10);

@@ -386,7 +386,11 @@ impl SafetyPipeline {
             self.decide_paper(nominal_boxed, &c, &b, &bx)
         };
         // Last line of defence: nothing non-finite leaves this function.
-        let cmd = if d.cmd.is_finite() { bx.clamp(d.cmd) } else { Twist::ZERO };
+        let cmd = if d.cmd.is_finite() {
+            bx.clamp(d.cmd)
+        } else {
+            Twist::ZERO
+        };
         let braking_held = self.braking_check(cmd).is_none();
         self.command_sent(cmd, now_s);
         if frame.fresh {
@@ -475,7 +479,10 @@ impl SafetyPipeline {
     /// barrier B_v start from it.
     pub fn command_sent(&mut self, cmd: Twist, at_s: f64) {
         let cmd = if cmd.is_finite() { cmd } else { Twist::ZERO };
-        self.last_change = Twist::new(cmd.v_mps - self.last_cmd.v_mps, cmd.omega_radps - self.last_cmd.omega_radps);
+        self.last_change = Twist::new(
+            cmd.v_mps - self.last_cmd.v_mps,
+            cmd.omega_radps - self.last_cmd.omega_radps,
+        );
         self.last_cmd = cmd;
         self.last_sent_s = at_s;
     }
@@ -694,7 +701,10 @@ mod tests {
         // command goes to the window's command nearest the nominal, (0.05, 0.05)...
         let mut pipe = SafetyPipeline::new(Params::default());
         let mut rec = pipe.step(&scan(&ranges), 1.0, nominal, 0.0);
-        assert!((rec.cmd.v_mps - 0.05).abs() < 1e-9 && (rec.cmd.omega_radps - 0.05).abs() < 1e-9, "{rec:?}");
+        assert!(
+            (rec.cmd.v_mps - 0.05).abs() < 1e-9 && (rec.cmd.omega_radps - 0.05).abs() < 1e-9,
+            "{rec:?}"
+        );
         for k in 1..3 {
             let mut s = scan(&ranges);
             s.header.stamp_s = 1.0 + 0.1 * k as f64;

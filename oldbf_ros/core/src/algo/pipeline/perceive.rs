@@ -255,8 +255,7 @@ fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_
     // A neighbour counts when it is (nearly) the adjacent beam: across a gap of
     // lost returns the view is open.
     let adjacent = |a: usize, b: usize| beam_index[a].abs_diff(beam_index[b]) <= 1 + BRIDGED_BEAMS;
-    let hidden_by = |end: usize, other: usize| {
-        other != end && adjacent(end, other) && points[other].norm() < points[end].norm()
-    };
+    let hidden_by =
+        |end: usize, other: usize| other != end && adjacent(end, other) && points[other].norm() < points[end].norm();
     cluster.len < n && (hidden_by(first, (first + n - 1) % n) || hidden_by(last, (last + 1) % n))
 }

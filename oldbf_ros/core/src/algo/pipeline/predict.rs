@@ -3,9 +3,9 @@
 //! points the way-round planner sees, and how far h has fallen beyond what
 //! its predictions explained.
 
-use super::{next_points, SafetyPipeline, PLAN_THROUGH_SPEED_MPS, SURPRISE_STEPS};
 use super::perceive::Frame;
 use super::Threat;
+use super::{next_points, SafetyPipeline, PLAN_THROUGH_SPEED_MPS, SURPRISE_STEPS};
 use crate::algo::clearance::{compute_clearances, compute_clearances_faded_seeded, side_crowding, Clearances};
 use crate::algo::collision_cone::collision_cone;
 use crate::algo::doaa::sides_tie;
@@ -185,5 +185,4 @@ impl SafetyPipeline {
         let kept = self.points.points.iter().zip(&self.on_mover).filter(|(_, m)| !**m);
         self.plan_points.extend(kept.map(|(q, _)| *q));
     }
-
 }

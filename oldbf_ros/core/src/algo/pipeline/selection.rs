@@ -62,7 +62,10 @@ impl SafetyPipeline {
         let r = p.robot_radius_m();
         // Only a mover on a collision course counts: a static object's track may look
         // like a slow mover now and then while the robot goes round it.
-        let movers_near = self.threats.iter().any(|t| t.position.norm() - t.radius_m < MOVER_NEAR_M + r);
+        let movers_near = self
+            .threats
+            .iter()
+            .any(|t| t.position.norm() - t.radius_m < MOVER_NEAR_M + r);
         let now = Situation {
             now_s,
             nominal,
@@ -75,7 +78,11 @@ impl SafetyPipeline {
         // both-sides turn at ω_0 being the paper's case of no gap.
         let following = self.unstuck.following() && way.waypoint.is_some();
         Heading {
-            target: if following { way.waypoint } else { guidance.map(|g| g.ahead) },
+            target: if following {
+                way.waypoint
+            } else {
+                guidance.map(|g| g.ahead)
+            },
             following,
             goal_short: guidance.is_some_and(|g| g.at_end && g.target.norm() + GOAL_SHORT_M < c.d_front_m + r),
         }

@@ -95,7 +95,8 @@ impl Candidates {
             if !(model == PredictionModel::Euler && euler_built) {
                 self.speeds.clear();
                 let m = p.select.speed_samples;
-                self.speeds.extend((0..m).map(|k| v0 + (v1 - v0) * k as f64 / (m - 1) as f64));
+                self.speeds
+                    .extend((0..m).map(|k| v0 + (v1 - v0) * k as f64 / (m - 1) as f64));
                 for v in [ctx.nominal.v_mps, ctx.doaa.v_mps, ctx.last.v_mps, 0.0] {
                     if v >= v0 && v <= v1 {
                         self.speeds.push(v);
@@ -189,7 +190,8 @@ mod tests {
             assert!(window.contains(k.look.cmd) && k.look.cmd.v_mps <= 0.15 + 1e-12, "{k:?}");
         }
         // 15 grid yaw rates; the nominal's and the last's (0) are on it, the DOAA's is not.
-        let omegas: std::collections::BTreeSet<u64> = c.items.iter().map(|k| k.look.cmd.omega_radps.to_bits()).collect();
+        let omegas: std::collections::BTreeSet<u64> =
+            c.items.iter().map(|k| k.look.cmd.omega_radps.to_bits()).collect();
         assert_eq!(omegas.len(), 16);
     }
 }

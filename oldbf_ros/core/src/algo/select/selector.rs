@@ -221,8 +221,12 @@ impl Selector {
         // inside the clearance band; the steering critics act now, gently, rather than
         // at the last moment.
         let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p) > HEADING_IN_SHORTFALL;
-        let nominal_ok = !threatened && !people_near && !heading_in
-            && target_of(first, f64::NAN).is_none_or(|t| braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M)
+        let nominal_ok = !threatened
+            && !people_near
+            && !heading_in
+            && target_of(first, f64::NAN).is_none_or(|t| {
+                braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M
+            })
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let ctx = Context {
             params: p,
@@ -240,10 +244,19 @@ impl Selector {
             // Sent unchanged if the base can follow it now; else the command of the window
             // nearest it, if that is as admissible: the quickest way there the base allows.
             let passed = window.contains(input.nominal);
-            let near = if passed { input.nominal } else { window.clamp(input.nominal) };
-            let near_h_next = if passed { nominal_h_next } else { h_next_of(g.filter, near) };
+            let near = if passed {
+                input.nominal
+            } else {
+                window.clamp(input.nominal)
+            };
+            let near_h_next = if passed {
+                nominal_h_next
+            } else {
+                h_next_of(g.filter, near)
+            };
             let admissible = passed
-                || (target_of(first, f64::NAN).is_none_or(|t| braking_room(first, near_h_next, near, self.towards_nearest, p) >= t - TOL_M)
+                || (target_of(first, f64::NAN)
+                    .is_none_or(|t| braking_room(first, near_h_next, near, self.towards_nearest, p) >= t - TOL_M)
                     && (!passive || g.passive.closing_contact(near, p).is_none()));
             if admissible {
                 let look = Look::of(near, p);
@@ -306,12 +319,21 @@ impl Selector {
             None => {
                 let cmd = brake(input.last, &window);
                 let look = Look::of(cmd, p);
-                let costs = self.full_costs(&ctx, &look, super::critics::cheap_costs(&ctx, &look), threatened, g.passive);
+                let costs = self.full_costs(
+                    &ctx,
+                    &look,
+                    super::critics::cheap_costs(&ctx, &look),
+                    threatened,
+                    g.passive,
+                );
                 let held = !passive || g.passive.closing_contact(cmd, p).is_none();
                 (cmd, Tier::Brake, costs, h_next_of(g.filter, cmd), held)
             }
         };
-        log::trace!("select: h {h:.3} threatened {threatened} tier {tier} cmd {cmd:?} costs {:?}", costs.0);
+        log::trace!(
+            "select: h {h:.3} threatened {threatened} tier {tier} cmd {cmd:?} costs {:?}",
+            costs.0
+        );
         let (lo, hi) = (input.nominal.v_mps.min(0.0), input.nominal.v_mps.max(0.0));
         Selection {
             cmd,
@@ -365,9 +387,17 @@ impl Selector {
         let (lo, hi) = self.allowed;
         let last = self.last.v_mps;
         let goal_v = if at(cmd.v_mps, w.v.0) && w.v.0 > lo + WINDOW_TOL {
-            if last > 0.0 { lo.max(0.0) } else { lo }
+            if last > 0.0 {
+                lo.max(0.0)
+            } else {
+                lo
+            }
         } else if at(cmd.v_mps, w.v.1) && w.v.1 < hi - WINDOW_TOL {
-            if last < 0.0 { hi.min(0.0) } else { hi }
+            if last < 0.0 {
+                hi.min(0.0)
+            } else {
+                hi
+            }
         } else {
             cmd.v_mps
         };
@@ -379,7 +409,11 @@ impl Selector {
         } else {
             cmd.omega_radps
         };
-        let rate_v = if goal_v.abs() < cmd.v_mps.abs() { c.decel_mps2 } else { c.accel_mps2 };
+        let rate_v = if goal_v.abs() < cmd.v_mps.abs() {
+            c.decel_mps2
+        } else {
+            c.accel_mps2
+        };
         Profile {
             cmd,
             goal: Twist::new(goal_v, goal_w),
@@ -417,7 +451,8 @@ impl Selector {
                 .filter(|(_, c)| braking_room(tier, c.h_next_m, c.look.cmd, towards, ctx.params) >= target - TOL_M)
                 .map(|(i, c)| (c.cheap_total, i as u32)),
         );
-        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        self.order
+            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best: Option<(usize, CriticCosts, f64)> = None;
         for k in 0..self.order.len() {
             let (cheap, i) = self.order[k];
@@ -437,7 +472,12 @@ impl Selector {
 
     /// The candidate with the highest h(k+1) that passes the braking check
     /// (among equals, the cheapest), and its costs.
-    fn least_bad(&mut self, ctx: &Context<'_>, threatened: bool, passive: &mut PassiveSafety) -> Option<(usize, CriticCosts)> {
+    fn least_bad(
+        &mut self,
+        ctx: &Context<'_>,
+        threatened: bool,
+        passive: &mut PassiveSafety,
+    ) -> Option<(usize, CriticCosts)> {
         self.order.clear();
         self.order.extend(
             self.candidates
@@ -449,7 +489,11 @@ impl Selector {
         let items = &self.candidates.items;
         self.order.sort_unstable_by(|a, b| {
             a.0.total_cmp(&b.0)
-                .then(items[a.1 as usize].cheap_total.total_cmp(&items[b.1 as usize].cheap_total))
+                .then(
+                    items[a.1 as usize]
+                        .cheap_total
+                        .total_cmp(&items[b.1 as usize].cheap_total),
+                )
                 .then(a.1.cmp(&b.1))
         });
         for k in 0..self.order.len() {
@@ -461,7 +505,6 @@ impl Selector {
         }
         None
     }
-
 }
 
 /// The speeds a safety layer may command this step (ALGORITHM.md §5c):

@@ -39,7 +39,8 @@ impl Clearance {
         let reach2 = reach * reach;
         self.near.clear();
         self.near.extend(points.iter().filter(|q| q.norm_squared() <= reach2));
-        self.near.sort_unstable_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
+        self.near
+            .sort_unstable_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
     }
 
     /// The unweighted cost of the candidate `look` (0..4).

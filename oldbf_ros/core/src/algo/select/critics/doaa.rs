@@ -13,6 +13,24 @@
 use super::{sq, Context};
 use crate::algo::geometry::Twist;
 
+/// The cost of `cmd` (about 0..2).
+pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
+    let c = &ctx.params.control;
+    // The law only ever slows (the both-sides turn near the front): faster than
+    // its speed costs, slower does not (the nominal critic says how much slower).
+    let speed = sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps);
+    // Its steering away from the nearer side matters as the robot moves: turning in
+    // place changes no clearance of a circular robot. Its both-sides turn is meant
+    // for turning in place, and with people near the heading at rest is where the
+    // robot goes next: those count whatever the speed.
+    let moving = if ctx.doaa_both_sides || ctx.movers_near {
+        1.0
+    } else {
+        (cmd.v_mps.abs() / ctx.params.doaa.full_gain_speed_mps).min(1.0)
+    };
+    speed + moving * sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -41,25 +59,10 @@ mod tests {
         assert!((cost(&ctx, Twist::new(0.05, 0.0)) - 0.5).abs() < 1e-12);
         assert_eq!(cost(&ctx, Twist::new(0.0, 0.3)), 0.0);
         // ...but the both-sides turn counts whatever the speed.
-        let both = Context { doaa_both_sides: true, ..ctx };
+        let both = Context {
+            doaa_both_sides: true,
+            ..ctx
+        };
         assert!((cost(&both, Twist::new(0.0, 0.0)) - 1.0).abs() < 1e-12);
     }
-}
-
-/// The cost of `cmd` (about 0..2).
-pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
-    let c = &ctx.params.control;
-    // The law only ever slows (the both-sides turn near the front): faster than
-    // its speed costs, slower does not (the nominal critic says how much slower).
-    let speed = sq(cmd.v_mps.max(ctx.doaa.v_mps), ctx.doaa.v_mps, c.v_max_mps);
-    // Its steering away from the nearer side matters as the robot moves: turning in
-    // place changes no clearance of a circular robot. Its both-sides turn is meant
-    // for turning in place, and with people near the heading at rest is where the
-    // robot goes next: those count whatever the speed.
-    let moving = if ctx.doaa_both_sides || ctx.movers_near {
-        1.0
-    } else {
-        (cmd.v_mps.abs() / ctx.params.doaa.full_gain_speed_mps).min(1.0)
-    };
-    speed + moving * sq(cmd.omega_radps, ctx.doaa.omega_radps, c.omega_max_radps)
 }

@@ -11,7 +11,8 @@ use crate::algo::geometry::Twist;
 pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     let c = &ctx.params.control;
     let dt = c.dt_s();
-    sq(cmd.v_mps, ctx.last.v_mps, c.accel_mps2 * dt) + sq(cmd.omega_radps, ctx.last.omega_radps, c.angular_accel_radps2 * dt)
+    sq(cmd.v_mps, ctx.last.v_mps, c.accel_mps2 * dt)
+        + sq(cmd.omega_radps, ctx.last.omega_radps, c.angular_accel_radps2 * dt)
 }
 
 #[cfg(test)]
