@@ -16,7 +16,8 @@
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
 #              period
-#   latency    scan -> cmd_vel latency over loopback (tests/ros/latency_probe.py):
+#   latency    scan -> cmd_vel latency over loopback (tests/ros/latency_probe.py,
+#              a base that follows any command at once):
 #              every command is shown to come from the scan it is timed
 #              against (~state carries its stamp); p50/p99/max reported
 #   ticks      a planner at 20 and at 100 Hz beside a 10 Hz LiDAR, a person
@@ -184,7 +185,10 @@ t_stale() {
 
 t_latency() {
   local node s
-  node=$(spawn latency_node "$BIN/oldbf_node" __ns:=/t_latency _node/nominal_source:=constant)
+  # A base that can change its command at once (the window holds the whole input box): each
+  # scan's kind of command can then be sent on that scan, which is what is traced.
+  node=$(spawn latency_node "$BIN/oldbf_node" __ns:=/t_latency _node/nominal_source:=constant \
+    _control/accel_mps2:=100.0 _control/decel_mps2:=100.0 _control/angular_accel_radps2:=1000.0)
   wait_log "$LOG/latency_node.log" "filtering at" 10 || return 1
   s=$($ROSPY tests/ros/latency_probe.py /t_latency 200)
   stop_pid "$node"

@@ -556,9 +556,13 @@ mod tests {
     }
 
     fn scan(ranges: &[f32]) -> LaserScan<'_> {
+        scan_at(ranges, 1.0)
+    }
+
+    fn scan_at(ranges: &[f32], stamp_s: f64) -> LaserScan<'_> {
         LaserScan {
             header: ScanHeader {
-                stamp_s: 1.0,
+                stamp_s,
                 angle_min_rad: -PI,
                 angle_increment_rad: 2.0 * PI / 360.0,
                 range_min_m: 0.12,
@@ -657,6 +661,31 @@ mod tests {
         assert_eq!(rec.tier, Some(Tier::Margin));
         assert!(rec.condition_held && rec.braking_held && rec.filter_changed);
         assert!(!rec.added_motion, "{rec:?}");
+    }
+
+    #[test]
+    fn a_robot_at_rest_beside_an_obstacle_sets_off_turning_away() {
+        // Something 0.6 m away 35°..55° to the left, the robot at rest, the upstream
+        // command 0.15 m/s straight on (heading in: it passes 0.344 m from the nearest
+        // point, inside r + d_safe + band). From rest the window holds 0.05 m/s and
+        // 0.1 rad/s a step: the DOAA's turn (−0.3 rad/s, away to the right) is out of
+        // reach for three steps, which must not make standing still the cheapest
+        // command. It sets off at once, turning right, and reaches the law's turn.
+        let over: Vec<_> = (215..=235).map(|i| (i, 0.6)).collect();
+        let ranges = ring(f32::INFINITY, &over);
+        let nominal = Twist::new(0.15, 0.0);
+        let mut pipe = SafetyPipeline::new(Params::default());
+        pipe.command_sent(Twist::ZERO, 0.9);
+        let mut cmds = Vec::new();
+        for k in 0..8 {
+            let t = 1.0 + 0.1 * f64::from(k);
+            let rec = pipe.step(&scan_at(&ranges, t), t, nominal, 0.0);
+            assert_eq!(rec.tier, Some(Tier::Margin), "{rec:?}");
+            cmds.push(rec.cmd);
+        }
+        assert!(cmds[0].v_mps > 0.0 && cmds[0].omega_radps < 0.0, "{cmds:?}");
+        assert!(cmds.iter().all(|c| c.v_mps > 0.0 && c.v_mps <= 0.15), "{cmds:?}");
+        assert!((cmds[7].omega_radps + 0.3).abs() < 1e-9, "{cmds:?}");
     }
 
     #[test]

@@ -231,7 +231,10 @@ impl Selector {
         let ctx = Context {
             params: p,
             nominal: input.nominal,
-            doaa: input.doaa,
+            // The DOAA's command as far as the base can go towards it now: a turn the
+            // window cannot reach yet costs every candidate alike, and would otherwise
+            // make standing still (where its yaw rate does not count) the cheapest.
+            doaa: window.clamp(input.doaa),
             doaa_both_sides: input.doaa_both_sides,
             movers_near: threatened || people_near,
             last: input.last,
