@@ -65,13 +65,13 @@ pub fn condition_target(h_m: f64, gamma: f64) -> f64 {
 /// unsafe set: the condition on h − δ, (1 − γ)(h − δ) + δ, which implies
 /// the condition itself and lets h settle at δ rather than at 0. Inside the
 /// margin band (0 ≤ h < δ), where that would ask h to rise: at most
-/// [`BAND_SLIDE_M`] closer per step, and not below ⅔δ. "No closer" there
-/// leaves a corner's far side unreachable to a robot that noise has put in
-/// the band: on a one-step prediction every heading that goes round first
-/// comes a fraction of a millimetre closer, so the robot can only turn in
-/// place. The floor keeps most of the margin against the noise; for
-/// h ≥ ⅔δ the requirement is at least the condition's (γh ≥ BAND_SLIDE_M
-/// for the defaults), and it is never below it.
+/// [`BAND_SLIDE_M`] closer per step, and not below 0.9δ. Plain "no closer"
+/// there can leave a corner's far side unreachable to a robot that noise has
+/// put in the band: on a one-step prediction every heading that goes round
+/// first comes a fraction of a millimetre closer. The floor keeps almost all
+/// of the margin against the noise (range noise of a third of δ took a robot
+/// resting at ⅔δ into the unsafe set). Never below the condition's
+/// requirement, so it implies it.
 #[inline]
 pub fn margin_target(h_m: f64, gamma: f64, delta_m: f64) -> f64 {
     if h_m >= delta_m {
@@ -85,7 +85,7 @@ pub fn margin_target(h_m: f64, gamma: f64, delta_m: f64) -> f64 {
 /// Inside the margin band, how much closer one step may come (m).
 pub const BAND_SLIDE_M: f64 = 0.001;
 /// Inside the margin band, the share of δ below which nothing comes closer.
-const BAND_FLOOR_SHARE: f64 = 2.0 / 3.0;
+const BAND_FLOOR_SHARE: f64 = 0.9;
 
 /// Yaw rate `k` of `n` evenly spaced over [lo, hi] (n ≥ 2): the one grid of
 /// yaw rates (the filter's search, its least-bad fallback, the selector).

@@ -5,7 +5,7 @@
 //! the braking check; each level has its own infeasibility code.
 //!
 //! 1. [`Tier::Margin`]: §5's condition on h − δ (the noise margin), or
-//!    inside the margin band at most 1 mm closer a step, not below ⅔δ:
+//!    inside the margin band at most 1 mm closer a step, not below 0.9δ:
 //!    outside the unsafe set only.
 //! 2. [`Tier::Condition`]: §5's condition itself, h(k+1) ≥ (1 − γ) h(k).
 //! 3. [`Tier::Escape`]: inside the unsafe set, h rises by at least ε (or,
@@ -131,12 +131,12 @@ mod tests {
         // h = 0.1: margin 0.8·0.07 + 0.03 = 0.086; condition 0.08.
         assert!((Tier::Margin.target(0.1, 0.0, &p).unwrap() - 0.086).abs() < 1e-12);
         assert!((Tier::Condition.target(0.1, 0.0, &p).unwrap() - 0.08).abs() < 1e-12);
-        // h = 0.025, inside the margin band (0.8·(−0.005) + 0.03 = 0.026 would ask h to
-        // rise): 1 mm closer at most, 0.024 (above the condition's 0.02); h = 0.0205: down
-        // to the floor ⅔δ = 0.02; h = 0.015, below the floor: no closer.
-        assert!((Tier::Margin.target(0.025, 0.0, &p).unwrap() - 0.024).abs() < 1e-12);
-        assert!((Tier::Margin.target(0.0205, 0.0, &p).unwrap() - 0.02).abs() < 1e-12);
-        assert!((Tier::Margin.target(0.015, 0.0, &p).unwrap() - 0.015).abs() < 1e-12);
+        // h = 0.029, inside the margin band (0.8·(−0.001) + 0.03 = 0.0292 would ask h to
+        // rise): 1 mm closer at most, 0.028 (above the condition's 0.0232); h = 0.0275:
+        // down to the floor 0.9δ = 0.027; h = 0.02, below the floor: no closer.
+        assert!((Tier::Margin.target(0.029, 0.0, &p).unwrap() - 0.028).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.0275, 0.0, &p).unwrap() - 0.027).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.02, 0.0, &p).unwrap() - 0.02).abs() < 1e-12);
         // h = −0.05: the condition asks a rise of γ|h| = 0.01; escape ε, or half the best rise.
         assert!((Tier::Condition.target(-0.05, 0.0, &p).unwrap() + 0.04).abs() < 1e-12);
         assert!((escape_target(-0.05, 0.05, false, &p) + 0.049).abs() < 1e-12);
