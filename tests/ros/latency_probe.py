@@ -16,13 +16,16 @@ which the window below rules out): latency = that message's arrival minus
 the publication time.
 
 The node's ~state (oldbf_ros/BarrierState) carries the stamp of the scan a
-command used and the command itself: a scan counts as "used" when a ~state
-with its stamp arrived whose command has the scan's kind. That is the
-assertion; the latency figures are reported, not asserted.
+command used and what the node saw in it: a scan counts as "used" when a
+~state with its stamp arrived whose h says the scan's kind (+inf for open,
+below 0 for ahead). That is the assertion; the latency figures are reported,
+not asserted. (The command of that ~state need not have the kind yet: two
+ticks a millisecond apart leave the base's dynamic window a millisecond's
+change.)
 
 Prints JSON: cmd_latency_ms and state_latency_ms {p50, p99, max, n},
 scans, used (scans with a matching ~state), matched (scans whose cmd_vel was
-found), wrong_kind (~state of a scan with the other kind of command).
+found), wrong_kind (~state of a scan that saw the other kind).
 """
 import json
 import math
@@ -40,13 +43,22 @@ rate_hz = float(sys.argv[3]) if len(sys.argv) > 3 else 9.3
 rospy.init_node("latency_probe", anonymous=True, disable_signals=True)
 lock = threading.Lock()
 cmds = []  # (arrival, linear.x)
-states = {}  # scan stamp (ns) -> (arrival, cmd linear.x) of the first ~state that used it
+states = {}  # scan stamp (ns) -> (arrival, h, cmd linear.x, tier, state) of the first ~state that used it
 
 
 def kind_of(v):
     if v > 0.1:
         return "open"
     if v <= 0.0:
+        return "ahead"
+    return None
+
+
+def scene_of(h):
+    """What the node saw, from the ~state's h: nothing (open) or the wall inside r + d_safe."""
+    if math.isinf(h):
+        return "open"
+    if h < 0.0:
         return "ahead"
     return None
 
@@ -61,7 +73,7 @@ def on_state(m):
     t = time.time()
     stamp = m.scan_stamp.to_nsec()
     with lock:
-        states.setdefault(stamp, (t, m.cmd.linear.x))
+        states.setdefault(stamp, (t, m.h, m.cmd.linear.x, m.tier, m.doaa_state_name))
 
 
 rospy.Subscriber(ns + "/cmd_vel", Twist, on_cmd, tcp_nodelay=True)
@@ -97,17 +109,18 @@ def stamp_match(stamp):
     return None
 
 
-cmd_lat, state_lat = [], []
+cmd_lat, state_lat, wrong = [], [], []
 used = matched = wrong_kind = 0
 with lock:
     for i, (stamp, t, kind) in enumerate(published):
         s = stamp_match(stamp)
         if s is not None:
             state_lat.append(s[0] - t)
-            if kind_of(s[1]) == kind:
+            if scene_of(s[1]) == kind:
                 used += 1
             else:
                 wrong_kind += 1
+                wrong.append([kind] + list(s[1:]))
         if i == 0:
             continue  # no different kind before it
         # The window ends at the publication of the next scan of the same kind.
@@ -135,4 +148,5 @@ print(json.dumps({
     "cmd_latency_ms": stats(cmd_lat),
     "state_latency_ms": stats(state_lat),
     "cmd_vel_messages": len(cmds),
+    "wrong_examples": wrong[:8],
 }))
