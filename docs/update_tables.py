@@ -47,7 +47,7 @@ CONTROLLERS = ["oldbf", "oldbf-paper", "dcbf", "vo", "none"]
 
 
 def scenarios_table():
-    rows = ["| scenario | what it tests | contacts closing / passive | least clearance (m) | CBF viol. logged / exact | goal | path (m) | steering flips | stalled (s) | states F/A/B/S/E/V/U |",
+    rows = ["| scenario | what it tests | contacts closing / passive | least clearance (m) | CBF viol. logged / exact | goal | path (m) | TV ω (rad/s per s) / Δω reversals | stalled (s) | states F/A/B/S/E/V/U |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     for name, what in SCENARIOS:
         path = os.path.join(ROOT, "config", "scenarios", f"{name}.yaml")
@@ -58,7 +58,8 @@ def scenarios_table():
         states = "/".join(str(s[k]) for k in ("forward", "avoid", "both_sides", "stop", "escape", "evade", "follow"))
         rows.append(f"| `{name}` | {what} | {d['closing_contacts']} / {d['passive_contacts']} | {d['min_clearance_m']:.3f} | "
                     f"{d['cbf_violations']} / {d['true_cbf_violations']} | {goal} | {d['path_length_m']:.2f} | "
-                    f"{100.0 * d['steering_flips'] / max(d['steps'], 1):.2f} % | {d['stalled_s']:.1f} | {states} |")
+                    f"{d['motion']['variation_omega_radps'] / max(d['motion']['duration_s'], 1e-9):.3f} / "
+                    f"{100.0 * d['motion']['omega_reversals'] / max(d['steps'], 1):.2f} % | {d['stalled_s']:.1f} | {states} |")
     return "\n".join(rows)
 
 
@@ -79,7 +80,7 @@ def compare_table():
 
 
 def batch_table():
-    rows = ["| template | controller | collision rate (worlds) | contacts closing / passive | least clearance median / p5 (m) | goal rate | steering flips | stalled (s) |",
+    rows = ["| template | controller | collision rate (worlds) | contacts closing / passive | least clearance median / p5 (m) | goal rate | TV ω (rad/s per s) / Δω reversals | stalled (s) |",
             "|---|---|---|---|---|---|---|---|"]
     for name, label in TEMPLATES:
         with open(os.path.join(RESULTS, f"batch_{name}.csv")) as f:
@@ -94,7 +95,8 @@ def batch_table():
                 cr = f"**{cr}**"
             rows.append(f"| {label if i == 0 else ''} | {c} | {cr} | {r['closing_contacts_total']} / {r['passive_contacts_total']} | "
                         f"{float(r['min_clearance_median_m']):.3f} / {float(r['min_clearance_p5_m']):.3f} | {goal} | "
-                        f"{100 * float(r['steering_flip_rate']):.2f} % | {float(r['mean_stalled_s']):.1f} |".replace("-0.", "−0."))
+                        f"{float(r['mean_variation_omega_per_s']):.3f} / {100 * float(r['omega_reversal_rate']):.2f} % | "
+                        f"{float(r['mean_stalled_s']):.1f} |".replace("-0.", "−0."))
     return "\n".join(rows)
 
 
