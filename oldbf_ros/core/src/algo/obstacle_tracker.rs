@@ -35,8 +35,8 @@
 //!   [`GHOST_SPREAD_MPS`] · age of a ghost is the same mover seen again: it
 //!   counts as moving once confirmed and faster than `moving_speed_mps`, with
 //!   no travel to prove. Without it a slow person (0.05 m/s) who had been
-//!   merged was static for the 6 s it took to travel `min_travel_m` again,
-//!   and walked into the robot (slow_obstacles seed 1, world 61).
+//!   merged is static for the 6 s it takes to travel `min_travel_m` again,
+//!   long enough to walk into the robot.
 //!
 //! All buffers are reused: no allocation in steady state.
 
@@ -654,8 +654,8 @@ mod tests {
     fn a_track_that_moved_less_than_an_object_is_wide_leaves_no_ghost() {
         // 8 s: 0.4 m, a mover by min_travel_m (0.3 m), but a door post's centroid can
         // slide that far as the robot's view of it changes. With such tracks leaving
-        // ghosts, a post misread once stayed a mover from track to track, and the VO
-        // baseline drove into doorways (batch doorways seed 1: 4 -> 13 worlds).
+        // ghosts, a post misread once stays a mover from track to track, and a robot
+        // evades door posts (docs/DECISIONS.md).
         assert_eq!(moving_again_after(8.0, 1.0, 0.0), None);
     }
 }
