@@ -370,9 +370,6 @@ impl ObstacleTracker {
             t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
             t.hits += 1;
             t.misses = 0;
-            if log::log_enabled!(log::Level::Debug) && t.is_moving(p) {
-                log::debug!("t {stamp_s:.1}: track {} moving: pos {:?} v {:?} travel {:.2} reacq {} r {:.2} depth {:.2} cluster len {}", t.id, t.position(), t.velocity(), t.max_travel_m, t.reacquired, t.radius_m, t.depth_m, clusters[ci].len);
-            }
             if t.hits >= p.confirm_hits {
                 t.status = TrackStatus::Confirmed;
             }
