@@ -86,6 +86,8 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("passive.closing_speed_mps", "2"),
     ("passive.evasion_horizon_s", "0"),
     ("passive.evasion_max_speed_mps", "-0.1"),
+    ("passive.evasion_accel_mps2", "0.4"),
+    ("passive.evasion_angular_accel_radps2", "0"),
     ("select.enabled", "maybe"),
     ("select.omega_samples", "2"),
     ("select.speed_samples", "51"),

@@ -7,7 +7,7 @@
 use oldbf_ros::algo::barrier::distance_barrier;
 use oldbf_ros::algo::dtcbf::InputBox;
 use oldbf_ros::algo::params::{BarrierParams, Params};
-use oldbf_ros::algo::select::Window;
+use oldbf_ros::algo::select::{window::Limits, Window};
 use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
@@ -178,7 +178,7 @@ proptest! {
         let dt = p.control.dt_s();
         let target = (1.0 - gamma) * h;
         // Brute force: with the Euler model the yaw rate does not move the robot in one step.
-        let window = Window::new(Twist::ZERO, dt, &p.control, &InputBox::from_params(&p));
+        let window = Window::new(Twist::ZERO, dt, &Limits::driving(&p), &InputBox::from_params(&p));
         let (lo, hi) = window.v;
         let feasible = (0..=4000).any(|i| {
             let v = lo + (hi - lo) * i as f64 / 4000.0;

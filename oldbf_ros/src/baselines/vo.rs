@@ -185,6 +185,7 @@ mod tests {
             centroid: pts_centroid,
             radius_m: 0.0,
             centre: pts_centroid,
+            partial: false,
         }]
     }
 

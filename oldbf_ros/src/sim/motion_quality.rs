@@ -7,7 +7,8 @@
 //! * sign reversals of Δω with both steps above ω_max/6, and of Δv with both
 //!   above 0.02 m/s: a command that swings one way and straight back;
 //! * steps whose change leaves the base's dynamic window
-//!   ([`oldbf::algo::select::window`]), stops for a fault (no scan, a
+//!   ([`oldbf::algo::select::window`]; the evasion limits while a mover
+//!   threatened, the driving ones otherwise), stops for a fault (no scan, a
 //!   rejected one, a blind sensor, an e-stop) aside: those cut the command
 //!   at once whatever the base can follow;
 //! * switches of the state (forward, avoid, …) per minute;
@@ -21,7 +22,7 @@
 use crate::algo::doaa::DoaaState;
 use crate::algo::geometry::Twist;
 use crate::algo::params::Params;
-use crate::algo::select::window::{reachable, WINDOW_TOL};
+use crate::algo::select::window::{reachable, Limits, WINDOW_TOL};
 use serde::Serialize;
 
 /// A Δv beyond this (m/s) counts for a reversal.
@@ -127,6 +128,8 @@ pub struct MeteredStep {
     pub fault_stop: bool,
     /// Moving tracks this step.
     pub moving_tracks: usize,
+    /// The window was opened to the base's own limits for evasion.
+    pub evading: bool,
 }
 
 /// Accumulates [`MotionQuality`] one control step at a time.
@@ -134,9 +137,8 @@ pub struct MeteredStep {
 pub struct MotionMeter {
     q: MotionQuality,
     dt_s: f64,
-    accel: f64,
-    decel: f64,
-    angular: f64,
+    driving: Limits,
+    evading: Limits,
     omega_step: f64,
     last: Option<MeteredStep>,
     /// The last non-zero changes (Δv, Δω) above the reversal thresholds, for the reversal counts.
@@ -150,9 +152,8 @@ impl MotionMeter {
         Self {
             q: MotionQuality::default(),
             dt_s,
-            accel: p.control.accel_mps2,
-            decel: p.control.decel_mps2,
-            angular: p.control.angular_accel_radps2,
+            driving: Limits::driving(p),
+            evading: Limits::evading(p),
             omega_step: OMEGA_REVERSAL_FRACTION * p.control.omega_max_radps,
             last: None,
             last_dv: 0.0,
@@ -181,8 +182,9 @@ impl MotionMeter {
             // A reversal needs both steps above the threshold, back to back.
             self.last_dv = if dv.abs() > V_REVERSAL_STEP_MPS { dv } else { 0.0 };
             self.last_domega = if dw.abs() > self.omega_step { dw } else { 0.0 };
-            let (lo, hi) = reachable(last.cmd.v_mps, self.dt_s, self.accel, self.decel);
-            let dw_max = self.angular * self.dt_s;
+            let l = if s.evading { &self.evading } else { &self.driving };
+            let (lo, hi) = reachable(last.cmd.v_mps, self.dt_s, l.accel_mps2, l.decel_mps2);
+            let dw_max = l.angular_accel_radps2 * self.dt_s;
             let outside = v < lo - WINDOW_TOL || v > hi + WINDOW_TOL || dw.abs() > dw_max + WINDOW_TOL;
             q.window_exceeded += usize::from(outside && !s.fault_stop);
             q.state_switches += usize::from(s.state != last.state);
@@ -223,6 +225,7 @@ mod tests {
             state,
             fault_stop: false,
             moving_tracks: 0,
+            evading: false,
         }
     }
 

@@ -393,6 +393,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 state: rec.state,
                 fault_stop: !rec.measured() || rec.stop_cause == Some(StopCause::EStop),
                 moving_tracks: rec.tracked_obstacles,
+                evading: rec.evading,
             });
             if rec.measured() {
                 a.min_h = a.min_h.min(rec.h_m);

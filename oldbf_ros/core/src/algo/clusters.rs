@@ -41,6 +41,11 @@ pub struct Cluster {
     /// 0.12-0.16 m for people of R = 0.2 m within 1.5 m), so a disc round
     /// the centroid reaches that much nearer the robot than the person does.
     pub centre: Vec2,
+    /// Maybe only part of what it sees (cut off by the range limit, or
+    /// hidden at an end by something nearer): its centroid slides as the
+    /// view changes, so it may keep a track alive but neither starts one nor
+    /// proves that one moves.
+    pub partial: bool,
 }
 
 impl Cluster {
@@ -93,6 +98,11 @@ impl Clusters {
     /// 0, so the tracker never takes it as a candidate); its points stay.
     pub fn exclude(&mut self, k: usize) {
         self.clusters[k].len = 0;
+    }
+
+    /// Marks cluster `k` as maybe only part of what it sees ([`Cluster::partial`]).
+    pub fn mark_partial(&mut self, k: usize) {
+        self.clusters[k].partial = true;
     }
 
     /// Maps every cluster's centroid and centre by `f` (the points moved into
@@ -178,6 +188,7 @@ fn summarise(points: &[Vec2], start: usize, end: usize, n: usize) -> Cluster {
         centroid,
         radius_m,
         centre,
+        partial: false,
     }
 }
 

@@ -366,8 +366,10 @@ impl ObstacleTracker {
             t.fy.update(z.y, r);
             t.radius_m = 0.8 * t.radius_m + 0.2 * clusters[ci].radius_m;
             t.depth_m = 0.8 * t.depth_m + 0.2 * depth_of(&clusters[ci]);
-            let centre = Self::centre_of(t, self.robot_pose.position());
-            t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
+            if !clusters[ci].partial {
+                let centre = Self::centre_of(t, self.robot_pose.position());
+                t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
+            }
             t.hits += 1;
             t.misses = 0;
             if t.hits >= p.confirm_hits {
@@ -425,7 +427,7 @@ impl ObstacleTracker {
             let Some(z) = self.measured[ci] else {
                 continue; // not a candidate
             };
-            if self.cluster_track[ci].is_some() || self.tracks.len() >= p.max_tracks {
+            if self.cluster_track[ci].is_some() || c.partial || self.tracks.len() >= p.max_tracks {
                 continue;
             }
             let reacquired = self.ghosts.iter().any(|g| {
@@ -467,6 +469,7 @@ mod tests {
             centroid: Vec2::new(x, y),
             radius_m: 0.1,
             centre: Vec2::new(x, y),
+            partial: false,
         }
     }
 
@@ -502,6 +505,48 @@ mod tests {
         tr.update(&[cluster_at(1.0, 1.0)], 1.0, pose, &p);
         tr.update(&[], 1.1, pose, &p);
         assert!(tr.tracks().is_empty());
+    }
+
+    #[test]
+    fn a_partial_view_keeps_a_track_alive_but_neither_starts_one_nor_proves_motion() {
+        let p = ObstacleParams::default(); // confirm 3, max misses 5, moving 0.02 m/s once 0.3 m travelled
+        let pose = Pose2::default();
+        let partial = |x: f64, y: f64| Cluster {
+            partial: true,
+            ..cluster_at(x, y)
+        };
+        // A person at 0.3 m/s across x = 2 m, seen whole for 2 s (0.6 m): a mover.
+        let mut tr = ObstacleTracker::default();
+        for k in 0..=20 {
+            tr.update(&[cluster_at(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
+        }
+        assert!(tr.tracks()[0].is_moving(&p));
+        let travelled = tr.tracks()[0].max_travel_m;
+        // Then half hidden for 1 s (longer than 5 missed scans): the same track, updated
+        // every scan, still a mover; its travel is not added to.
+        for k in 21..=30 {
+            tr.update(&[partial(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
+            assert_eq!(tr.cluster_track(), [Some(0)], "scan {k}");
+        }
+        let t = tr.tracks()[0];
+        assert!(t.is_moving(&p) && t.misses == 0 && t.max_travel_m == travelled, "{t:?}");
+        assert!((t.velocity().y - 0.3).abs() < 0.05, "{:?}", t.velocity());
+        // A partial view alone starts no track.
+        let mut tr = ObstacleTracker::default();
+        for k in 0..10 {
+            tr.update(&[partial(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
+        }
+        assert!(tr.tracks().is_empty());
+        // A post seen whole, then only in part while its visible piece slides 0.6 m:
+        // never proven to move.
+        let mut tr = ObstacleTracker::default();
+        for k in 0..3 {
+            tr.update(&[cluster_at(2.0, 0.0)], 0.1 * k as f64, pose, &p);
+        }
+        for k in 3..=23 {
+            tr.update(&[partial(2.0, 0.03 * (k - 3) as f64)], 0.1 * k as f64, pose, &p);
+        }
+        assert!(!tr.tracks()[0].is_moving(&p), "{:?}", tr.tracks()[0]);
     }
 
     #[test]

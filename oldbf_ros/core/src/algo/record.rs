@@ -128,6 +128,9 @@ pub struct StepRecord {
     /// it does not: an escape from the unsafe set, or evasion of a tracked
     /// mover (§5c says so).
     pub added_motion: bool,
+    /// A tracked mover threatened: the window was opened to the base's own
+    /// limits for evasion (`passive.evasion_*accel*`, §5c).
+    pub evading: bool,
     /// Barrier of the left side, B_l = B_d,l + B_v (dimensionless).
     pub b_left: f64,
     /// Barrier of the right side, B_r = B_d,r + B_v.
@@ -186,6 +189,7 @@ impl StepRecord {
             tier: None,
             costs: CriticCosts::default(),
             added_motion: false,
+            evading: false,
             b_left: f64::NAN,
             b_right: f64::NAN,
             b_velocity: f64::NAN,

@@ -249,6 +249,26 @@ impl Validate for Params {
         c.range("passive.evasion_horizon_s", pa.evasion_horizon_s, TIME_10_POS);
 
         c.range("passive.evasion_max_speed_mps", pa.evasion_max_speed_mps, SPEED);
+        if c.range("passive.evasion_accel_mps2", pa.evasion_accel_mps2, ACCEL) {
+            c.rule(
+                pa.evasion_accel_mps2 >= ctl.accel_mps2,
+                "passive.evasion_accel_mps2",
+                pa.evasion_accel_mps2,
+                "at least control.accel_mps2",
+            );
+        }
+        if c.range(
+            "passive.evasion_angular_accel_radps2",
+            pa.evasion_angular_accel_radps2,
+            Interval::open_closed(0.0, 1000.0).unit("rad/s²"),
+        ) {
+            c.rule(
+                pa.evasion_angular_accel_radps2 >= ctl.angular_accel_radps2,
+                "passive.evasion_angular_accel_radps2",
+                pa.evasion_angular_accel_radps2,
+                "at least control.angular_accel_radps2",
+            );
+        }
 
         let se = &self.select;
         c.range(

@@ -84,6 +84,14 @@ pub struct PassiveParams {
     /// or reversing where it does not (reversing only where the input box
     /// allows: the rear seen); 0 = evasion only slows, steers and stops.
     pub evasion_max_speed_mps: f64,
+    /// While a tracked mover threatens, the dynamic window opens to the
+    /// base's own linear acceleration (m/s²), not the gentler
+    /// `control.accel_mps2` of ordinary driving: getting out of a person's
+    /// way is worth a jolt. At least `control.accel_mps2`.
+    pub evasion_accel_mps2: f64,
+    /// …and to the base's own yaw acceleration (rad/s²). At least
+    /// `control.angular_accel_radps2`.
+    pub evasion_angular_accel_radps2: f64,
 }
 
 impl Default for PassiveParams {
@@ -94,7 +102,9 @@ impl Default for PassiveParams {
             mover_growth_mps: 0.1,
             closing_speed_mps: 0.02,
             evasion_horizon_s: 5.0,
-            evasion_max_speed_mps: 0.15,
+            evasion_max_speed_mps: 0.22,
+            evasion_accel_mps2: 2.5,
+            evasion_angular_accel_radps2: 3.2,
         }
     }
 }

@@ -414,6 +414,7 @@ impl SafetyPipeline {
             tier: d.tier,
             costs: d.costs,
             added_motion: d.added_motion,
+            evading: d.evading,
             b_left: b.b_left,
             b_right: b.b_right,
             b_velocity: b.b_velocity,
@@ -503,6 +504,7 @@ struct Decision {
     tier: Option<Tier>,
     costs: CriticCosts,
     added_motion: bool,
+    evading: bool,
 }
 
 /// Where the points will be after one step: the advanced copy when a cluster
@@ -686,6 +688,36 @@ mod tests {
         assert!(cmds[0].v_mps > 0.0 && cmds[0].omega_radps < 0.0, "{cmds:?}");
         assert!(cmds.iter().all(|c| c.v_mps > 0.0 && c.v_mps <= 0.15), "{cmds:?}");
         assert!((cmds[7].omega_radps + 0.3).abs() < 1e-9, "{cmds:?}");
+    }
+
+    #[test]
+    fn a_person_walking_at_a_robot_at_rest_is_evaded_at_the_bases_own_limits() {
+        // A person (radius 0.15 m) walks straight at the robot from 2.5 m ahead at
+        // 0.3 m/s; the upstream asks the robot to stand (0, 0). Once the track is a
+        // mover, standing is reached within the 5 s trigger: threatened. Evasion may
+        // then change v by 2.5 × 0.1 = 0.25 m/s and ω by 3.2 × 0.1 = 0.32 rad/s a step
+        // (the base's own limits), not 0.05 m/s and 0.1 rad/s (ordinary driving), and
+        // its first command uses more than the ordinary window allows.
+        let mut pipe = SafetyPipeline::new(Params::default());
+        pipe.command_sent(Twist::ZERO, 0.9);
+        let mut last = Twist::ZERO;
+        let mut first_evading = None;
+        for k in 0..40 {
+            let t = 1.0 + 0.1 * f64::from(k);
+            let mut ranges = vec![f32::INFINITY; 360];
+            add_disc(&mut ranges, Vec2::new(2.5 - 0.03 * f64::from(k), 0.0), 0.15);
+            let rec = pipe.step_with_pose(&scan_at(&ranges, t), t, Twist::ZERO, last.v_mps, Some(Pose2::default()));
+            let (dv, dw) = (rec.cmd.v_mps - last.v_mps, rec.cmd.omega_radps - last.omega_radps);
+            if rec.evading {
+                assert!(dv.abs() <= 0.25 + 1e-9 && dw.abs() <= 0.32 + 1e-9, "{rec:?}");
+                first_evading.get_or_insert((k, dv, dw));
+            } else {
+                assert!(dv.abs() <= 0.1 + 1e-9 && dw.abs() <= 0.1 + 1e-9, "{rec:?}");
+            }
+            last = rec.cmd;
+        }
+        let (k, dv, dw) = first_evading.expect("threatened");
+        assert!(dv.abs() > 0.05 + 1e-9 || dw.abs() > 0.1 + 1e-9, "step {k}: {dv} {dw}");
     }
 
     #[test]

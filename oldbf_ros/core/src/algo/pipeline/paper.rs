@@ -49,6 +49,7 @@ impl SafetyPipeline {
             tier: None,
             costs: CriticCosts::default(),
             added_motion: false,
+            evading: false,
         }
     }
 }

@@ -131,11 +131,13 @@ impl SafetyPipeline {
     /// Clusters of the scan's points and the tracker's update with them.
     /// Excluded from tracking: clusters of mostly held points (held points
     /// are where something was, not measurements, so a mover that steps
-    /// inside range_min coasts on its velocity instead of seeming to stop),
-    /// and clusters that are not a whole object ([`open_ended`]): a piece of
-    /// wall cut off by the range limit or by something nearer in front of it
-    /// slides along the wall as the robot moves, and would be taken for a
-    /// mover.
+    /// inside range_min coasts on its velocity instead of seeming to stop).
+    /// Marked partial: clusters that may not be a whole object
+    /// ([`open_ended`]): a piece of wall cut off by the range limit or by
+    /// something nearer in front of it slides along the wall as the robot
+    /// moves, and would be taken for a mover, so it neither starts a track
+    /// nor proves one moves; a person half hidden behind another is still
+    /// the person, so it keeps that person's track alive.
     fn track_obstacles(&mut self, stamp_s: f64, pose: Pose2, full_circle: bool, range_max_m: f64) {
         self.clusters.clear();
         if !self.params.obstacles.enabled && !self.keep_clusters {
@@ -159,8 +161,10 @@ impl SafetyPipeline {
                 .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
                 .count();
             let cut = open_ended(&cluster, &self.points.points, &self.points.beam_index, range_max_m);
-            if (2 * held >= cluster.len && held > 0) || cut {
+            if 2 * held >= cluster.len && held > 0 {
                 self.clusters.exclude(k);
+            } else if cut {
+                self.clusters.mark_partial(k);
             }
         }
         self.tracker

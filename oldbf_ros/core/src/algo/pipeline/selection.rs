@@ -159,6 +159,7 @@ impl SafetyPipeline {
             tier: Some(s.tier),
             costs: s.costs,
             added_motion: s.added_motion,
+            evading: s.threatened,
         }
     }
 }

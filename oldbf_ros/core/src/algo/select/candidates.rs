@@ -170,7 +170,12 @@ mod tests {
         let h = f.prepare(&pts, &pts, &p, &bx);
         assert!((h - 0.072).abs() < 1e-12);
         let target = crate::algo::dtcbf::margin_target(h, 0.2, 0.03);
-        let window = Window::new(Twist::new(0.1, 0.0), 0.1, &p.control, &bx);
+        let window = Window::new(
+            Twist::new(0.1, 0.0),
+            0.1,
+            &crate::algo::select::window::Limits::driving(&p),
+            &bx,
+        );
         let s = Sampling {
             window,
             v_range: (window.v.0.max(0.0), window.v.1.min(0.15)),

@@ -27,7 +27,7 @@
 use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
 use super::tiers::{escape_target, Tier};
-use super::window::{Window, WINDOW_TOL};
+use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, predicted_displacement, DtcbfFilter, InputBox, TOL_M};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
@@ -128,6 +128,8 @@ pub struct Selector {
     last: Twist,
     /// The cosine of the nearest point's bearing (0 with none).
     towards_nearest: f64,
+    /// This step's rates of the window.
+    limits: Limits,
 }
 
 impl Selector {
@@ -142,6 +144,7 @@ impl Selector {
             allowed: (0.0, 0.0),
             last: Twist::ZERO,
             towards_nearest: 0.0,
+            limits: Limits::driving(p),
         }
     }
 
@@ -172,7 +175,6 @@ impl Selector {
             input
         };
         let bx = input.bx;
-        let window = Window::new(input.last, input.since_s, &p.control, &bx);
         let h = g.filter.prepare(g.points, g.points_next, p, &bx);
         self.towards_nearest = g
             .points
@@ -188,6 +190,13 @@ impl Selector {
         // Threatened: the DOAA's command, held, reaches a mover's predicted disc within
         // the trigger horizon.
         let threatened = movers && g.passive.evasion_score(input.doaa, p).mover_contact_s < trigger;
+        // Evasion may use all the base can do; ordinary driving is gentler.
+        self.limits = if threatened {
+            Limits::evading(p)
+        } else {
+            Limits::driving(p)
+        };
+        let window = Window::new(input.last, input.since_s, &self.limits, &bx);
         if self.side.is_some() && input.front_clear {
             self.side = None;
         }
@@ -412,15 +421,16 @@ impl Selector {
         } else {
             cmd.omega_radps
         };
+        let l = &self.limits;
         let rate_v = if goal_v.abs() < cmd.v_mps.abs() {
-            c.decel_mps2
+            l.decel_mps2
         } else {
-            c.accel_mps2
+            l.accel_mps2
         };
         Profile {
             cmd,
             goal: Twist::new(goal_v, goal_w),
-            rates: (rate_v, c.angular_accel_radps2),
+            rates: (rate_v, l.angular_accel_radps2),
         }
     }
 
