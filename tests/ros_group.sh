@@ -275,8 +275,9 @@ t_locks() {
   check "$(json "str(d['silence_stop_delay_s'] is not None and 0.5 <= d['silence_stop_delay_s'] <= 0.7 and d['silence_moving_after_stop'] == 0 and d['silence_reason'] is not None and d['silence_diag'] is not None and d['silence_diag'][0] == 2).lower()" <<< "$s")" "silent e_stop: $s" || return 1
   check "$(grep -q 'e_stop silent for' "$LOG/locks_node.log" && grep -q 'e_stop heard again' "$LOG/locks_node.log" && echo true)" "the log does not say the e_stop went silent and came back" || return 1
   check "$(json "str((d['wall_max_v'] or 1) <= 0 and d['disabled_passes'] >= 10 and d['disabled_diag'] is not None and 'for 2.0 s' in d['disable_answer']).lower()" <<< "$s")" "disable: $s" || return 1
-  check "$(json "str(d['lapsed_after_s'] is not None and 2.0 <= d['lapsed_after_s'] <= 2.3).lower()" <<< "$s")" "the disable did not lapse after 2.0 s: $s" || return 1
-  check "$(json "str(d['renewed_lapsed_after_second_s'] is not None and 2.0 <= d['renewed_lapsed_after_second_s'] <= 2.3 and d['renewed_lapsed_after_first_s'] >= 3.4).lower()" <<< "$s")" "the renewed disable: $s" || return 1
+  # 2.0 s, plus one tick (cmd_vel_in at 20 Hz) and transport on a shared machine.
+  check "$(json "str(d['lapsed_after_s'] is not None and 2.0 <= d['lapsed_after_s'] <= 2.2).lower()" <<< "$s")" "the disable did not lapse after 2.0 s: $s" || return 1
+  check "$(json "str(d['renewed_lapsed_after_second_s'] is not None and 2.0 <= d['renewed_lapsed_after_second_s'] <= 2.2 and d['renewed_lapsed_after_first_s'] >= 3.4).lower()" <<< "$s")" "the renewed disable: $s" || return 1
   check "$(grep -q 'lapsed at' "$LOG/locks_node.log" && echo true)" "the log does not say the disable lapsed"
 }
 

@@ -14,8 +14,8 @@ asks for it; watches cmd_vel, ~state and /diagnostics. Phases:
   4. e_stop false again: the robot moves, without ~reset_e_stop
   5. a wall 0.3 m ahead, 0.2 m/s upstream: filtered (no forward motion);
      ~enable false: 0.2 m/s passes, /diagnostics says when it lapses; not
-     renewed, filtered again 2.0 s after the call; renewed after 1.5 s,
-     filtered again 2.0 s after the second call
+     renewed, filtered again (a command other than 0.2 m/s) 2.0 s after the
+     call; renewed after 1.5 s, filtered again 2.0 s after the second call
 Prints one JSON object with what it measured.
 """
 import json
@@ -146,7 +146,9 @@ time.sleep(1.5)
 out["disabled_passes"] = sum(1 for x in window(cmds, t_off + 0.3, time.time()) if abs(x[1] - 0.2) < 1e-9)
 out["disabled_diag"] = next((x[2] for x in window(diags, t_off + 0.1, time.time()) if "lapses in" in x[2]), None)
 time.sleep(1.5)
-back = first_after(cmds, t_off + 0.3, lambda x: x[1] <= 0.0)
+# Filtered again: the first command that is not the 0.2 m/s passed through (the
+# filter then brakes at control.decel_mps2 from what was sent, down to no motion).
+back = first_after(cmds, t_off + 0.3, lambda x: abs(x[1] - 0.2) > 1e-9)
 out["lapsed_after_s"] = None if back is None else round(back - t_off, 3)
 # Renewed after 1.5 s: lapses 2.0 s after the second call.
 t_r0 = time.time()
@@ -155,7 +157,7 @@ time.sleep(1.5)
 t_r1 = time.time()
 enable(False)
 time.sleep(3.0)
-back = first_after(cmds, t_r0 + 0.3, lambda x: x[1] <= 0.0)
+back = first_after(cmds, t_r0 + 0.3, lambda x: abs(x[1] - 0.2) > 1e-9)
 out["renewed_lapsed_after_first_s"] = None if back is None else round(back - t_r0, 3)
 out["renewed_lapsed_after_second_s"] = None if back is None else round(back - t_r1, 3)
 ctl["run"] = False
