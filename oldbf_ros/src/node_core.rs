@@ -58,6 +58,7 @@ use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use oldbf::config::{Checker, Interval, Validate};
 use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
 use std::fmt;
 
 /// Where the nominal command comes from.
@@ -615,7 +616,8 @@ impl NodeCore {
             None => Some(EStopSilence::NoneYet { timeout_s }),
             Some(at_s) => {
                 let age_s = now_s - at_s;
-                (!(age_s <= timeout_s)).then_some(EStopSilence::Silent { age_s, timeout_s })
+                let alive = matches!(age_s.partial_cmp(&timeout_s), Some(Ordering::Less | Ordering::Equal));
+                (!alive).then_some(EStopSilence::Silent { age_s, timeout_s })
             }
         }
     }
@@ -667,7 +669,8 @@ impl NodeCore {
     /// A disable whose time is up ends: the filter is on again. Not a
     /// number counts as up.
     fn lapse_disable(&mut self, now_s: f64) {
-        if let Some(until_s) = self.disabled_until_s.filter(|&u| !(now_s < u)) {
+        let before = |until_s: f64| now_s.partial_cmp(&until_s) == Some(Ordering::Less);
+        if let Some(until_s) = self.disabled_until_s.filter(|&u| !before(u)) {
             log::warn!(
                 "safety filter ENABLED: `~enable false` lapsed at {until_s:.3} s, not renewed within {:.3} s",
                 self.settings.disable_timeout_s
