@@ -31,6 +31,19 @@
 #   simtime    /use_sim_time: the first scan is taken (no resubscription when
 #              simulated time jumps from 0), and Ctrl-C ends the node after
 #              /clock has stopped (tests/ros/sim_time.py)
+#   locks      locks that lapse (tests/ros/locks_probe.py), node/e_stop_timeout_s
+#              0.5 and node/disable_timeout_s 2.0: no e_stop heard yet -> zero;
+#              e_stop false at 10 Hz -> moves; its publisher silent -> zero
+#              0.5 s after its last message (+ one tick), said in ~state,
+#              /diagnostics (ERROR) and the log; false again -> moves without
+#              a reset. ~enable false before a wall passes 0.2 m/s, says in
+#              /diagnostics when it lapses, lapses 2.0 s after the call, and
+#              2.0 s after a renewal
+#   diagnostics  Debian's diagnostic_aggregator (launch/diagnostics.launch with
+#              config/diagnostic_analyzers.yaml): /diagnostics_agg shows each
+#              node's status under /Base/Safety filter with its hardware_id (the
+#              scan's frame_id by default, node/hardware_id when set), and a
+#              status named as the CAN bridge names its own under /Base/CAN bridge
 #   reconfigure  dynamic_reconfigure through Debian's Python client: read
 #              the parameters, set d_safe 0.2 -> 0.4 and read it back, the
 #              robot stops 0.2 m earlier before a wall; out-of-range values
@@ -56,7 +69,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan sim stale latency ticks clock simtime reconfigure bag params multi carmen shutdown catkin rviz)
+ALL=(md5 scan sim stale latency ticks clock simtime locks diagnostics reconfigure bag params multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -245,6 +258,46 @@ t_simtime() {
   check "$(json "str(d['first_scan_state_s'] is not None and d['first_scan_state_s'] - d['first_scan_s'] <= 0.25 and d['states_with_scan'] > 40).lower()" <<< "$s")" "sim time: $s" || return 1
   check "$(! grep -q 'subscribing to scan again' "$LOG/simtime_node.log" && echo true)" "the node subscribed to scan again under sim time" || return 1
   check "$([ $alive = false ] && echo true)" "Ctrl-C did not end the node with /clock stopped"
+}
+
+t_locks() {
+  local node s
+  node=$(spawn locks_node "$BIN/oldbf_node" __ns:=/t_locks _node/e_stop_timeout_s:=0.5 _node/disable_timeout_s:=2.0)
+  wait_log "$LOG/locks_node.log" "filtering at" 10 || return 1
+  s=$($ROSPY tests/ros/locks_probe.py /t_locks) || { stop_pid "$node"; say "  probe failed: $s"; return 1; }
+  stop_pid "$node"
+  echo "$s" > "$LOG/locks.json"
+  figure "locks: e_stop liveness 0.5 s: $(json "'before any e_stop %d of %d commands moved (%d of %d states: not heard yet); alive: up to %s m/s; silent: zero %s s after its last message (%s), diagnostics %s; heard again: up to %s m/s, no reset' % (d['startup_nonzero'], d['startup_commands'], d['startup_states_not_heard'], d['startup_states'], d['alive_max_v'], d['silence_stop_delay_s'], d['silence_reason'], d['silence_diag'], d['again_max_v'])" <<< "$s")"
+  figure "locks: disable 2.0 s before a wall (filtered: up to $(json "d['wall_max_v']" <<< "$s") m/s): $(json "'%d commands of 0.2 m/s passed; answer \"%s\"; diagnostics \"%s\"; filtered again %s s after the call; renewed after 1.5 s: %s s after the first call, %s s after the second' % (d['disabled_passes'], d['disable_answer'], d['disabled_diag'], d['lapsed_after_s'], d['renewed_lapsed_after_first_s'], d['renewed_lapsed_after_second_s'])" <<< "$s")"
+  check "$(json "str(d['startup_commands'] >= 10 and d['startup_nonzero'] == 0 and d['startup_states_not_heard'] >= 5).lower()" <<< "$s")" "before the first e_stop: $s" || return 1
+  check "$(json "str((d['alive_max_v'] or 0) > 0 and (d['again_max_v'] or 0) > 0).lower()" <<< "$s")" "no motion with e_stop alive: $s" || return 1
+  # 0.5 s timeout, plus one tick (cmd_vel_in at 20 Hz) and transport on a shared machine.
+  check "$(json "str(d['silence_stop_delay_s'] is not None and 0.5 <= d['silence_stop_delay_s'] <= 0.7 and d['silence_moving_after_stop'] == 0 and d['silence_reason'] is not None and d['silence_diag'] is not None and d['silence_diag'][0] == 2).lower()" <<< "$s")" "silent e_stop: $s" || return 1
+  check "$(grep -q 'e_stop silent for' "$LOG/locks_node.log" && grep -q 'e_stop heard again' "$LOG/locks_node.log" && echo true)" "the log does not say the e_stop went silent and came back" || return 1
+  check "$(json "str((d['wall_max_v'] or 1) <= 0 and d['disabled_passes'] >= 10 and d['disabled_diag'] is not None and 'for 2.0 s' in d['disable_answer']).lower()" <<< "$s")" "disable: $s" || return 1
+  # 2.0 s, plus one tick (cmd_vel_in at 20 Hz) and transport on a shared machine.
+  check "$(json "str(d['lapsed_after_s'] is not None and 2.0 <= d['lapsed_after_s'] <= 2.2).lower()" <<< "$s")" "the disable did not lapse after 2.0 s: $s" || return 1
+  check "$(json "str(d['renewed_lapsed_after_second_s'] is not None and 2.0 <= d['renewed_lapsed_after_second_s'] <= 2.2 and d['renewed_lapsed_after_first_s'] >= 3.4).lower()" <<< "$s")" "the renewed disable: $s" || return 1
+  check "$(grep -q 'lapsed at' "$LOG/locks_node.log" && echo true)" "the log does not say the disable lapsed"
+}
+
+t_diagnostics() {
+  local agg node node2 pub s
+  agg=$(spawn diag_agg roslaunch --wait oldbf_ros diagnostics.launch)
+  wait_log "$LOG/diag_agg.log" "process\[diagnostic_aggregator" 20 || { stop_pid "$agg"; tail -20 "$LOG/diag_agg.log"; return 1; }
+  # Default hardware_id: the scans' frame_id. Set: node/hardware_id.
+  node=$(spawn diag_node "$BIN/oldbf_node" __ns:=/t_diag)
+  node2=$(spawn diag_node2 "$BIN/oldbf_node" __ns:=/t_diag2 _node/hardware_id:=front_lidar)
+  wait_log "$LOG/diag_node.log" "filtering at" 10 || { stop_pid "$agg"; stop_pid "$node"; stop_pid "$node2"; return 1; }
+  pub=$(spawn diag_scans rostopic pub -r 10 -s /t_diag/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py open | sed 's/frame_id: laser/frame_id: t_diag_laser/')")
+  s=$($ROSPY tests/ros/diag_agg_probe.py 20 "/t_diag/can_bridge_node: CAN bridge" \
+      "/Base/Safety filter/ t_diag oldbf_node: safety filter=t_diag_laser" \
+      "/Base/Safety filter/ t_diag2 oldbf_node: safety filter=front_lidar" \
+      "/Base/CAN bridge/ t_diag can_bridge_node: CAN bridge=can0") || true
+  stop_pid "$pub"; stop_pid "$node"; stop_pid "$node2"; stop_pid "$agg"
+  echo "$s" > "$LOG/diagnostics.json"
+  figure "diagnostics: /diagnostics_agg under /Base: $(json "'; '.join('%s [%s] level %d' % (n, h, l) for n, l, h, m in d['statuses'])" <<< "$s")"
+  check "$(json "str(d['found']).lower()" <<< "$s")" "the aggregated statuses or hardware_ids are not as expected: $s"
 }
 
 t_reconfigure() {

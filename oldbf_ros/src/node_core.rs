@@ -36,6 +36,16 @@
 //! new clock before it takes scans again: the tracker's and odometry's
 //! velocities re-acquire, and a LiDAR that keeps publishing cannot turn the
 //! stop into a single tick that never shows on the wheels.
+//!
+//! Locks that lapse (twist_mux's locks, safety_limiter's disable): with
+//! `e_stop_timeout_s` above 0 the `e_stop` input must be alive, and a
+//! publisher silent for longer than the timeout, or none heard yet, engages
+//! the stop until a fresh `false` arrives ([`EStopSilence`]); with
+//! `disable_timeout_s` above 0 a `~enable false` lasts that long unless
+//! renewed, then the filter is on again. Both at 0 (the shipped default)
+//! keep the plain rules: `true` latches until reset, a disable lasts until
+//! `~enable true`. A clock jump backwards keeps the age of the last e_stop
+//! message and the time a disable has left: both are measured across it.
 
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::params::ParamError;
@@ -48,6 +58,7 @@ use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use oldbf::config::{Checker, Interval, Validate};
 use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
 use std::fmt;
 
 /// Where the nominal command comes from.
@@ -84,6 +95,19 @@ pub struct NodeSettings {
     pub scenario: String,
     /// Robot in a multi-robot scenario (empty: the scenario's single robot).
     pub robot: String,
+    /// Liveness of the `e_stop` input (s). 0: off, a `true` latches until
+    /// reset and silence changes nothing. Above 0: an e_stop publisher
+    /// silent for longer than this, or none heard since start-up, engages
+    /// the stop; a fresh `false` releases it (no reset needed, a `true`
+    /// still latches).
+    pub e_stop_timeout_s: f64,
+    /// How long a `~enable false` lasts unless renewed by another (s); 0:
+    /// until `~enable true`.
+    pub disable_timeout_s: f64,
+    /// `hardware_id` of the node's /diagnostics status. Empty: the
+    /// `frame_id` of the latest scan (the LiDAR it watches), or the node's
+    /// name before the first scan.
+    pub hardware_id: String,
 }
 
 impl Default for NodeSettings {
@@ -96,6 +120,9 @@ impl Default for NodeSettings {
             publish_markers: true,
             scenario: String::new(),
             robot: String::new(),
+            e_stop_timeout_s: 0.0,
+            disable_timeout_s: 0.0,
+            hardware_id: String::new(),
         }
     }
 }
@@ -114,6 +141,13 @@ impl NodeSettings {
 /// The range of `node.*_timeout_s` (s).
 pub const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
 
+/// The range of `node.e_stop_timeout_s` (s; 0: liveness off).
+pub const E_STOP_TIMEOUT_S: Interval = Interval::closed(0.0, 60.0).unit("s");
+
+/// The range of `node.disable_timeout_s` (s; 0: a disable never lapses). An
+/// hour bounds a forgotten disable; docking or a longer manoeuvre renews it.
+pub const DISABLE_TIMEOUT_S: Interval = Interval::closed(0.0, 3600.0).unit("s");
+
 impl Validate for NodeSettings {
     /// Range checks, keys under `node.`.
     fn check(&self, c: &mut Checker) {
@@ -124,6 +158,15 @@ impl Validate for NodeSettings {
             "node.base_frame",
             format_args!("{:?}", self.base_frame),
             "a frame name, not empty",
+        );
+        c.range("node.e_stop_timeout_s", self.e_stop_timeout_s, E_STOP_TIMEOUT_S);
+        c.range("node.disable_timeout_s", self.disable_timeout_s, DISABLE_TIMEOUT_S);
+        // Shown on one line by rqt_robot_monitor and the aggregator.
+        c.rule(
+            !self.hardware_id.chars().any(char::is_control),
+            "node.hardware_id",
+            format_args!("{:?}", self.hardware_id),
+            "one line of text, no control characters (empty: the scan's frame_id)",
         );
     }
 }
@@ -191,6 +234,43 @@ impl fmt::Display for ScanFault {
     }
 }
 
+/// Why the `e_stop` input counts as engaged in liveness mode
+/// (`e_stop_timeout_s` > 0) without a `true` on it: a lock whose publisher
+/// cannot be heard cannot be trusted to say it is released.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EStopSilence {
+    /// No e_stop message since the node started: engaged until the first
+    /// `false`, so a robot never runs before its e-stop is heard.
+    NoneYet { timeout_s: f64 },
+    /// The last e_stop message is `age_s` old, more than `timeout_s`.
+    Silent { age_s: f64, timeout_s: f64 },
+}
+
+impl fmt::Display for EStopSilence {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::NoneYet { timeout_s } => write!(
+                f,
+                "e_stop not heard yet (liveness timeout {timeout_s:.3} s): stopped until a false arrives"
+            ),
+            Self::Silent { age_s, timeout_s } => write!(
+                f,
+                "e_stop silent for {age_s:.3} s (liveness timeout {timeout_s:.3} s): stopped until a fresh false arrives"
+            ),
+        }
+    }
+}
+
+/// Why `~reset_e_stop` did not release the e-stop.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ResetRefused {
+    #[error("the e-stop input is still active")]
+    InputActive,
+    /// Liveness mode: the input is not heard, and silence is not a release.
+    #[error("{0}")]
+    InputSilent(EStopSilence),
+}
+
 /// How often a control period the watchdog checks [`NodeCore::watchdog_due`].
 pub const WATCHDOG_POLLS_PER_PERIOD: u32 = 4;
 
@@ -228,7 +308,15 @@ pub struct Tick {
     pub record: StepRecord,
     pub nominal_used: NominalUsed,
     pub filter_enabled: bool,
+    /// When a `~enable false` lapses (s, node clock); `None` while the
+    /// filter is on, or when a disable lasts until `~enable true`.
+    pub disable_lapses_at_s: Option<f64>,
+    /// The e-stop is engaged: latched by a `true`, or its input silent.
     pub e_stop: bool,
+    /// A `true` latched it (released by `~reset_e_stop`).
+    pub e_stop_latched: bool,
+    /// Liveness mode: the input is silent (released by a fresh `false`).
+    pub e_stop_silence: Option<EStopSilence>,
     /// Stamp of the scan used (NaN if none).
     pub scan_stamp_s: f64,
     /// Set when the stamp sequence stopped the robot (reported with the stop).
@@ -242,6 +330,13 @@ impl Tick {
     /// Why the robot is stopped, with the scan-order fault when that is the
     /// cause; empty when it is not.
     pub fn stop_reason(&self) -> String {
+        if let (Some(StopCause::EStop), Some(silence)) = (self.record.stop_cause, self.e_stop_silence) {
+            return if self.e_stop_latched {
+                format!("e-stop latched, and {silence}")
+            } else {
+                silence.to_string()
+            };
+        }
         match (self.record.stop_cause, self.scan_fault) {
             (Some(_), Some(f)) => f.to_string(),
             (Some(c), None) => c.to_string(),
@@ -276,7 +371,13 @@ pub struct NodeCore {
     upstream_seen: bool,
     e_stop_latched: bool,
     e_stop_input: bool,
+    /// When the last e_stop message arrived (s, node clock); `None`: none yet.
+    e_stop_heard_s: Option<f64>,
+    /// The input's silence engaged the stop at the last tick (logged on change).
+    e_stop_was_silent: bool,
     enabled: bool,
+    /// When the running `~enable false` lapses (s, node clock).
+    disabled_until_s: Option<f64>,
     reference: Option<(ReferenceTrajectory, ReferenceProgress)>,
     /// The constant nominal command; `None`: control.v_nom_mps straight
     /// ahead, read at each tick so a reconfigured v_nom applies at once.
@@ -310,7 +411,10 @@ impl NodeCore {
             upstream_seen: false,
             e_stop_latched: false,
             e_stop_input: false,
+            e_stop_heard_s: None,
+            e_stop_was_silent: false,
             enabled: true,
+            disabled_until_s: None,
             reference: reference.map(|r| (r, ReferenceProgress::default())),
             last_tick_s: None,
             newest_stamp_s: None,
@@ -485,10 +589,13 @@ impl NodeCore {
         self.upstream_seen = true;
     }
 
-    /// The e-stop input. `true` latches; the latch stays after the input
-    /// returns to `false` until `reset_e_stop`.
-    pub fn on_e_stop(&mut self, active: bool) {
+    /// The e-stop input, arrived at `now_s`. `true` latches; the latch
+    /// stays after the input returns to `false` until `reset_e_stop`. In
+    /// liveness mode every message, `true` or `false`, shows the publisher
+    /// is alive.
+    pub fn on_e_stop(&mut self, active: bool, now_s: f64) {
         self.e_stop_input = active;
+        self.e_stop_heard_s = Some(now_s);
         if active {
             if !self.e_stop_latched {
                 log::warn!("e-stop latched");
@@ -497,10 +604,32 @@ impl NodeCore {
         }
     }
 
-    /// Releases a latched e-stop, if its input is no longer active.
-    pub fn reset_e_stop(&mut self) -> Result<(), &'static str> {
+    /// Liveness mode: why the e_stop input counts as engaged at `now_s`,
+    /// if it does. Silent means older than the timeout (an age of exactly
+    /// the timeout is alive); an age that is not a number counts as silent.
+    pub fn e_stop_silence(&self, now_s: f64) -> Option<EStopSilence> {
+        let timeout_s = self.settings.e_stop_timeout_s;
+        if timeout_s <= 0.0 {
+            return None;
+        }
+        match self.e_stop_heard_s {
+            None => Some(EStopSilence::NoneYet { timeout_s }),
+            Some(at_s) => {
+                let age_s = now_s - at_s;
+                let alive = matches!(age_s.partial_cmp(&timeout_s), Some(Ordering::Less | Ordering::Equal));
+                (!alive).then_some(EStopSilence::Silent { age_s, timeout_s })
+            }
+        }
+    }
+
+    /// Releases a latched e-stop at `now_s`, if its input is no longer
+    /// active and, in liveness mode, is heard.
+    pub fn reset_e_stop(&mut self, now_s: f64) -> Result<(), ResetRefused> {
         if self.e_stop_input {
-            return Err("the e-stop input is still active");
+            return Err(ResetRefused::InputActive);
+        }
+        if let Some(silence) = self.e_stop_silence(now_s) {
+            return Err(ResetRefused::InputSilent(silence));
         }
         if self.e_stop_latched {
             log::info!("e-stop released");
@@ -514,9 +643,12 @@ impl NodeCore {
         self.e_stop_latched
     }
 
-    /// Enables or disables the filter (disabled: the nominal command passes
-    /// through unchanged, still monitored and reported).
-    pub fn set_enabled(&mut self, enabled: bool) {
+    /// Enables or disables the filter at `now_s` (disabled: the nominal
+    /// command passes through unchanged, still monitored and reported).
+    /// With `disable_timeout_s` above 0 a disable lasts that long from its
+    /// latest request; returns when it lapses (s, node clock), `None` when
+    /// the filter is on or the disable lasts until `~enable true`.
+    pub fn set_enabled(&mut self, enabled: bool, now_s: f64) -> Option<f64> {
         if enabled != self.enabled {
             log::warn!(
                 "safety filter {}",
@@ -525,10 +657,28 @@ impl NodeCore {
             self.pipeline.reset();
         }
         self.enabled = enabled;
+        let timeout_s = self.settings.disable_timeout_s;
+        self.disabled_until_s = (!enabled && timeout_s > 0.0).then_some(now_s + timeout_s);
+        self.disabled_until_s
     }
 
     pub fn enabled(&self) -> bool {
         self.enabled
+    }
+
+    /// A disable whose time is up ends: the filter is on again. Not a
+    /// number counts as up.
+    fn lapse_disable(&mut self, now_s: f64) {
+        let before = |until_s: f64| now_s.partial_cmp(&until_s) == Some(Ordering::Less);
+        if let Some(until_s) = self.disabled_until_s.filter(|&u| !before(u)) {
+            log::warn!(
+                "safety filter ENABLED: `~enable false` lapsed at {until_s:.3} s, not renewed within {:.3} s",
+                self.settings.disable_timeout_s
+            );
+            self.enabled = true;
+            self.disabled_until_s = None;
+            self.pipeline.reset();
+        }
     }
 
     fn fresh_odom(&self, now_s: f64) -> Option<OdomSample> {
@@ -594,7 +744,15 @@ impl NodeCore {
     /// One control tick at time `now_s` (the node's clock, same as scan stamps).
     pub fn tick(&mut self, now_s: f64) -> Tick {
         if let Some(last_s) = self.last_tick_s.filter(|&t| now_s < t) {
-            self.clock_jumped_back(last_s - now_s);
+            let by_s = last_s - now_s;
+            self.clock_jumped_back(by_s);
+            // The e_stop message's age and the disable's time left carry across the jump.
+            if let Some(t) = self.e_stop_heard_s.as_mut() {
+                *t -= by_s;
+            }
+            if let Some(t) = self.disabled_until_s.as_mut() {
+                *t -= by_s;
+            }
             let hold_s = self.pipeline.params().laser.scan_timeout_s;
             self.settle_after_jump = Some((now_s + hold_s, last_s - now_s));
         }
@@ -649,8 +807,18 @@ impl NodeCore {
         };
         let scan_stamp_s = self.scan.header.map_or(f64::NAN, |h| h.stamp_s);
 
+        self.lapse_disable(now_s);
+        let e_stop_silence = self.e_stop_silence(now_s);
+        if e_stop_silence.is_some() != self.e_stop_was_silent {
+            match e_stop_silence {
+                Some(s) => log::warn!("{s}"),
+                None => log::info!("e_stop heard again: its liveness stop released"),
+            }
+            self.e_stop_was_silent = e_stop_silence.is_some();
+        }
+        let e_stop = self.e_stop_latched || e_stop_silence.is_some();
         let computed = record.cmd;
-        let (cmd, record) = if self.e_stop_latched {
+        let (cmd, record) = if e_stop {
             (
                 Twist::ZERO,
                 StepRecord {
@@ -675,7 +843,10 @@ impl NodeCore {
             record,
             nominal_used,
             filter_enabled: self.enabled,
-            e_stop: self.e_stop_latched,
+            disable_lapses_at_s: self.disabled_until_s,
+            e_stop,
+            e_stop_latched: self.e_stop_latched,
+            e_stop_silence,
             scan_stamp_s,
             scan_fault: record.stop_cause.and(scan_fault),
             reference_pose,
@@ -794,16 +965,180 @@ mod tests {
     fn e_stop_latches_until_reset_after_release() {
         let mut n = node(NominalSource::Constant);
         n.on_scan(meta(1.0), &open(), &[]);
-        n.on_e_stop(true);
+        n.on_e_stop(true, 1.0);
         assert_eq!(n.tick(1.0).cmd, Twist::ZERO);
-        assert!(n.reset_e_stop().is_err(), "input still active");
-        n.on_e_stop(false);
+        assert_eq!(
+            n.reset_e_stop(1.0),
+            Err(ResetRefused::InputActive),
+            "input still active"
+        );
+        n.on_e_stop(false, 1.05);
         let t = n.tick(1.1);
         assert_eq!(t.cmd, Twist::ZERO, "still latched after the input is released");
         assert_eq!(t.record.stop_cause, Some(StopCause::EStop));
         assert!(t.e_stop);
-        n.reset_e_stop().unwrap();
+        n.reset_e_stop(1.15).unwrap();
         assert_eq!(n.tick(1.2).cmd, Twist::new(0.15, 0.0));
+    }
+
+    fn with_settings(source: NominalSource, e_stop_timeout_s: f64, disable_timeout_s: f64) -> NodeCore {
+        let settings = NodeSettings {
+            nominal_source: source,
+            e_stop_timeout_s,
+            disable_timeout_s,
+            ..NodeSettings::default()
+        };
+        NodeCore::new(agile(), settings, None)
+    }
+
+    /// Liveness mode, timeout 0.5 s: engaged before the first message, free
+    /// while the publisher is heard (silent 0.4 s, and exactly 0.5 s),
+    /// engaged when silent 0.6 s, released by a fresh `false` without the
+    /// reset service; a `true` still latches until reset.
+    #[test]
+    fn a_silent_e_stop_publisher_engages_the_stop_in_liveness_mode() {
+        let mut n = with_settings(NominalSource::Constant, 0.5, 0.0);
+        let free = Twist::new(0.15, 0.0);
+        n.on_scan(meta(1.0), &open(), &[]);
+        // Start-up: nothing heard yet.
+        let t = n.tick(1.0);
+        assert_eq!((t.cmd, t.record.stop_cause), (Twist::ZERO, Some(StopCause::EStop)));
+        assert_eq!(t.e_stop_silence, Some(EStopSilence::NoneYet { timeout_s: 0.5 }));
+        assert!(t.e_stop && !t.e_stop_latched);
+        assert!(
+            t.stop_reason().starts_with("e_stop not heard yet"),
+            "{}",
+            t.stop_reason()
+        );
+        assert!(matches!(n.reset_e_stop(1.0), Err(ResetRefused::InputSilent(_))));
+        // The first false releases it; no reset needed.
+        n.on_e_stop(false, 1.0);
+        let t = n.tick(1.01);
+        assert_eq!((t.cmd, t.e_stop, t.e_stop_silence), (free, false, None));
+        // Silent 0.4 s, then exactly the timeout: alive.
+        n.on_scan(meta(1.4), &open(), &[]);
+        assert_eq!(n.tick(1.4).cmd, free);
+        assert_eq!(n.tick(1.5).cmd, free);
+        // Silent 0.6 s: engaged, and says why.
+        n.on_scan(meta(1.6), &open(), &[]);
+        let t = n.tick(1.6);
+        assert_eq!((t.cmd, t.record.stop_cause), (Twist::ZERO, Some(StopCause::EStop)));
+        match t.e_stop_silence {
+            Some(EStopSilence::Silent { age_s, timeout_s }) => {
+                assert!((age_s - 0.6).abs() < 1e-9 && timeout_s == 0.5, "{age_s} {timeout_s}")
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            t.stop_reason(),
+            "e_stop silent for 0.600 s (liveness timeout 0.500 s): stopped until a fresh false arrives"
+        );
+        assert_eq!(t.status_line(), format!("commanding a stop: {}", t.stop_reason()));
+        // A fresh false releases it.
+        n.on_e_stop(false, 1.65);
+        let t = n.tick(1.7);
+        assert_eq!((t.cmd, t.e_stop), (free, false));
+        // A true latches as ever: the false after it, then silence, then a fresh
+        // false leave it latched until reset.
+        n.on_e_stop(true, 1.8);
+        n.on_e_stop(false, 1.9);
+        n.on_scan(meta(2.4), &open(), &[]);
+        let t = n.tick(2.45);
+        assert!(t.e_stop_latched && t.e_stop_silence.is_some(), "{t:?}");
+        assert!(t
+            .stop_reason()
+            .starts_with("e-stop latched, and e_stop silent for 0.550 s"));
+        n.on_e_stop(false, 2.5);
+        let t = n.tick(2.5);
+        assert_eq!((t.cmd, t.e_stop_latched, t.e_stop_silence), (Twist::ZERO, true, None));
+        assert_eq!(t.stop_reason(), "e-stop latched");
+        n.reset_e_stop(2.5).unwrap();
+        assert_eq!(n.tick(2.55).cmd, free);
+    }
+
+    /// Liveness off (timeout 0, the default): today's rules, whatever the silence.
+    #[test]
+    fn without_liveness_an_e_stop_never_heard_or_silent_changes_nothing() {
+        let mut n = node(NominalSource::Constant);
+        assert_eq!(n.settings().e_stop_timeout_s, 0.0);
+        n.on_scan(meta(1.0), &open(), &[]);
+        assert_eq!(n.tick(1.0).cmd, Twist::new(0.15, 0.0), "never heard");
+        n.on_e_stop(false, 1.0);
+        n.on_scan(meta(100.0), &open(), &[]);
+        let t = n.tick(100.0);
+        assert_eq!(
+            (t.cmd, t.e_stop, t.e_stop_silence),
+            (Twist::new(0.15, 0.0), false, None)
+        );
+        assert_eq!(n.e_stop_silence(100.0), None);
+    }
+
+    /// `~enable false` with disable_timeout_s 2 s at 1.0 s lapses at 3.0 s;
+    /// renewed at 2.5 s it lapses at 4.5 s: passed through at 4.4 s,
+    /// filtered again at 4.5 s. With 0 it never lapses.
+    #[test]
+    fn a_disable_lapses_unless_renewed() {
+        // A wall 0.3 m ahead: the filter allows no forward motion; disabled, 0.2 m/s passes.
+        let mut wall = open();
+        for r in &mut wall[170..=190] {
+            *r = 0.3;
+        }
+        let step = |n: &mut NodeCore, now: f64| {
+            n.on_scan(meta(now), &wall, &[]);
+            n.on_cmd_in(Twist::new(0.2, 0.0), now);
+            n.tick(now)
+        };
+        let mut n = with_settings(NominalSource::CmdVelIn, 0.0, 2.0);
+        assert!(step(&mut n, 1.0).cmd.v_mps <= 0.0);
+        assert_eq!(n.set_enabled(false, 1.0), Some(3.0));
+        let t = step(&mut n, 2.0);
+        assert_eq!(
+            (t.cmd, t.filter_enabled, t.disable_lapses_at_s),
+            (Twist::new(0.2, 0.0), false, Some(3.0))
+        );
+        assert_eq!(n.set_enabled(false, 2.5), Some(4.5), "renewed");
+        for now in [3.1, 4.4] {
+            let t = step(&mut n, now);
+            assert_eq!((t.cmd, t.filter_enabled), (Twist::new(0.2, 0.0), false), "at {now} s");
+        }
+        let t = step(&mut n, 4.5);
+        assert!(t.filter_enabled && t.disable_lapses_at_s.is_none(), "{t:?}");
+        assert!(t.cmd.v_mps <= 0.0, "filtered again: {t:?}");
+        assert!(n.enabled());
+        // `~enable true` ends a disable early, and clears its deadline.
+        n.set_enabled(false, 5.0);
+        assert_eq!(n.set_enabled(true, 5.5), None);
+        assert!(step(&mut n, 8.0).filter_enabled);
+        // 0: never lapses.
+        let mut n = with_settings(NominalSource::CmdVelIn, 0.0, 0.0);
+        assert_eq!(n.set_enabled(false, 1.0), None);
+        let t = step(&mut n, 1000.0);
+        assert_eq!(
+            (t.filter_enabled, t.disable_lapses_at_s, t.cmd),
+            (false, None, Twist::new(0.2, 0.0))
+        );
+    }
+
+    /// A clock jump back by 5 s keeps the last e_stop message's age and the
+    /// disable's time left: heard at 10.0 s, ticked at 10.25 s, the clock
+    /// goes to 5.25 s: the message is 0.375 s old at 5.375 s (alive),
+    /// 0.625 s old at 5.625 s (silent); the disable due at 12.0 s is due at 7.0 s.
+    #[test]
+    fn a_clock_jump_back_keeps_the_e_stop_age_and_the_disable_time_left() {
+        let mut n = with_settings(NominalSource::CmdVelIn, 0.5, 2.0);
+        n.on_e_stop(false, 10.0);
+        n.set_enabled(false, 10.0);
+        n.on_scan(meta(10.0), &open(), &[]);
+        assert_eq!(n.tick(10.25).e_stop_silence, None);
+        let t = n.tick(5.25);
+        assert_eq!((t.e_stop_silence, t.disable_lapses_at_s), (None, Some(7.0)));
+        assert_eq!(n.tick(5.375).e_stop_silence, None);
+        assert!(matches!(
+            n.tick(5.625).e_stop_silence,
+            Some(EStopSilence::Silent { age_s, .. }) if (age_s - 0.625).abs() < 1e-9
+        ));
+        assert!(!n.tick(6.9).filter_enabled);
+        assert!(n.tick(7.0).filter_enabled);
     }
 
     #[test]
@@ -824,20 +1159,20 @@ mod tests {
         assert!((tick(&mut n, 0).v_mps - 0.05).abs() < 1e-9);
         assert!((tick(&mut n, 1).v_mps - 0.10).abs() < 1e-9);
         // Disabled, the node passes 0.2 through; the base follows it.
-        n.set_enabled(false);
+        n.set_enabled(false, 1.2);
         for k in 2..5 {
             assert_eq!(tick(&mut n, k), Twist::new(0.2, 0.0));
         }
         // Enabled again, the window starts from the 0.2 the base was sent: the safe
         // 0.2 goes on. Counted from the pipeline's own (ramping) output it would
         // have fallen back to 0.15 or below.
-        n.set_enabled(true);
+        n.set_enabled(true, 1.5);
         assert_eq!(tick(&mut n, 5), Twist::new(0.2, 0.0));
         // An e-stop sends zero; released, the filter ramps up again from zero.
-        n.on_e_stop(true);
+        n.on_e_stop(true, 1.6);
         assert_eq!(tick(&mut n, 6), Twist::ZERO);
-        n.on_e_stop(false);
-        n.reset_e_stop().unwrap();
+        n.on_e_stop(false, 1.7);
+        n.reset_e_stop(1.7).unwrap();
         assert!((tick(&mut n, 7).v_mps - 0.05).abs() < 1e-9);
     }
 
@@ -852,7 +1187,7 @@ mod tests {
         n.on_scan(meta(1.0), &ranges, &[]);
         n.on_cmd_in(Twist::new(0.2, 0.0), 1.0);
         assert!(n.tick(1.0).cmd.v_mps <= 0.0);
-        n.set_enabled(false);
+        n.set_enabled(false, 1.05);
         let t = n.tick(1.1);
         assert_eq!(t.cmd, Twist::new(0.2, 0.0));
         assert!(!t.filter_enabled);
@@ -1277,14 +1612,44 @@ mod tests {
             cmd_in_timeout_s: 0.0,
             odom_timeout_s: 61.0,
             base_frame: String::new(),
+            e_stop_timeout_s: -0.1,
+            disable_timeout_s: 3601.0,
+            hardware_id: "two\nlines".into(),
             ..NodeSettings::default()
         };
         let e = s.validate().unwrap_err();
         let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();
         assert_eq!(
             keys,
-            ["node.cmd_in_timeout_s", "node.odom_timeout_s", "node.base_frame"]
+            [
+                "node.cmd_in_timeout_s",
+                "node.odom_timeout_s",
+                "node.base_frame",
+                "node.e_stop_timeout_s",
+                "node.disable_timeout_s",
+                "node.hardware_id"
+            ]
         );
+        assert_eq!(
+            e[3].to_string(),
+            "key `node.e_stop_timeout_s` = -0.1 is out of range; allowed: [0, 60] s"
+        );
+        assert_eq!(
+            e[4].to_string(),
+            "key `node.disable_timeout_s` = 3601 is out of range; allowed: [0, 3600] s"
+        );
+        let s = NodeSettings {
+            e_stop_timeout_s: f64::NAN,
+            ..NodeSettings::default()
+        };
+        assert!(s.validate().is_err(), "NaN refused");
+        let s = NodeSettings {
+            e_stop_timeout_s: 0.0,
+            disable_timeout_s: 3600.0,
+            hardware_id: "front lidar".into(),
+            ..NodeSettings::default()
+        };
+        assert!(s.validate().is_ok(), "0 and 3600 s are allowed");
         assert_eq!(
             e[0].to_string(),
             "key `node.cmd_in_timeout_s` = 0 is out of range; allowed: (0, 60] s"

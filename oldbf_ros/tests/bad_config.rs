@@ -134,10 +134,20 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.publish_markers", "often"),
     ("node.scenario", "/no/such/scenario.yaml"),
     ("node.robot", "robot9"),
+    ("node.e_stop_timeout_s", "-0.5"),
+    ("node.disable_timeout_s", "3601"),
+    ("node.hardware_id", "\"two\\nlines\""),
 ];
 
 /// Free-text keys: any string is valid there (a wrong type still is not).
-const FREE_TEXT: &[&str] = &["node.base_frame", "node.scenario", "node.robot", "name", "description"];
+const FREE_TEXT: &[&str] = &[
+    "node.base_frame",
+    "node.scenario",
+    "node.robot",
+    "node.hardware_id",
+    "name",
+    "description",
+];
 
 /// Keys that may be left out.
 const OPTIONAL: &[&str] = &[];

@@ -2,7 +2,10 @@
 # Installs, if missing, the Debian packages the ROS tests use: ROS 1 core
 # tools, the message definitions and Python classes rostopic needs, genpy
 # (for oldbf_ros/BarrierState), catkin (the workspace build test), the
-# dynamic_reconfigure Python client, and rviz with Xvfb for the screenshot test.
+# dynamic_reconfigure Python client, rviz with Xvfb for the screenshot test,
+# and diagnostic_aggregator (the -tools package has aggregator_node; the -dev
+# package has its package.xml and analyzer plugin description, without which
+# roslaunch and pluginlib cannot find it).
 # python3-nav-msgs is left out on purpose (it pulls ~140 MB of boost -dev
 # packages); genmsg computes its md5 instead. Idempotent.
 set -Eeuo pipefail
@@ -11,7 +14,8 @@ APT=(ros-core ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-vi
      python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-diagnostic-msgs
      python3-visualization-msgs python3-tf2-msgs python3-std-srvs python3-rosgraph-msgs python3-genpy
      catkin python3-dynamic-reconfigure
-     rviz xvfb x11-apps netpbm)
+     rviz xvfb x11-apps netpbm
+     libdiagnostic-aggregator-tools libdiagnostic-aggregator-dev)
 missing=()
 for p in "${APT[@]}"; do
   [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)" = "install ok installed" ] || missing+=("$p")

@@ -1,5 +1,8 @@
 //! /diagnostics for the safety node: scan rate and age, filter activity,
-//! condition status, and why the robot is stopped, if it is.
+//! condition status, the e-stop and a disable (with when it lapses), and
+//! why the robot is stopped, if it is. One status, named `<node>: safety
+//! filter` (what `config/diagnostic_analyzers.yaml` matches), with the
+//! `hardware_id` the node chose (node/hardware_id, or the scan's frame).
 
 use super::msg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use crate::node_core::Tick;
@@ -58,11 +61,32 @@ fn kv(key: &str, value: impl ToString) -> KeyValue {
     }
 }
 
+/// What a disable does from `now_s`: until `~enable true`, or until it lapses.
+fn disable_text(now_s: f64, tick: &Tick) -> String {
+    match tick.disable_lapses_at_s {
+        Some(at_s) => format!(
+            "lapses in {:.1} s (at {at_s:.3} s) unless renewed",
+            (at_s - now_s).max(0.0)
+        ),
+        None => "until ~enable true".into(),
+    }
+}
+
 /// One DiagnosticArray for the node `name` at `now_s`.
-pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, activity: &Activity) -> DiagnosticArray {
+pub fn diagnostics(
+    name: &str,
+    hardware_id: &str,
+    stamp: rosrust::Time,
+    now_s: f64,
+    tick: &Tick,
+    activity: &Activity,
+) -> DiagnosticArray {
     let rec = &tick.record;
     let scan_age = now_s - tick.scan_stamp_s;
-    let (level, message) = if tick.e_stop {
+    // A silent lock is a fault (ERROR); a latch someone pressed is a state (WARN).
+    let (level, message) = if tick.e_stop_silence.is_some() {
+        (DiagnosticStatus::ERROR, format!("stopped: {}", tick.stop_reason()))
+    } else if tick.e_stop {
         (
             DiagnosticStatus::WARN,
             "e-stop latched: stopped until reset".to_string(),
@@ -74,7 +98,10 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
     } else if !tick.filter_enabled {
         (
             DiagnosticStatus::WARN,
-            "filter DISABLED: cmd_vel_in passes through".to_string(),
+            format!(
+                "filter DISABLED: cmd_vel_in passes through; {}",
+                disable_text(now_s, tick)
+            ),
         )
     } else if let Some(cause) = rec.stop_cause {
         (DiagnosticStatus::WARN, format!("stopped: {cause}"))
@@ -90,7 +117,7 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
         level,
         name: format!("{name}: safety filter"),
         message,
-        hardware_id: String::new(),
+        hardware_id: hardware_id.into(),
         values: vec![
             kv("scan_rate_hz", format!("{:.1}", activity.scan_rate_hz(now_s))),
             kv(
@@ -106,7 +133,26 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
             kv("filter_active_fraction", format!("{:.2}", activity.fraction(|t| t.1))),
             kv("condition_held_fraction", format!("{:.2}", activity.fraction(|t| t.2))),
             kv("h_m", format!("{:.3}", rec.h_m)),
+            kv(
+                "filter_disabled",
+                if tick.filter_enabled {
+                    String::new()
+                } else {
+                    disable_text(now_s, tick)
+                },
+            ),
+            kv(
+                "disable_lapses_in_s",
+                tick.disable_lapses_at_s
+                    .map(|at| format!("{:.1}", (at - now_s).max(0.0)))
+                    .unwrap_or_default(),
+            ),
             kv("e_stop", tick.e_stop),
+            kv("e_stop_latched", tick.e_stop_latched),
+            kv(
+                "e_stop_silent",
+                tick.e_stop_silence.map(|s| s.to_string()).unwrap_or_default(),
+            ),
             kv("stop_reason", rec.stop_cause.map(|c| c.to_string()).unwrap_or_default()),
             kv("scan_fault", tick.scan_fault.map(|f| f.code()).unwrap_or_default()),
             kv("nominal_source", tick.nominal_used),
@@ -128,4 +174,87 @@ pub fn diagnostics(name: &str, stamp: rosrust::Time, now_s: f64, tick: &Tick, ac
     };
     array.header.stamp = stamp;
     array
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::geometry::Twist;
+    use crate::algo::scan::ScanHeader;
+    use crate::algo::Params;
+    use crate::node_core::{NodeCore, NodeSettings};
+
+    fn status(n: &mut NodeCore, now_s: f64) -> DiagnosticStatus {
+        let header = ScanHeader {
+            stamp_s: now_s,
+            angle_min_rad: -std::f32::consts::PI,
+            angle_increment_rad: std::f32::consts::TAU / 360.0,
+            range_min_m: 0.12,
+            range_max_m: 3.5,
+        };
+        n.on_scan(header, &[f32::INFINITY; 360], &[]);
+        n.on_cmd_in(Twist::new(0.1, 0.0), now_s);
+        let tick = n.tick(now_s);
+        let stamp = rosrust::Time::default();
+        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default());
+        a.status.remove(0)
+    }
+
+    fn value<'a>(s: &'a DiagnosticStatus, key: &str) -> &'a str {
+        &s.values.iter().find(|kv| kv.key == key).unwrap().value
+    }
+
+    #[test]
+    fn the_status_names_the_node_and_its_hardware() {
+        let mut n = NodeCore::new(Params::default(), NodeSettings::default(), None);
+        let s = status(&mut n, 1.0);
+        assert_eq!(
+            (s.name.as_str(), s.hardware_id.as_str()),
+            ("/n: safety filter", "front_laser")
+        );
+        assert_eq!(s.level, DiagnosticStatus::OK);
+    }
+
+    /// Disabled at 1.0 s with disable_timeout_s 30: at 3.0 s it lapses in 28 s.
+    #[test]
+    fn a_disable_says_when_it_lapses() {
+        let settings = NodeSettings {
+            disable_timeout_s: 30.0,
+            ..NodeSettings::default()
+        };
+        let mut n = NodeCore::new(Params::default(), settings, None);
+        n.set_enabled(false, 1.0);
+        let s = status(&mut n, 3.0);
+        assert_eq!(s.level, DiagnosticStatus::WARN);
+        assert_eq!(
+            s.message,
+            "filter DISABLED: cmd_vel_in passes through; lapses in 28.0 s (at 31.000 s) unless renewed"
+        );
+        assert_eq!(value(&s, "disable_lapses_in_s"), "28.0");
+        let mut n = NodeCore::new(Params::default(), NodeSettings::default(), None);
+        n.set_enabled(false, 1.0);
+        let s = status(&mut n, 3.0);
+        assert_eq!(
+            s.message,
+            "filter DISABLED: cmd_vel_in passes through; until ~enable true"
+        );
+        assert_eq!(value(&s, "disable_lapses_in_s"), "");
+    }
+
+    #[test]
+    fn a_silent_e_stop_is_an_error_that_says_why() {
+        let settings = NodeSettings {
+            e_stop_timeout_s: 0.5,
+            ..NodeSettings::default()
+        };
+        let mut n = NodeCore::new(Params::default(), settings, None);
+        n.on_e_stop(false, 1.0);
+        let s = status(&mut n, 1.75);
+        assert_eq!(s.level, DiagnosticStatus::ERROR);
+        assert_eq!(
+            s.message,
+            "stopped: e_stop silent for 0.750 s (liveness timeout 0.500 s): stopped until a fresh false arrives"
+        );
+        assert_eq!((value(&s, "e_stop"), value(&s, "e_stop_latched")), ("true", "false"));
+    }
 }

@@ -169,6 +169,7 @@ pub fn markers(
     // Light blue: apart from the white scan points, and findable in a screenshot.
     label.color = color(LABEL_RGB[0], LABEL_RGB[1], LABEL_RGB[2], 1.0);
     label.text = match rec.stop_cause {
+        Some(_) if tick.e_stop_silence.is_some() => "STOP: e_stop silent".to_string(),
         Some(cause) if !rec.measured() || tick.e_stop => format!("STOP: {cause}"),
         _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
     };

@@ -3,7 +3,8 @@
 //! Topics (relative names, so `__ns:=` and remapping work):
 //! * subscribes `scan` (sensor_msgs/LaserScan), `odom` (nav_msgs/Odometry,
 //!   optional), `cmd_vel_in` (geometry_msgs/Twist, optional), `e_stop`
-//!   (std_msgs/Bool; true latches a stop); `scan` and `odom` are subscribed
+//!   (std_msgs/Bool; true latches a stop; with `node/e_stop_timeout_s` above
+//!   0 a silent publisher engages it too); `scan` and `odom` are subscribed
 //!   again when quiet for 3 s (then 6, 12, … up to 30 s apart): rosrust does
 //!   not retry a connection to a publisher that failed
 //!   ([`crate::resubscribe`]);
@@ -12,8 +13,9 @@
 //!   went out for a control period (so a stale scan still turns into a stop),
 //!   `~state` (oldbf_ros/BarrierState), `~markers`
 //!   (visualization_msgs/MarkerArray) and `/diagnostics` (1 Hz);
-//! * services `~enable` (std_srvs/SetBool: false = pass-through, reported)
-//!   and `~reset_e_stop` (std_srvs/Trigger);
+//! * services `~enable` (std_srvs/SetBool: false = pass-through, reported,
+//!   lapsing after `node/disable_timeout_s` unless renewed when that is
+//!   above 0) and `~reset_e_stop` (std_srvs/Trigger);
 //! * dynamic_reconfigure (`~set_parameters`, `~parameter_descriptions`,
 //!   `~parameter_updates`) for the parameters of
 //!   [`crate::reconfigure::RECONFIGURABLE`] (see [`super::reconfigure`]).
@@ -151,6 +153,9 @@ struct Node {
     /// The stop status last logged, and whether the robot was sent motion
     /// (None: nothing logged yet, so the first tick's is).
     last_status: Option<(Option<&'static str>, bool)>,
+    /// `hardware_id` of the diagnostics: `node/hardware_id`, or when that is
+    /// empty the latest scan's frame_id, or the node's name before a scan.
+    hardware_id: String,
     /// When a scan and odometry last arrived (s, [`mono_s`]).
     scan_heard: Option<f64>,
     odom_heard: Option<f64>,
@@ -184,9 +189,19 @@ impl Node {
         self.activity.ticked(now, &tick);
         // |Δ| so that a clock stepped back does not silence the diagnostics.
         if (now - self.last_diag).abs() >= 1.0 {
-            let _ = self
-                .diag_pub
-                .send(diagnostics(&self.name, time_from_s(now), now, &tick, &self.activity));
+            let hardware_id = if self.hardware_id.is_empty() {
+                &self.name
+            } else {
+                &self.hardware_id
+            };
+            let _ = self.diag_pub.send(diagnostics(
+                &self.name,
+                hardware_id,
+                time_from_s(now),
+                now,
+                &tick,
+                &self.activity,
+            ));
             self.last_diag = now;
         }
         // Log changes of stop status once (by kind: the details change every tick).
@@ -237,6 +252,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         diag_pub: rosrust::publish("/diagnostics", 10).map_err(RosError::doing("advertising /diagnostics"))?,
         settings: settings.clone(),
         name: rosrust::name(),
+        hardware_id: settings.hardware_id.clone(),
         activity: Activity::default(),
         last_diag: f64::NEG_INFINITY,
         last_status: None,
@@ -254,6 +270,10 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             let mut node = lock(&n);
             let now = now_s();
             node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
+            // The LiDAR's frame names the hardware, unless node/hardware_id does.
+            if node.settings.hardware_id.is_empty() && node.hardware_id != m.header.frame_id {
+                node.hardware_id.clone_from(&m.header.frame_id);
+            }
             node.activity.scan_arrived(now);
             node.scan_heard = Some(mono_s());
             node.tick(now);
@@ -288,41 +308,50 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         node.tick(now);
     })
     .map_err(RosError::doing("subscribing to cmd_vel_in"))?;
-    // An e-stop goes out at once too.
+    // An e-stop goes out at once too, and so does the release of a liveness
+    // stop by a fresh false.
     let n = node.clone();
     let _e_stop_sub = rosrust::subscribe("e_stop", 10, move |m: std_msgs::Bool| {
         let mut node = lock(&n);
-        node.core.on_e_stop(m.data);
-        if m.data {
-            let now = now_s();
+        let now = now_s();
+        let was_silent = node.core.e_stop_silence(now).is_some();
+        node.core.on_e_stop(m.data, now);
+        if m.data || was_silent {
             node.tick(now);
         }
     })
     .map_err(RosError::doing("subscribing to e_stop"))?;
     let n = node.clone();
     let _enable_srv = rosrust::service::<std_srvs::SetBool, _>("~enable", move |req| {
-        lock(&n).core.set_enabled(req.data);
-        let message = if req.data {
-            "safety filter enabled"
-        } else {
-            "safety filter DISABLED: pass-through"
+        let mut node = lock(&n);
+        let now = now_s();
+        let lapses_at = node.core.set_enabled(req.data, now);
+        let message = match (req.data, lapses_at) {
+            (true, _) => "safety filter enabled".to_string(),
+            (false, Some(at)) => format!(
+                "safety filter DISABLED: pass-through for {:.1} s (until {at:.3} s) unless renewed by another ~enable false",
+                at - now
+            ),
+            (false, None) => "safety filter DISABLED: pass-through until ~enable true".to_string(),
         };
         Ok(std_srvs::SetBoolRes {
             success: true,
-            message: message.into(),
+            message,
         })
     })
     .map_err(RosError::doing("advertising ~enable"))?;
     let n = node.clone();
     let _reset_srv = rosrust::service::<std_srvs::Trigger, _>("~reset_e_stop", move |_| {
-        Ok(match lock(&n).core.reset_e_stop() {
+        let mut node = lock(&n);
+        let now = now_s();
+        Ok(match node.core.reset_e_stop(now) {
             Ok(()) => std_srvs::TriggerRes {
                 success: true,
                 message: "e-stop released".into(),
             },
             Err(why) => std_srvs::TriggerRes {
                 success: false,
-                message: why.into(),
+                message: why.to_string(),
             },
         })
     })
@@ -356,6 +385,18 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         params.barrier.d_act_m(),
         settings.nominal_source
     );
+    if settings.e_stop_timeout_s > 0.0 {
+        log::info!(
+            "e_stop liveness on: silent for more than {} s, or not heard yet, engages the stop until a fresh false",
+            settings.e_stop_timeout_s
+        );
+    }
+    if settings.disable_timeout_s > 0.0 {
+        log::info!(
+            "~enable false lapses after {} s unless renewed",
+            settings.disable_timeout_s
+        );
+    }
     let name = rosrust::name();
     // The watchdog: polls a few times a period and ticks when nothing has
     // gone out for about a period (node_core::NodeCore::watchdog_due).
