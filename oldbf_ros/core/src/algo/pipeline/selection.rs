@@ -123,6 +123,7 @@ impl SafetyPipeline {
             target: heading.target,
             front_blocked: c.d_front_m < d_act,
             front_clear: c.d_front_m >= d_act + p.doaa.both_sides_release_m,
+            following: heading.following,
             clearer_side: clearer_side(c),
             closing_in: closing_in && p.passive.enabled,
             mover_closing: !self.threats.is_empty(),

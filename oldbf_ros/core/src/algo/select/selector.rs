@@ -64,6 +64,9 @@ pub struct SelectInput {
     pub front_blocked: bool,
     /// The front is clear again (beyond d_act and the release margin).
     pub front_clear: bool,
+    /// A way round is being followed (§4b): the nominal aims at its
+    /// waypoint, which has chosen the side to pass on.
+    pub following: bool,
     /// The side to pass something ahead on when nothing else says (+1 left,
     /// −1 right): the clearer side, then the less crowded, then the right
     /// (two robots head-on both keep right and pass).
@@ -197,10 +200,12 @@ impl Selector {
             Limits::driving(p)
         };
         let window = Window::new(input.last, input.since_s, &self.limits, &bx);
-        if self.side.is_some() && input.front_clear {
+        // A way round being followed has chosen the side already (its waypoint): a side
+        // kept against it would hold the robot back from the turn the way round asks for.
+        if self.side.is_some() && (input.front_clear || input.following) {
             self.side = None;
         }
-        if self.side.is_none() && input.front_blocked {
+        if self.side.is_none() && input.front_blocked && !input.following {
             // The side to pass on: the way the DOAA's law turns off the upstream's, else
             // the clearer side.
             let turn = input.doaa.omega_radps - input.nominal.omega_radps;
@@ -577,4 +582,74 @@ fn brake(last: Twist, window: &Window) -> Twist {
         0.0
     };
     Twist::new(v, omega.clamp(window.omega.0, window.omega.1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::passive::Mover;
+
+    /// One selection on `points` (robot frame, m, static) and `movers` for `input`.
+    fn select_on(sel: &mut Selector, points: &[Vec2], movers: &[Mover], input: &SelectInput, p: &Params) -> Selection {
+        let mut filter = DtcbfFilter::new();
+        let mut passive = PassiveSafety::with_capacity(4, points.len());
+        passive.set_movers(movers.iter().copied());
+        passive.prepare(points, p);
+        let g = Geometry {
+            points,
+            points_next: points,
+            filter: &mut filter,
+            passive: &mut passive,
+        };
+        sel.select(input, g, p)
+    }
+
+    #[test]
+    fn a_side_kept_gives_way_to_the_way_round_being_followed() {
+        // A post 0.55 m dead ahead (front blocked: d_front 0.55 − r 0.178 < d_act), and a
+        // person 1 m behind walking away at 0.1 m/s: within select.mover_near_m of the
+        // body, so the steering critics count, but no threat. The robot turns in place at
+        // 0.15 rad/s to the left.
+        let p = Params::default();
+        let points: Vec<Vec2> = (-3..=3).map(|k| Vec2::new(0.55, 0.02 * f64::from(k))).collect();
+        let person = [Mover {
+            position: Vec2::new(-1.0, 0.0),
+            velocity: Vec2::new(-0.1, 0.0),
+            radius_m: 0.2,
+        }];
+        let bx = InputBox::from_params(&p);
+        let last = Twist::new(0.0, 0.15);
+        let mut input = SelectInput {
+            nominal: Twist::new(0.0, 0.3),
+            doaa: Twist::new(0.0, 0.3),
+            doaa_both_sides: false,
+            last,
+            last_change: Twist::ZERO,
+            since_s: 0.1,
+            bx,
+            target: Some(Vec2::new(0.0, 1.0)),
+            front_blocked: true,
+            front_clear: false,
+            clearer_side: -1.0,
+            closing_in: false,
+            mover_closing: false,
+            following: false,
+        };
+        // Not following: the side is chosen (the DOAA turns as the upstream does, so the
+        // clearer side: the right) and held against the upstream's turn to the left:
+        // a turn of less than ω_max/2 = 0.15 rad/s to the right of 0.3 costs nothing,
+        // and 0.25 rad/s, the most the window allows (0.15 + 1.0 × 0.1), would cost
+        // (0.15 − 0.05)/0.3 = 1/3 of the side weight.
+        let mut sel = Selector::with_capacity(points.len(), &p);
+        let s = select_on(&mut sel, &points, &person, &input, &p);
+        assert_eq!(sel.side(), Some(-1.0));
+        assert!(s.guided && s.cmd.omega_radps < 0.2, "{s:?}");
+        // Following a way round whose waypoint is to the left: no side is kept against
+        // it, and the robot speeds up its turn towards it (the window's top sample
+        // but for smoothness).
+        input.following = true;
+        let s = select_on(&mut sel, &points, &person, &input, &p);
+        assert_eq!(sel.side(), None);
+        assert!(s.guided && s.cmd.omega_radps > 0.2 && s.cmd.v_mps.abs() < 1e-9, "{s:?}");
+    }
 }
