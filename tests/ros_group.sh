@@ -201,7 +201,8 @@ t_latency() {
   # A base that can change its command at once (the window holds the whole input box): each
   # scan's kind of command can then be sent on that scan, which is what is traced.
   node=$(spawn latency_node "$BIN/oldbf_node" __ns:=/t_latency _node/nominal_source:=constant \
-    _control/accel_mps2:=100.0 _control/decel_mps2:=100.0 _control/angular_accel_radps2:=1000.0)
+    _control/accel_mps2:=100.0 _control/decel_mps2:=100.0 _control/angular_accel_radps2:=1000.0 \
+    _passive/evasion_accel_mps2:=100.0 _passive/evasion_angular_accel_radps2:=1000.0)
   wait_log "$LOG/latency_node.log" "filtering at" 10 || return 1
   s=$($ROSPY tests/ros/latency_probe.py /t_latency 200)
   stop_pid "$node"

@@ -890,6 +890,8 @@ mod tests {
         p.control.accel_mps2 = 100.0;
         p.control.decel_mps2 = 100.0;
         p.control.angular_accel_radps2 = 1000.0;
+        p.passive.evasion_accel_mps2 = 100.0;
+        p.passive.evasion_angular_accel_radps2 = 1000.0;
         p
     }
 
