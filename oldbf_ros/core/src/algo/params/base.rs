@@ -92,9 +92,12 @@ mod tests {
         assert_eq!(Params::default().base_conflicts(&burger()), vec![]);
     }
 
+    /// The filter's key, the base's key, and a change that puts the first above the second.
+    type Case = (&'static str, BaseKey, fn(&mut Params));
+
     #[test]
     fn each_filter_setting_above_the_base_is_named_with_the_base_key() {
-        let cases: [(&str, BaseKey, fn(&mut Params)); 8] = [
+        let cases: [Case; 8] = [
             ("control.v_max_mps", BaseKey::VMax, |p| p.control.v_max_mps = 0.3),
             ("control.v_reverse_max_mps", BaseKey::VReverseMax, |p| {
                 p.control.v_reverse_max_mps = 0.25
