@@ -371,7 +371,9 @@ t_params() {
 }
 
 t_baselimits() {
-  local l rc shipped=$ROOT/config/base_limits.yaml soft=$LOG/soft_base_limits.yaml
+  local l rc f b shipped=$ROOT/config/base_limits.yaml soft=$LOG/soft_base_limits.yaml
+  # name cmd...: runs a node to its exit (at most 20 s), output in $LOG/name.log; prints its exit status.
+  exit_of() { local name=$1; shift; timeout 20 "$@" > "$LOG/$name.log" 2>&1 && echo 0 || echo $?; }
   # The shipped file: the filter starts.
   l=$(spawn base_ok roslaunch --wait oldbf_ros oldbf.launch ns:=/t_base_a base_limits:="$shipped")
   wait_log "$LOG/base_ok.log" "filtering at" 15 || { stop_pid "$l"; say "  oldbf_node did not start with the shipped base limits"; return 1; }
@@ -380,35 +382,24 @@ t_baselimits() {
   # A base that brakes at only 0.8 m/s²: the filter's braking check (1.0) would assume more.
   sed 's/^  decel_mps2: 1.0 /  decel_mps2: 0.8 /' "$shipped" > "$soft"
   check "$(grep -q '^  decel_mps2: 0.8 ' "$soft" && echo true)" "could not write $soft" || return 1
-  set +e
-  timeout 20 "$BIN/oldbf_node" __ns:=/t_base_b _node/base_limits_file:="$soft" > "$LOG/base_filter_refused.log" 2>&1
-  rc=$?
-  set -e
-  check "$([ $rc = 2 ] && grep -q 'control.decel_mps2' "$LOG/base_filter_refused.log" \
+  rc=$(exit_of base_filter_refused "$BIN/oldbf_node" __ns:=/t_base_b _node/base_limits_file:="$soft")
+  check "$([ "$rc" = 2 ] && grep -q 'control.decel_mps2' "$LOG/base_filter_refused.log" \
     && grep -q 'base.decel_mps2' "$LOG/base_filter_refused.log" && echo true)" "oldbf_node, soft base: exit $rc" || return 1
   # shellcheck disable=SC2016 # the backticks are literal: they quote the keys in the message
   figure "baselimits: oldbf_node exit $rc: $(grep -o 'key `control.decel_mps2`.*' "$LOG/base_filter_refused.log" | head -1)"
   # The bridge: a ramp softened to 20 rad/s² at the wheel (0.66 m/s²) against the shipped base.
-  set +e
-  timeout 20 "$BIN/can_bridge_node" __ns:=/t_base_c _node/base_limits_file:="$shipped" \
-    _limits/wheel_decel_radps2:=20.0 > "$LOG/base_bridge_refused.log" 2>&1
-  rc=$?
-  set -e
-  check "$([ $rc = 2 ] && grep -q 'limits.wheel_decel_radps2' "$LOG/base_bridge_refused.log" \
+  rc=$(exit_of base_bridge_refused "$BIN/can_bridge_node" __ns:=/t_base_c _node/base_limits_file:="$shipped" \
+    _limits/wheel_decel_radps2:=20.0)
+  check "$([ "$rc" = 2 ] && grep -q 'limits.wheel_decel_radps2' "$LOG/base_bridge_refused.log" \
     && grep -q 'base.decel_mps2' "$LOG/base_bridge_refused.log" && echo true)" "can_bridge_node, soft ramp: exit $rc" || return 1
   # shellcheck disable=SC2016
   figure "baselimits: can_bridge_node exit $rc: $(grep -o 'key `limits.wheel_decel_radps2`.*' "$LOG/base_bridge_refused.log" | head -1)"
   # The shipped bridge passes the check; it then stops at the CAN interface this kernel lacks.
-  set +e
-  timeout 20 "$BIN/can_bridge_node" __ns:=/t_base_d _node/base_limits_file:="$shipped" _interface:=vcan0 \
-    > "$LOG/base_bridge_ok.log" 2>&1
-  rc=$?
-  set -e
-  check "$([ $rc != 2 ] && ! grep -q 'base.decel_mps2' "$LOG/base_bridge_ok.log" && echo true)" \
+  rc=$(exit_of base_bridge_ok "$BIN/can_bridge_node" __ns:=/t_base_d _node/base_limits_file:="$shipped" _interface:=vcan0)
+  check "$([ "$rc" != 2 ] && ! grep -q 'base.decel_mps2' "$LOG/base_bridge_ok.log" && echo true)" \
     "can_bridge_node, shipped base: exit $rc: $(tail -2 "$LOG/base_bridge_ok.log")" || return 1
   # bringup.launch loads the same file into both nodes.
   roslaunch --dump-params oldbf_ros bringup.launch > "$LOG/base_bringup_params.yaml"
-  local f b
   f=$(grep -o "/oldbf_node/node/base_limits_file: .*" "$LOG/base_bringup_params.yaml" | sed 's/^[^:]*: //' | tr -d "'")
   b=$(grep -o "/can_bridge_node/node/base_limits_file: .*" "$LOG/base_bringup_params.yaml" | sed 's/^[^:]*: //' | tr -d "'")
   check "$([ -n "$f" ] && [ "$f" = "$b" ] && [ "$(basename "$f")" = base_limits.yaml ] && echo true)" \
