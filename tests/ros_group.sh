@@ -56,6 +56,15 @@
 #              commands produced, none NaN
 #   params     YAML params, a roslaunch override, bad values and unknown keys
 #              -> the node exits naming the key
+#   baselimits one set of base limits (config/base_limits.yaml): oldbf_node
+#              starts with the shipped file (oldbf.launch base_limits:=…); with
+#              a base that brakes at only 0.8 m/s² it exits 2 naming
+#              control.decel_mps2 and base.decel_mps2; can_bridge_node with a
+#              bridge ramp of 20 rad/s² (0.66 m/s²) exits 2 naming
+#              limits.wheel_decel_radps2 and base.decel_mps2 (the check comes
+#              before the CAN interface is opened), and with the shipped file
+#              passes it (then stops at the missing CAN interface); bringup.launch
+#              gives both nodes the same file (roslaunch --dump-params)
 #   multi      multi_robot.launch (two_robots, the symmetric crossing) 5 times: both robots reach
 #              their goals every time, 0 collisions, topics namespaced
 #   carmen     the real CARMEN log played as LaserScans into the node
@@ -69,7 +78,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan sim stale latency ticks clock simtime locks diagnostics reconfigure bag params multi carmen shutdown catkin rviz)
+ALL=(md5 scan sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -360,6 +369,43 @@ t_params() {
   local rc=$?
   set -e
   check "$([ $rc = 2 ] && grep -q 'dtcbf.gamma' "$LOG/params_cli.log" && echo true)" "_dtcbf/gamma:=2.0: exit $rc"
+}
+
+t_baselimits() {
+  local l rc f b shipped=$ROOT/config/base_limits.yaml soft=$LOG/soft_base_limits.yaml
+  # name cmd...: runs a node to its exit (at most 20 s), output in $LOG/name.log; prints its exit status.
+  exit_of() { local name=$1; shift; timeout 20 "$@" > "$LOG/$name.log" 2>&1 && echo 0 || echo $?; }
+  # The shipped file: the filter starts.
+  l=$(spawn base_ok roslaunch --wait oldbf_ros oldbf.launch ns:=/t_base_a base_limits:="$shipped")
+  wait_log "$LOG/base_ok.log" "filtering at" 15 || { stop_pid "$l"; say "  oldbf_node did not start with the shipped base limits"; return 1; }
+  stop_pid "$l"
+  check "$(grep -q 'exit code 2' "$LOG/base_ok.log" && echo false || echo true)" "shipped base limits refused" || return 1
+  # A base that brakes at only 0.8 m/s²: the filter's braking check (1.0) would assume more.
+  sed 's/^  decel_mps2: 1.0 /  decel_mps2: 0.8 /' "$shipped" > "$soft"
+  check "$(grep -q '^  decel_mps2: 0.8 ' "$soft" && echo true)" "could not write $soft" || return 1
+  rc=$(exit_of base_filter_refused "$BIN/oldbf_node" __ns:=/t_base_b _node/base_limits_file:="$soft")
+  check "$([ "$rc" = 2 ] && grep -q 'control.decel_mps2' "$LOG/base_filter_refused.log" \
+    && grep -q 'base.decel_mps2' "$LOG/base_filter_refused.log" && echo true)" "oldbf_node, soft base: exit $rc" || return 1
+  # shellcheck disable=SC2016 # the backticks are literal: they quote the keys in the message
+  figure "baselimits: oldbf_node exit $rc: $(grep -o 'key `control.decel_mps2`.*' "$LOG/base_filter_refused.log" | head -1)"
+  # The bridge: a ramp softened to 20 rad/s² at the wheel (0.66 m/s²) against the shipped base.
+  rc=$(exit_of base_bridge_refused "$BIN/can_bridge_node" __ns:=/t_base_c _node/base_limits_file:="$shipped" \
+    _limits/wheel_decel_radps2:=20.0)
+  check "$([ "$rc" = 2 ] && grep -q 'limits.wheel_decel_radps2' "$LOG/base_bridge_refused.log" \
+    && grep -q 'base.decel_mps2' "$LOG/base_bridge_refused.log" && echo true)" "can_bridge_node, soft ramp: exit $rc" || return 1
+  # shellcheck disable=SC2016
+  figure "baselimits: can_bridge_node exit $rc: $(grep -o 'key `limits.wheel_decel_radps2`.*' "$LOG/base_bridge_refused.log" | head -1)"
+  # The shipped bridge passes the check; it then stops at the CAN interface this kernel lacks.
+  rc=$(exit_of base_bridge_ok "$BIN/can_bridge_node" __ns:=/t_base_d _node/base_limits_file:="$shipped" _interface:=vcan0)
+  check "$([ "$rc" != 2 ] && ! grep -q 'base.decel_mps2' "$LOG/base_bridge_ok.log" && echo true)" \
+    "can_bridge_node, shipped base: exit $rc: $(tail -2 "$LOG/base_bridge_ok.log")" || return 1
+  # bringup.launch loads the same file into both nodes.
+  roslaunch --dump-params oldbf_ros bringup.launch > "$LOG/base_bringup_params.yaml"
+  f=$(grep -o "/oldbf_node/node/base_limits_file: .*" "$LOG/base_bringup_params.yaml" | sed 's/^[^:]*: //' | tr -d "'")
+  b=$(grep -o "/can_bridge_node/node/base_limits_file: .*" "$LOG/base_bringup_params.yaml" | sed 's/^[^:]*: //' | tr -d "'")
+  check "$([ -n "$f" ] && [ "$f" = "$b" ] && [ "$(basename "$f")" = base_limits.yaml ] && echo true)" \
+    "bringup.launch: filter '$f', bridge '$b'" || return 1
+  figure "baselimits: bringup.launch gives both nodes $f"
 }
 
 t_multi() {

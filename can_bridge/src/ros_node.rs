@@ -23,7 +23,10 @@
 //!
 //! Parameters: the keys of `config/can_bridge.yaml` in the node's private
 //! namespace plus `node/...` (config/can_bridge_node.yaml), checked like the
-//! file (a bad or unknown key: exit status 2 naming it). SIGINT/SIGTERM: a
+//! file (a bad or unknown key: exit status 2 naming it). With
+//! `node/base_limits_file`, a ramp or clamp that contradicts the base's
+//! limits (`config/base_limits.yaml`) is refused the same way, naming the
+//! bridge's key and the base's. SIGINT/SIGTERM: a
 //! zero setpoint, then the drive disabled, then exit 0. The bridge's own
 //! watchdog zeroes the wheels if `cmd_vel` stops, whatever this node does.
 //! The master lost: logged, the node runs on (cmd_vel flows peer to peer,
@@ -45,7 +48,9 @@ use crate::ros_msgs::oldbf_ros::{SdoRead, SdoReadRes, SdoWrite, SdoWriteRes};
 use crate::ros_msgs::sensor_msgs::JointState;
 use crate::socketcan_bus::SocketCanBus;
 use crate::time::{Clock, MonotonicClock};
-use oldbf::config::{load_value, merge, Checker, ConfigError, Interval, Validate};
+use oldbf::config::{
+    load_base_limits_file, load_value, merge, BaseLimits, BaseLimitsConflict, Checker, ConfigError, Interval, Validate,
+};
 use oldbf_ros::ros::convert::{quaternion_from_yaw, time_from_s};
 use oldbf_ros::ros::leave_master::leave_master;
 use oldbf_ros::ros::lifecycle::{self, now_s, MasterHealth, MasterWatch};
@@ -75,6 +80,9 @@ pub struct NodeSettings {
     pub left_wheel_joint: String,
     /// The right wheel's joint in `joint_states`.
     pub right_wheel_joint: String,
+    /// The base's limits (`config/base_limits.yaml`, shared with the safety
+    /// filter) the bridge's ramps and clamps must agree with; empty: none.
+    pub base_limits_file: String,
 }
 
 impl Default for NodeSettings {
@@ -86,6 +94,7 @@ impl Default for NodeSettings {
             odom_rate_hz: 50.0,
             left_wheel_joint: "wheel_left_joint".into(),
             right_wheel_joint: "wheel_right_joint".into(),
+            base_limits_file: String::new(),
         }
     }
 }
@@ -183,7 +192,18 @@ pub fn config_from_params(ns: Value, source: &str) -> Result<(BridgeConfig, Node
     let mut bridge = serde_yaml::to_value(default_config()).map_err(|e| ConfigError::at(source, "", e.to_string()))?;
     merge(&mut bridge, &ns);
     let cfg: BridgeConfig = load_value(bridge, source, "")?;
+    if let Some(base) = base_limits(&settings)? {
+        BaseLimitsConflict::check(source, &settings.base_limits_file, cfg.base_conflicts(&base))?;
+    }
     Ok((cfg, settings))
+}
+
+/// The base's limits named by `node.base_limits_file`, if any.
+fn base_limits(settings: &NodeSettings) -> Result<Option<BaseLimits>, ConfigError> {
+    match settings.base_limits_file.as_str() {
+        "" => Ok(None),
+        file => load_base_limits_file(std::path::Path::new(file)).map(Some),
+    }
 }
 
 /// Why the node could not run.
@@ -354,6 +374,12 @@ pub fn run() -> i32 {
         Ok(c) => c,
         Err(e) => return invalid(&e),
     };
+    // Disagreements with the base that break no safety assumption: said, not refused.
+    if let Ok(Some(base)) = base_limits(&settings) {
+        for note in cfg.base_notes(&base) {
+            log::warn!("{source}: {note} ({})", settings.base_limits_file);
+        }
+    }
     match run_connected(cfg, settings, &stop) {
         Ok(true) => 0,
         Ok(false) => 1,
@@ -681,5 +707,31 @@ mod tests {
         assert_eq!(e.keys(), ["node.publish_tf"], "{e}");
         let e = config_from_params(Value::from(3), "P").unwrap_err();
         assert!(e.to_string().starts_with("P: expected a mapping"), "{e}");
+    }
+
+    #[test]
+    fn a_ramp_that_contradicts_the_base_limits_file_is_refused_naming_both_keys() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let shipped = root.join("config/base_limits.yaml");
+        let ns = |extra: &str| -> Value {
+            serde_yaml::from_str(&format!("{extra}node: {{base_limits_file: '{}'}}", shipped.display())).unwrap()
+        };
+        let (_, node) = config_from_params(ns(""), "P").expect("the shipped bridge and base agree");
+        assert_eq!(node.base_limits_file, shipped.display().to_string());
+        // 20 rad/s² × 0.033 m = 0.66 m/s², below the base's 1.0 m/s².
+        let e = config_from_params(ns("limits: {wheel_decel_radps2: 20.0}\n"), "ROS parameters of /b").unwrap_err();
+        assert!(matches!(e, ConfigError::BaseLimits(_)), "{e:?}");
+        assert_eq!(e.keys(), ["limits.wheel_decel_radps2", "base.decel_mps2"]);
+        assert!(
+            e.to_string()
+                .starts_with("ROS parameters of /b: key `limits.wheel_decel_radps2` = 20 rad/s²"),
+            "{e}"
+        );
+        // Without a file the same ramp is accepted (today's behaviour).
+        let soft: Value = serde_yaml::from_str("limits: {wheel_decel_radps2: 20.0}").unwrap();
+        config_from_params(soft, "P").unwrap();
+        let missing: Value = serde_yaml::from_str("node: {base_limits_file: /no/such/base.yaml}").unwrap();
+        let e = config_from_params(missing, "P").unwrap_err();
+        assert!(e.to_string().starts_with("/no/such/base.yaml: cannot read"), "{e}");
     }
 }

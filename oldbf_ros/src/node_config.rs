@@ -7,7 +7,9 @@
 //! exactly like a file: unknown keys, wrong types and out-of-range values are
 //! errors that name the key. If `node.scenario` names a scenario file, its
 //! nominal command (the reference of `node.robot`) and its `oldbf:`
-//! overrides apply, so the simulator and the node read one definition.
+//! overrides apply, so the simulator and the node read one definition. If
+//! `node.base_limits_file` names the base's limits (`config/base_limits.yaml`),
+//! the resulting parameters may not assume more than the base can do.
 
 use crate::algo::geometry::Twist;
 use crate::algo::reference::ReferenceTrajectory;
@@ -15,12 +17,15 @@ use crate::algo::Params;
 use crate::config::{self, ConfigError};
 use crate::node_core::NodeSettings;
 use crate::sim::scenario::Scenario;
-use oldbf::config::Validate;
+use oldbf::config::{load_base_limits_file, BaseLimitsConflict, Validate};
 use serde_yaml::Value;
 use std::path::Path;
 
 /// The shipped node settings file.
 pub const DEFAULT_NODE_YAML: &str = include_str!("../../config/oldbf_node.yaml");
+
+/// The shipped base limits (`config/base_limits.yaml`), for the tests.
+pub const DEFAULT_BASE_LIMITS_YAML: &str = include_str!("../../config/base_limits.yaml");
 
 /// Everything oldbf_node needs to start.
 #[derive(Debug, Clone)]
@@ -62,15 +67,36 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
 
     let (mut params_value, _) = config::base_params_value(None)?;
     config::merge(&mut params_value, &ns);
-    if settings.scenario.is_empty() {
+    let c = if settings.scenario.is_empty() {
         let params = config::params_from_value(params_value, source, "")?;
-        return Ok(NodeConfig {
+        NodeConfig {
             params,
             settings,
             reference: None,
             constant: None,
-        });
+        }
+    } else {
+        with_scenario(params_value, settings, source)?
+    };
+    check_base_limits(&c, source)?;
+    Ok(c)
+}
+
+/// The filter's parameters (the scenario's overrides included) against the
+/// base's limits, when `node.base_limits_file` names a file: a conflict
+/// names the filter's key and the base's, and the node does not start.
+fn check_base_limits(c: &NodeConfig, source: &str) -> Result<(), ConfigError> {
+    let file = &c.settings.base_limits_file;
+    if file.is_empty() {
+        return Ok(());
     }
+    let base = load_base_limits_file(Path::new(file))?;
+    BaseLimitsConflict::check(source, file, c.params.base_conflicts(&base))?;
+    Ok(())
+}
+
+/// The parameters with a scenario's overrides, and its nominal command.
+fn with_scenario(params_value: Value, settings: NodeSettings, source: &str) -> Result<NodeConfig, ConfigError> {
     // Check the parameters on their own first, so their errors name the server.
     config::params_from_value(params_value.clone(), source, "")?;
     let scenario = Scenario::load_over(Path::new(&settings.scenario), params_value)?;
@@ -160,6 +186,51 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("/no/such.yaml"));
+    }
+
+    #[test]
+    fn the_shipped_base_limits_agree_and_a_contradiction_names_both_keys() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let shipped = root.join("config/base_limits.yaml");
+        let ns = yaml(&format!("node: {{base_limits_file: '{}'}}", shipped.display()));
+        node_config_from_params(ns, "P").expect("the shipped filter and base limits agree");
+        // Braking the base cannot do: 1.5 m/s² assumed, 1.0 m/s² guaranteed.
+        let ns = yaml(&format!(
+            "control: {{decel_mps2: 1.5}}\nnode: {{base_limits_file: '{}'}}",
+            shipped.display()
+        ));
+        let e = node_config_from_params(ns, "ROS parameters of /n").unwrap_err();
+        assert!(matches!(e, ConfigError::BaseLimits(_)), "{e:?}");
+        assert_eq!(e.keys(), ["control.decel_mps2", "base.decel_mps2"]);
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "ROS parameters of /n: key `control.decel_mps2` = 1.5 m/s² is above `base.decel_mps2` = 1 m/s² \
+                 of the base's limits: the braking check would assume braking the base cannot do ({})",
+                shipped.display()
+            )
+        );
+        // Without a file nothing is compared (today's behaviour).
+        node_config_from_params(yaml("control: {decel_mps2: 1.5}"), "P").unwrap();
+        // A scenario's overrides are what is compared.
+        let dir = std::env::temp_dir().join(format!("oldbf-base-limits-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let soft = dir.join("soft_base.yaml");
+        std::fs::write(
+            &soft,
+            DEFAULT_BASE_LIMITS_YAML.replace("accel_mps2: 2.5", "accel_mps2: 2.0"),
+        )
+        .unwrap();
+        let ns = yaml(&format!("node: {{base_limits_file: '{}'}}", soft.display()));
+        let e = node_config_from_params(ns, "P").unwrap_err();
+        assert_eq!(e.keys(), ["passive.evasion_accel_mps2", "base.accel_mps2"], "{e}");
+        let ns = yaml("node: {base_limits_file: /no/such/base_limits.yaml}");
+        let e = node_config_from_params(ns, "P").unwrap_err();
+        assert!(
+            e.to_string().starts_with("/no/such/base_limits.yaml: cannot read"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -108,6 +108,9 @@ pub struct NodeSettings {
     /// `frame_id` of the latest scan (the LiDAR it watches), or the node's
     /// name before the first scan.
     pub hardware_id: String,
+    /// The base's limits (`config/base_limits.yaml`) the filter's settings
+    /// must not exceed; empty: none checked.
+    pub base_limits_file: String,
 }
 
 impl Default for NodeSettings {
@@ -123,6 +126,7 @@ impl Default for NodeSettings {
             e_stop_timeout_s: 0.0,
             disable_timeout_s: 0.0,
             hardware_id: String::new(),
+            base_limits_file: String::new(),
         }
     }
 }

@@ -137,6 +137,7 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.e_stop_timeout_s", "-0.5"),
     ("node.disable_timeout_s", "3601"),
     ("node.hardware_id", "\"two\\nlines\""),
+    ("node.base_limits_file", "/no/such/base_limits.yaml"),
 ];
 
 /// Free-text keys: any string is valid there (a wrong type still is not).
@@ -145,6 +146,7 @@ const FREE_TEXT: &[&str] = &[
     "node.scenario",
     "node.robot",
     "node.hardware_id",
+    "node.base_limits_file",
     "name",
     "description",
 ];
@@ -266,6 +268,12 @@ fn node_settings_every_key_has_a_row_and_bad_values_name_the_key() {
     let load = |d: Value| node_config_from_params(d, src).map(|_| ()).map_err(|e| e.to_string());
     load(shipped.clone()).expect("the shipped settings load");
     for (key, bad) in NODE_ROWS {
+        if *key == "node.base_limits_file" {
+            let e = load(with(&shipped, &path(key), bad)).expect_err("missing base limits accepted");
+            // The base-limits file itself is named: it cannot be read.
+            assert!(e.contains("/no/such/base_limits.yaml: cannot read"), "{e}");
+            continue;
+        }
         if *key == "node.scenario" {
             let e = load(with(&shipped, &path(key), bad)).expect_err("missing scenario accepted");
             // The scenario file itself is named: it cannot be read.

@@ -8,8 +8,10 @@
 //!
 //! One concept per file: the sections and loading here, the value rules in
 //! `checks.rs`, the `cia402:` section (settings and rules) in `cia402.rs`,
-//! the `odometry:` noise model in `odometry.rs`.
+//! the `odometry:` noise model in `odometry.rs`, the rules against the base's
+//! own limits (`config/base_limits.yaml`) in `base_limits.rs`.
 
+mod base_limits;
 mod checks;
 mod cia402;
 mod odometry;

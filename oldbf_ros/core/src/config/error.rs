@@ -1,5 +1,6 @@
 //! A configuration file that cannot be used, naming the file and the keys.
 
+use super::base_limits::BaseLimitsConflict;
 use super::param_error::ParamError;
 use std::fmt;
 
@@ -35,6 +36,10 @@ pub enum ConfigError {
         /// Each value, key and rule, in check order.
         errors: Vec<ParamError>,
     },
+    /// Settings that contradict the base's limits (`config/base_limits.yaml`):
+    /// each conflict names the node's key and the base's.
+    #[error(transparent)]
+    BaseLimits(#[from] BaseLimitsConflict),
 }
 
 impl ConfigError {
@@ -67,16 +72,19 @@ impl ConfigError {
     pub fn file(&self) -> &str {
         match self {
             ConfigError::Io { file, .. } | ConfigError::Parse { file, .. } | ConfigError::Invalid { file, .. } => file,
+            ConfigError::BaseLimits(e) => &e.settings,
         }
     }
 
     /// The keys this error is about: none for `Io`, the one of `Parse` (empty
-    /// or `.` for the document), each invalid value's for `Invalid`.
+    /// or `.` for the document), each invalid value's for `Invalid`, each
+    /// conflict's own key and base key for `BaseLimits`.
     pub fn keys(&self) -> Vec<&str> {
         match self {
             ConfigError::Io { .. } => vec![],
             ConfigError::Parse { key, .. } => vec![key.as_str()],
             ConfigError::Invalid { errors, .. } => errors.iter().map(|e| e.key.as_str()).collect(),
+            ConfigError::BaseLimits(e) => e.keys(),
         }
     }
 }

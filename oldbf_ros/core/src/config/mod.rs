@@ -55,12 +55,17 @@
 //! assert_eq!(e.keys(), ["timing.rate_hz"]);
 //! ```
 
+mod base_limits;
 mod check;
 mod error;
 mod interval;
 mod param_error;
 mod yaml;
 
+pub use base_limits::{
+    load_base_limits_file, load_base_limits_str, BaseKey, BaseLimits, BaseLimitsConflict, LimitCheck, LimitConflict,
+    Relation,
+};
 pub use check::{Checker, Validate};
 pub use error::ConfigError;
 pub use interval::Interval;

@@ -10,6 +10,7 @@ pub use crate::config::ParamError;
 use crate::config::Validate;
 use serde::{Deserialize, Serialize};
 
+mod base;
 mod baselines;
 mod checks;
 mod filter;
