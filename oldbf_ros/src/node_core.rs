@@ -58,7 +58,6 @@ use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
 use oldbf::config::{Checker, Interval, Validate};
 use serde::{Deserialize, Serialize};
-use std::cmp::Ordering;
 use std::fmt;
 
 /// Where the nominal command comes from.
@@ -620,7 +619,8 @@ impl NodeCore {
             None => Some(EStopSilence::NoneYet { timeout_s }),
             Some(at_s) => {
                 let age_s = now_s - at_s;
-                let alive = matches!(age_s.partial_cmp(&timeout_s), Some(Ordering::Less | Ordering::Equal));
+                // Not a number compares false: silent.
+                let alive = age_s <= timeout_s;
                 (!alive).then_some(EStopSilence::Silent { age_s, timeout_s })
             }
         }
@@ -673,8 +673,9 @@ impl NodeCore {
     /// A disable whose time is up ends: the filter is on again. Not a
     /// number counts as up.
     fn lapse_disable(&mut self, now_s: f64) {
-        let before = |until_s: f64| now_s.partial_cmp(&until_s) == Some(Ordering::Less);
-        if let Some(until_s) = self.disabled_until_s.filter(|&u| !before(u)) {
+        // Not a number compares false: up.
+        let running = |until_s: f64| now_s < until_s;
+        if let Some(until_s) = self.disabled_until_s.filter(|&u| !running(u)) {
             log::warn!(
                 "safety filter ENABLED: `~enable false` lapsed at {until_s:.3} s, not renewed within {:.3} s",
                 self.settings.disable_timeout_s
