@@ -1,0 +1,282 @@
+//! The rolling local map (ALGORITHM.md §4c): occupied, free and unknown
+//! cells around the robot, built from recent scans at the robot's pose in
+//! the tracking frame (odometry, or dead reckoning from the commands sent).
+//!
+//! * A scan's ray clears the cells it crosses (seen free at the scan's
+//!   time), short of its end by [`CLEAR_SHORT_CELLS`] cells, and marks its
+//!   end cell seen occupied; within one scan a hit wins over a ray that
+//!   grazes it. The points given are the scan's less those of moving tracks
+//!   (a person walking is not a wall), so a walking person leaves no trail.
+//! * A cell is **occupied** when it was last seen occupied within
+//!   `memory_s`, **free** when last seen free within `memory_s`, and
+//!   **unknown** otherwise: what went out of view is remembered for a
+//!   bounded time, then forgotten; never-seen space is unknown, not free.
+//! * The window is a square of `side` cells of [`MAP_CELL_M`] in the
+//!   tracking frame, aligned with its axes; it moves with the robot in whole
+//!   cells (keeping what it knows) once the robot is a quarter of the window
+//!   from its centre.
+//!
+//! The map lives in the tracking frame: odometry's drift moves the
+//! remembered obstacles with it, one more reason to forget them.
+
+use super::geometry::{Pose2, Vec2};
+
+/// Cell size (m).
+pub const MAP_CELL_M: f64 = 0.05;
+/// A ray clears up to this many cells short of its end: the end cell's
+/// neighbours may hold the same surface, seen at a grazing angle.
+pub const CLEAR_SHORT_CELLS: i64 = 2;
+/// Never seen.
+const NEVER: f64 = f64::NEG_INFINITY;
+
+/// What the map knows of a cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellState {
+    Free,
+    Occupied,
+    Unknown,
+}
+
+/// The map: per cell, when it was last seen occupied and last seen free.
+#[derive(Debug, Clone, Default)]
+pub struct LocalMap {
+    side: usize,
+    /// Integer cell coordinates (tracking frame) of the window's cell (0, 0).
+    origin: (i64, i64),
+    hit_s: Vec<f64>,
+    free_s: Vec<f64>,
+    /// Scratch for moving the window.
+    scratch: Vec<f64>,
+    placed: bool,
+}
+
+/// The integer cell of a point (tracking frame).
+pub fn cell_coords(p: Vec2) -> (i64, i64) {
+    ((p.x / MAP_CELL_M).round() as i64, (p.y / MAP_CELL_M).round() as i64)
+}
+
+impl LocalMap {
+    /// A map `window_m` wide (rounded up to whole cells, at least 8).
+    pub fn new(window_m: f64) -> Self {
+        let side = ((window_m / MAP_CELL_M).ceil() as usize).max(8);
+        Self {
+            side,
+            origin: (0, 0),
+            hit_s: vec![NEVER; side * side],
+            free_s: vec![NEVER; side * side],
+            scratch: Vec::new(),
+            placed: false,
+        }
+    }
+
+    /// Cells per side.
+    pub fn side(&self) -> usize {
+        self.side
+    }
+
+    /// The window's lower-left cell centre (tracking frame, m).
+    pub fn origin_m(&self) -> Vec2 {
+        Vec2::new(self.origin.0 as f64 * MAP_CELL_M, self.origin.1 as f64 * MAP_CELL_M)
+    }
+
+    /// Forgets everything (a new tracking frame, a reset).
+    pub fn clear(&mut self) {
+        self.hit_s.fill(NEVER);
+        self.free_s.fill(NEVER);
+        self.placed = false;
+    }
+
+    /// The window index of integer cell `c`, if inside.
+    pub fn index(&self, c: (i64, i64)) -> Option<usize> {
+        let (i, j) = (c.0 - self.origin.0, c.1 - self.origin.1);
+        let n = self.side as i64;
+        (i >= 0 && j >= 0 && i < n && j < n).then(|| (j * n + i) as usize)
+    }
+
+    /// The centre of window cell `k` (tracking frame, m).
+    pub fn centre(&self, k: usize) -> Vec2 {
+        let (i, j) = ((k % self.side) as i64, (k / self.side) as i64);
+        Vec2::new(
+            (i + self.origin.0) as f64 * MAP_CELL_M,
+            (j + self.origin.1) as f64 * MAP_CELL_M,
+        )
+    }
+
+    /// What the map knows of window cell `k` at `now_s`, remembering `memory_s`.
+    pub fn state(&self, k: usize, now_s: f64, memory_s: f64) -> CellState {
+        let (hit, free) = (self.hit_s[k], self.free_s[k]);
+        if hit > free && now_s - hit <= memory_s {
+            CellState::Occupied
+        } else if free >= hit && now_s - free <= memory_s {
+            CellState::Free
+        } else {
+            CellState::Unknown
+        }
+    }
+
+    /// What the map knows of the cell holding `p` (outside the window: unknown).
+    pub fn state_at(&self, p: Vec2, now_s: f64, memory_s: f64) -> CellState {
+        self.index(cell_coords(p))
+            .map_or(CellState::Unknown, |k| self.state(k, now_s, memory_s))
+    }
+
+    /// Moves the window so `centre` is in its middle once it is more than a
+    /// quarter of the window from it (or on the first scan).
+    fn follow(&mut self, centre: Vec2) {
+        let n = self.side as i64;
+        let c = cell_coords(centre);
+        let wanted = (c.0 - n / 2, c.1 - n / 2);
+        let off = (wanted.0 - self.origin.0, wanted.1 - self.origin.1);
+        if self.placed && off.0.abs() <= n / 4 && off.1.abs() <= n / 4 {
+            return;
+        }
+        if !self.placed {
+            self.origin = wanted;
+            self.placed = true;
+            return;
+        }
+        for layer in [&mut self.hit_s, &mut self.free_s] {
+            self.scratch.clear();
+            self.scratch.resize(layer.len(), NEVER);
+            for j in 0..n {
+                let sj = j + off.1;
+                if !(0..n).contains(&sj) {
+                    continue;
+                }
+                for i in 0..n {
+                    let si = i + off.0;
+                    if (0..n).contains(&si) {
+                        self.scratch[(j * n + i) as usize] = layer[(sj * n + si) as usize];
+                    }
+                }
+            }
+            std::mem::swap(layer, &mut self.scratch);
+        }
+        self.origin = wanted;
+    }
+
+    /// Takes a scan's `points` (robot frame at `pose`, m; the scan less its
+    /// movers) seen at `stamp_s`: rays from the robot's centre clear what
+    /// they cross, their ends are occupied. Rays are cleared only within
+    /// `clear_range_m`; non-finite points are skipped.
+    pub fn insert(&mut self, pose: Pose2, points: &[Vec2], stamp_s: f64, clear_range_m: f64) {
+        if !pose.is_finite() || !stamp_s.is_finite() {
+            return;
+        }
+        self.follow(pose.position());
+        let from = cell_coords(pose.position());
+        let map = pose.frame_map();
+        for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
+            let w = map.point(*q);
+            let to = cell_coords(w);
+            let len = q.norm();
+            let clear_to = if len > clear_range_m {
+                // Clear only the first clear_range_m of a long ray.
+                cell_coords(pose.position() + (w - pose.position()) * (clear_range_m / len))
+            } else {
+                to
+            };
+            self.clear_ray(from, clear_to, to, stamp_s);
+        }
+        for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
+            if let Some(k) = self.index(cell_coords(map.point(*q))) {
+                self.hit_s[k] = stamp_s;
+            }
+        }
+    }
+
+    /// Marks free the cells of the line from `a` to `b` (Bresenham), but not
+    /// those within [`CLEAR_SHORT_CELLS`] of the ray's end `end`, nor cells
+    /// hit in this same scan.
+    fn clear_ray(&mut self, a: (i64, i64), b: (i64, i64), end: (i64, i64), stamp_s: f64) {
+        let (dx, dy) = ((b.0 - a.0).abs(), -(b.1 - a.1).abs());
+        let (sx, sy) = ((b.0 - a.0).signum(), (b.1 - a.1).signum());
+        let (mut x, mut y, mut err) = (a.0, a.1, dx + dy);
+        loop {
+            if (x - end.0).abs().max((y - end.1).abs()) <= CLEAR_SHORT_CELLS {
+                break;
+            }
+            if let Some(k) = self.index((x, y)) {
+                if self.hit_s[k] != stamp_s {
+                    self.free_s[k] = stamp_s;
+                }
+            }
+            if (x, y) == b {
+                break;
+            }
+            let e2 = 2 * err;
+            if e2 >= dy {
+                err += dy;
+                x += sx;
+            }
+            if e2 <= dx {
+                err += dx;
+                y += sy;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(x: f64, y: f64) -> Pose2 {
+        Pose2::new(x, y, 0.0)
+    }
+
+    #[test]
+    fn a_ray_clears_its_way_marks_its_end_and_leaves_the_rest_unknown() {
+        let mut m = LocalMap::new(4.0);
+        // One point 1 m ahead of a robot at the origin.
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.0)], 10.0, 5.0);
+        let s = |x: f64, y: f64, now: f64| m.state_at(Vec2::new(x, y), now, 5.0);
+        assert_eq!(s(1.0, 0.0, 10.0), CellState::Occupied);
+        // Cleared up to 2 cells (0.1 m) short of the end.
+        assert_eq!(s(0.5, 0.0, 10.0), CellState::Free);
+        assert_eq!(s(0.85, 0.0, 10.0), CellState::Free);
+        assert_eq!(s(0.9, 0.0, 10.0), CellState::Unknown);
+        // Off the ray: never seen.
+        assert_eq!(s(0.5, 0.5, 10.0), CellState::Unknown);
+        // Remembered for memory_s, then forgotten.
+        assert_eq!(s(1.0, 0.0, 15.0), CellState::Occupied);
+        assert_eq!(s(1.0, 0.0, 15.1), CellState::Unknown);
+        assert_eq!(s(0.5, 0.0, 15.1), CellState::Unknown);
+    }
+
+    #[test]
+    fn what_went_away_is_cleared_by_the_next_ray_through_it() {
+        let mut m = LocalMap::new(4.0);
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.0)], 1.0, 5.0);
+        // The obstacle gone: the next scan sees 1.5 m along the same beam.
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.5, 0.0)], 1.1, 5.0);
+        assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 1.1, 5.0), CellState::Free);
+        assert_eq!(m.state_at(Vec2::new(1.5, 0.0), 1.1, 5.0), CellState::Occupied);
+    }
+
+    #[test]
+    fn the_window_follows_the_robot_and_keeps_what_it_knew() {
+        let mut m = LocalMap::new(4.0); // 80 cells: moves once 1 m (20 cells) off centre
+        m.insert(at(0.0, 0.0), &[Vec2::new(0.0, 1.0)], 1.0, 5.0);
+        let before = m.origin_m();
+        m.insert(at(0.9, 0.0), &[], 1.1, 5.0);
+        assert_eq!(m.origin_m(), before, "within a quarter: not moved");
+        m.insert(at(1.2, 0.0), &[], 1.2, 5.0);
+        assert!((m.origin_m().x - (before.x + 1.2)).abs() < 1e-9, "{:?}", m.origin_m());
+        // The wall point seen from the first pose is still there, in the tracking frame.
+        assert_eq!(m.state_at(Vec2::new(0.0, 1.0), 1.2, 5.0), CellState::Occupied);
+        // A point that left the window is unknown.
+        m.insert(at(3.0, 0.0), &[], 1.3, 5.0);
+        assert_eq!(m.state_at(Vec2::new(0.0, 1.0), 1.3, 5.0), CellState::Unknown);
+    }
+
+    #[test]
+    fn a_rotated_pose_puts_points_in_the_tracking_frame_and_garbage_is_ignored() {
+        let mut m = LocalMap::new(4.0);
+        let pose = Pose2::new(0.5, 0.0, std::f64::consts::FRAC_PI_2);
+        m.insert(pose, &[Vec2::new(1.0, 0.0), Vec2::new(f64::NAN, 1.0)], 1.0, 5.0);
+        assert_eq!(m.state_at(Vec2::new(0.5, 1.0), 1.0, 5.0), CellState::Occupied);
+        m.insert(Pose2::new(f64::NAN, 0.0, 0.0), &[Vec2::new(1.0, 0.0)], 2.0, 5.0);
+        assert_eq!(m.state_at(Vec2::new(0.5, 1.0), 2.0, 5.0), CellState::Occupied);
+    }
+}
