@@ -559,7 +559,10 @@ mod tests {
             panic!("the window's edge is open: a route to the nearest reachable cell")
         };
         assert!(!r.reaches_goal);
-        assert!(r.points.iter().all(|q| q.x < 1.0 - 0.3), "{:?}", r.points.last());
+        // It ends in the door's mouth: the cells at least 0.343 m (the clearance less half a
+        // cell's diagonal) from the door's posts at (1, ±0.3), x ≤ 1 − √(0.343² − 0.3²) = 0.834.
+        assert!(r.points.iter().all(|q| q.x < 0.84), "{:?}", r.points.last());
+        assert!(r.points.last().unwrap().x > 0.75, "{:?}", r.points.last());
     }
 
     #[test]
