@@ -32,8 +32,11 @@ const NEVER: f64 = f64::NEG_INFINITY;
 /// What the map knows of a cell.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CellState {
+    /// Seen free within the memory.
     Free,
+    /// Seen occupied within the memory, and not seen free since.
     Occupied,
+    /// Never seen, or not within the memory.
     Unknown,
 }
 

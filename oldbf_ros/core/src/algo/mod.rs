@@ -28,6 +28,7 @@ pub mod select;
 pub mod tracking;
 pub mod unicycle;
 pub mod unstuck;
+pub mod way_round;
 
 pub use doaa::DoaaState;
 pub use geometry::{Pose2, Twist, Vec2};

@@ -65,6 +65,7 @@ pub struct RouteRequest {
 /// A route: cell centres from the robot to its end (tracking frame, m).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Route {
+    /// The cell centres (tracking frame, m).
     pub points: Vec<Vec2>,
     /// The end is the goal (within [`NO_ROUTE_M`]).
     pub reaches_goal: bool,
@@ -72,6 +73,7 @@ pub struct Route {
     pub cost: f64,
     /// The goal it was planned to (tracking frame, m), and when (s).
     pub goal: Vec2,
+    /// When it was planned (s).
     pub made_s: f64,
 }
 
@@ -248,7 +250,18 @@ fn dt1d(f: &[f64], d: &mut [f64], v: &mut [usize], z: &mut [f64]) {
     }
 }
 
+/// Cells nearer an occupied cell than this are blocked (m).
+fn block_m(req: &RouteRequest) -> f64 {
+    req.clearance_m - 0.5 * std::f64::consts::SQRT_2 * MAP_CELL_M
+}
+
 impl RoutePlanner {
+    /// Window cell `k`'s distance beyond the blocked band at the last plan
+    /// (m; < 0: blocked).
+    pub fn margin_m(&self, k: usize, req: &RouteRequest) -> f64 {
+        self.dist2.get(k).map_or(f64::INFINITY, |d2| d2.sqrt() * MAP_CELL_M) - block_m(req)
+    }
+
     /// The route held, if any.
     pub fn route(&self) -> Option<&Route> {
         self.held.as_ref()
@@ -294,7 +307,7 @@ impl RoutePlanner {
             dt1d(&self.col, &mut self.out, &mut self.v, &mut self.z);
             self.dist2[j * n..(j + 1) * n].copy_from_slice(&self.out);
         }
-        let block_m = req.clearance_m - 0.5 * std::f64::consts::SQRT_2 * MAP_CELL_M;
+        let block_m = block_m(req);
         self.factor.clear();
         self.factor.resize(cells, 1.0);
         let own2 = req.own_m * req.own_m;

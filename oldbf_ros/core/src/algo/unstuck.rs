@@ -1,58 +1,51 @@
-//! Unstuck (ALGORITHM.md §4b): getting round an obstacle when reactive
-//! steering alone has stalled.
+//! Unstuck (ALGORITHM.md §4b, §4c): getting round obstacles that the
+//! reactive steering alone would drive at.
 //!
 //! DOAA is reactive: with the reference behind an obstacle, the tracking law
 //! pulls the robot at it and the barriers push it away, and it can stand
 //! there for the rest of the run (no contact, no progress). This module
-//! watches progress towards the reference and, when it has stalled, replaces
-//! the nominal command with one that goes round:
+//! decides when the robot follows the way round planned on the rolling
+//! local map ([`super::way_round`]) instead of the reference, and where on
+//! that route it steers:
 //!
 //! * **Progress** is the reference's arc length minus the robot's distance to
 //!   the (governed) reference point, in m: it grows while the reference runs
 //!   and while the robot closes in on it; a robot held up by an obstacle,
-//!   with the governor holding the reference 2 R_c ahead, makes none.
-//! * **Stalled**: the nominal asks to move, and progress has grown by less
-//!   than `unstuck.progress_m` for `unstuck.stall_s`.
-//! * **Follow**: the way round, planned on a grid round the robot
-//!   ([`LocalPlanner`]: cells r + d_safe + `unstuck.margin_m` clear of every
-//!   point but those of movers walking at 0.1 m/s or more, which the
-//!   pipeline leaves out) to the point `unstuck.ahead_m` further along the reference's
-//!   path: the shortest path when it is reachable (through the gap nearest
-//!   the reference that the robot fits through), else to the reachable cell
-//!   nearest it. The nominal becomes a turn towards the path's farthest
-//!   visible cell within 1 m (`WAYPOINT_REACH_M`), at up to the nominal
-//!   speed, slower the more it must turn. Not replanned every step: a new
-//!   plan is made once the last is `REPLAN_S` = 0.5 s old or its waypoint is
-//!   within `WAYPOINT_REACHED_M` = 0.15 m of the robot; in between, the last
-//!   waypoint (fixed in the tracking frame, re-expressed in the robot frame
-//!   each step) is followed. So the way slides along the obstacle's boundary
-//!   as the robot goes round it. (With nowhere to go, see below, nothing is
-//!   kept and every step plans again.) Each new plan keeps to the side of
-//!   the line to the goal chosen first while the way on that side ends at
-//!   most `SIDE_SLACK_M` = 0.3 m farther from the goal than the best way. A
-//!   gap narrower than 2 (r + d_safe + margin) is not one.
-//! * **Release**: progress has grown by `unstuck.progress_m` since the
-//!   stall, or the reference is within the capture radius, or a tracked
-//!   mover has come near (a robot held up by people waits for them to pass:
-//!   DOAA and evasion deal with movers; going round them is not this).
-//!   With nowhere to go (no free cell reachable), the nominal is a turn in
-//!   place: the paper's ω_0 case.
+//!   with the governor holding the reference, makes none.
+//! * **Follow** when the straight way from the robot to the point
+//!   `unstuck.ahead_m` further along the reference (where the tracking law
+//!   is heading) runs through the map's blocked band (cells nearer than
+//!   r + d_safe + `unstuck.margin_m` to something seen, walking people left
+//!   out), or when progress has stalled: less than `unstuck.progress_m` for
+//!   `unstuck.stall_s` while the nominal asks to move. The nominal becomes a
+//!   turn towards the route's point 1 m (`WAYPOINT_REACH_M`) further along
+//!   than the route point nearest the robot; the route itself is kept until
+//!   blocked, beaten by a margin or its goal moves ([`super::route`]).
+//! * **Release**, with its reason recorded: the straight way is clear again
+//!   by [`RELEASE_MARGIN_M`] (a follow begun on a blocked way), progress has
+//!   grown by `unstuck.progress_m` (one begun on a stall), the reference
+//!   point is within the capture radius, or a tracked mover on a collision
+//!   course has come near (a robot held up by people waits for them to
+//!   pass: DOAA and evasion deal with movers; going round them is not this).
+//! * **No route**: closed in by what the map knows (a narrow doorway in a
+//!   closed room), the goal cannot be reached: it is reported and the robot
+//!   rests (its nominal is zero). With a route but nowhere to go along it
+//!   (boxed in), the nominal is a turn in place: the paper's ω_0 case.
 //!
 //! Everything still goes through the DTCBF and the passive checks.
 
 use super::geometry::{Pose2, Twist, Vec2};
-use super::local_plan::{LocalPlanner, Waypoint};
 use super::params::Params;
 use super::reference::{ReferenceProgress, ReferenceTrajectory};
+use super::route::RouteChange;
+use super::way_round::RouteUpdate;
 
-/// The waypoint is the farthest visible path cell within this (m).
+/// The robot steers at the route's point this far along it (m).
 const WAYPOINT_REACH_M: f64 = 1.0;
-/// The side kept may end this much farther from the goal than the best way (m).
-const SIDE_SLACK_M: f64 = 0.3;
-/// A plan is followed this long before planning again (s)…
-const REPLAN_S: f64 = 0.5;
-/// …unless its waypoint is nearer than this (m).
-const WAYPOINT_REACHED_M: f64 = 0.15;
+/// A follow begun on a blocked straight way ends once that way is clear by this (m).
+pub const RELEASE_MARGIN_M: f64 = 0.05;
+/// A route planned longer ago than this is not followed (s): the planner has stopped.
+pub const ROUTE_STALE_S: f64 = 3.0;
 
 /// Where the nominal command is heading: the governed reference point and
 /// how far along its path it is.
@@ -63,9 +56,10 @@ pub struct Guidance {
     /// The reference's arc length so far (m).
     pub along_m: f64,
     /// The point `unstuck.ahead_m` further along the reference's path (its
-    /// end at most), robot frame (m): where the way round heads. The governed
-    /// reference itself often waits inside or against the obstacle.
+    /// end at most), robot frame (m): where the tracking law is heading.
     pub ahead: Vec2,
+    /// The reference's end (the goal), robot frame (m): where the route goes.
+    pub end: Vec2,
     /// The reference has run to its end: `target` is the goal.
     pub at_end: bool,
 }
@@ -86,8 +80,17 @@ impl Guidance {
             target: robot.inverse_transform_point(reference.pose_at(progress.t_s).position()),
             along_m: progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
             ahead: robot.inverse_transform_point(ahead),
+            end: robot.inverse_transform_point(reference.pose_at(reference.duration_s).position()),
             at_end: progress.finished(reference),
         }
+    }
+
+    /// All coordinates finite.
+    fn is_finite(&self) -> bool {
+        [self.target, self.ahead, self.end]
+            .iter()
+            .all(|v| v.x.is_finite() && v.y.is_finite())
+            && self.along_m.is_finite()
     }
 }
 
@@ -98,25 +101,79 @@ pub struct Situation<'a> {
     pub now_s: f64,
     /// The nominal command.
     pub nominal: Twist,
-    /// The scan's points (robot frame, m).
-    pub points: &'a [Vec2],
     /// The robot's pose in the tracking frame.
     pub ego: Pose2,
     /// A mover on a collision course is near: a robot held up by people waits
     /// for them to pass (DOAA and evasion deal with movers); it does not go
     /// round them.
     pub movers_near: bool,
+    /// The way-round planner's latest outcome.
+    pub route: Option<&'a RouteUpdate>,
+}
+
+/// Why a way round began or ended (steps.csv's `route_event`, `~state`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RouteEvent {
+    /// Began: the straight way ahead is blocked on the map.
+    FollowBlocked,
+    /// Began: no progress for the stall time.
+    FollowStalled,
+    /// Ended: the straight way ahead is clear again.
+    ReleaseClear,
+    /// Ended: progress resumed.
+    ReleaseProgress,
+    /// Ended: at the reference point.
+    ReleaseArrived,
+    /// Ended: a mover on a collision course is near (the robot waits for it).
+    ReleaseMover,
+    /// Ended or refused: no route to the goal (closed in); the robot rests.
+    NoRoute,
+    /// Ended: the planner's route is older than [`ROUTE_STALE_S`].
+    ReleaseStale,
+}
+
+impl RouteEvent {
+    /// Name for records and logs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RouteEvent::FollowBlocked => "follow_blocked",
+            RouteEvent::FollowStalled => "follow_stalled",
+            RouteEvent::ReleaseClear => "release_clear",
+            RouteEvent::ReleaseProgress => "release_progress",
+            RouteEvent::ReleaseArrived => "release_arrived",
+            RouteEvent::ReleaseMover => "release_mover",
+            RouteEvent::NoRoute => "no_route",
+            RouteEvent::ReleaseStale => "release_stale",
+        }
+    }
 }
 
 /// What the unstuck logic decided this step.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct UnstuckDecision {
     /// Where the way round heads (robot frame, m), while following one.
     pub waypoint: Option<Vec2>,
+    /// No route to the goal: the robot rests.
+    pub no_route: bool,
+    /// A follow began or ended at this step, and why.
+    pub event: Option<RouteEvent>,
 }
 
 impl UnstuckDecision {
-    const NONE: UnstuckDecision = UnstuckDecision { waypoint: None };
+    const NONE: UnstuckDecision = UnstuckDecision {
+        waypoint: None,
+        no_route: false,
+        event: None,
+    };
+}
+
+/// Why the robot is following a way round.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Cause {
+    /// The straight way was blocked.
+    Blocked,
+    /// Progress stalled at this much progress (m).
+    Stalled { from_m: f64 },
 }
 
 /// The progress monitor and the follow state.
@@ -125,40 +182,37 @@ pub struct Unstuck {
     /// Best progress so far (m), and when it last grew by `progress_m` (s).
     best_progress_m: Option<f64>,
     last_gain_s: Option<f64>,
-    /// Progress when following began (m), while following.
-    following_from_m: Option<f64>,
-    /// The side of the robot-to-reference line the way round keeps to.
-    side: Option<f64>,
-    /// The last plan's waypoint (tracking frame, m) and when it was made (s).
-    cached: Option<(Vec2, f64)>,
-    planner: LocalPlanner,
+    following: Option<Cause>,
+    /// The waypoint being steered at (tracking frame, m).
+    aim: Option<Vec2>,
+    /// Whether the last step found no route.
+    no_route: bool,
 }
 
 impl Unstuck {
-    /// Forgets the progress history and any free direction being followed.
+    /// Forgets the progress history and any way round being followed.
     pub fn reset(&mut self) {
-        self.best_progress_m = None;
-        self.last_gain_s = None;
-        self.following_from_m = None;
-        self.side = None;
-        self.cached = None;
+        *self = Self::default();
     }
 
     /// Whether the robot is following a way round an obstacle.
     pub fn following(&self) -> bool {
-        self.following_from_m.is_some()
-    }
-
-    /// Whether [`Self::step`] at `now_s` may plan a way round (and so read
-    /// the points): following already, or no progress for `stall_s`. A
-    /// superset: the step may still find progress, arrival or a mover near.
-    pub fn may_plan(&self, now_s: f64, p: &Params) -> bool {
-        self.following_from_m.is_some() || self.stalled(now_s, p)
+        self.following.is_some()
     }
 
     /// No progress for `unstuck.stall_s` at `now_s`.
     fn stalled(&self, now_s: f64, p: &Params) -> bool {
         self.last_gain_s.is_some_and(|t| now_s - t >= p.unstuck.stall_s)
+    }
+
+    /// Ends a follow (if any) with `event`.
+    fn release(&mut self, event: RouteEvent) -> UnstuckDecision {
+        let was = self.following.take().is_some();
+        self.aim = None;
+        UnstuckDecision {
+            event: was.then_some(event),
+            ..UnstuckDecision::NONE
+        }
     }
 
     /// One step: `guidance` (None: nothing to make progress towards, nothing
@@ -167,12 +221,11 @@ impl Unstuck {
         let Situation {
             now_s,
             nominal,
-            points,
             ego,
             movers_near,
+            route,
         } = *now;
-        let Some(g) = guidance.filter(|g| g.target.x.is_finite() && g.target.y.is_finite() && g.along_m.is_finite())
-        else {
+        let Some(g) = guidance.filter(Guidance::is_finite) else {
             self.reset();
             return UnstuckDecision::NONE;
         };
@@ -187,111 +240,92 @@ impl Unstuck {
             self.best_progress_m = Some(self.best_progress_m.map_or(progress, |b| b.max(progress)));
             self.last_gain_s = Some(now_s);
         }
-        let arrived = dist <= p.tracking.capture_radius_m;
-        if arrived || movers_near {
-            self.following_from_m = None;
-            self.side = None;
-            self.cached = None;
-            return UnstuckDecision::NONE;
+        if !u.enabled {
+            return self.release(RouteEvent::ReleaseClear);
         }
-        if self.following_from_m.is_none() {
-            let wants_to_move = nominal.v_mps > 0.0 || nominal.omega_radps != 0.0;
-            if !u.enabled || !wants_to_move || !self.stalled(now_s, p) {
-                return UnstuckDecision::NONE;
-            }
-            let idle_s = now_s - self.last_gain_s.unwrap_or(now_s);
-            log::debug!("t {now_s:.1}: no progress for {idle_s:.1} s: going round");
-            self.following_from_m = Some(progress);
-            self.side = None;
+        let route = route.filter(|r| now_s - r.made_s <= ROUTE_STALE_S && now_s >= r.made_s);
+        // Closed in: no way to the goal. Reported once; the robot rests.
+        if route.is_some_and(|r| r.change == RouteChange::NoRoute) {
+            let first = !self.no_route;
+            let d = self.release(RouteEvent::NoRoute);
+            self.no_route = true;
+            return UnstuckDecision {
+                no_route: true,
+                event: first.then_some(RouteEvent::NoRoute).or(d.event),
+                ..d
+            };
         }
-        let from = self.following_from_m.unwrap_or(progress);
-        if progress >= from + u.progress_m {
-            // Progress again: the tracking law takes over.
-            self.side = None;
-            self.following_from_m = None;
-            self.cached = None;
-            self.best_progress_m = Some(progress);
-            self.last_gain_s = Some(now_s);
-            return UnstuckDecision::NONE;
+        self.no_route = false;
+        if dist <= p.tracking.capture_radius_m {
+            return self.release(RouteEvent::ReleaseArrived);
         }
-        // The last plan's waypoint still ahead and recent: no need to plan again.
-        if let Some((world, planned_s)) = self.cached {
-            let point = ego.inverse_transform_point(world);
-            if now_s - planned_s < REPLAN_S && now_s >= planned_s && point.norm() > WAYPOINT_REACHED_M {
-                return UnstuckDecision { waypoint: Some(point) };
+        if movers_near {
+            return self.release(RouteEvent::ReleaseMover);
+        }
+        let mut event = None;
+        match self.following {
+            None => {
+                let wants_to_move = nominal.v_mps > 0.0 || nominal.omega_radps != 0.0;
+                if !wants_to_move {
+                    return UnstuckDecision::NONE;
+                }
+                if route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0) {
+                    self.following = Some(Cause::Blocked);
+                    event = Some(RouteEvent::FollowBlocked);
+                } else if self.stalled(now_s, p) {
+                    let idle_s = now_s - self.last_gain_s.unwrap_or(now_s);
+                    log::debug!("t {now_s:.1}: no progress for {idle_s:.1} s: going round");
+                    self.following = Some(Cause::Stalled { from_m: progress });
+                    event = Some(RouteEvent::FollowStalled);
+                } else {
+                    return UnstuckDecision::NONE;
+                }
+            }
+            Some(Cause::Blocked) => {
+                if route.is_none_or(|r| r.direct_margin_m > RELEASE_MARGIN_M) {
+                    let why = if route.is_none() {
+                        RouteEvent::ReleaseStale
+                    } else {
+                        RouteEvent::ReleaseClear
+                    };
+                    return self.release(why);
+                }
+            }
+            Some(Cause::Stalled { from_m }) => {
+                if progress >= from_m + u.progress_m {
+                    // Progress again: the tracking law takes over.
+                    self.best_progress_m = Some(progress);
+                    self.last_gain_s = Some(now_s);
+                    return self.release(RouteEvent::ReleaseProgress);
+                }
             }
         }
-        let cell = super::local_plan::CELL_M;
-        let clearance = p.robot_radius_m() + p.barrier.d_safe_m + u.margin_m;
-        // A robot already closer than that to something (noise, a tight spot) may move
-        // within the disc it is short by, or its own neighbourhood would be walled in.
-        let nearest = points.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min);
-        let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell)
-            .min(nearest - cell)
-            .max(0.0);
-        // Keep to the side chosen first while that side is about as good (ends as near
-        // the goal, within SIDE_SLACK_M); else take the best way and its side.
-        let goal = g.ahead;
-        let reaches = |w: &Waypoint| (w.end - goal).norm() < 2.0 * cell;
-        let free = self
-            .planner
-            .plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, None);
-        let kept = match (self.side, free) {
-            (Some(sign), Some(f)) => self
-                .planner
-                .plan(points, goal, clearance, own_m, u.window_m, WAYPOINT_REACH_M, Some(sign))
-                .filter(|k| (k.end - goal).norm() <= (f.end - goal).norm() + SIDE_SLACK_M),
-            _ => None,
-        };
-        let way = kept.or_else(|| {
-            if let Some(w) = free {
-                let t = goal / goal.norm().max(1e-9);
-                let across = t.x * w.point.y - t.y * w.point.x;
-                self.side = (across.abs() > cell).then_some(across.signum());
-            }
-            free
-        });
-        // Somewhere to go: a way that leaves the disc the robot is short by. Nowhere
-        // (boxed in): no waypoint; the DOAA's both-sides turn at ω_0 is the paper's case.
-        let waypoint = match way {
-            Some(w) if w.point.norm() > 0.5 * cell && (w.end.norm() > own_m + cell || reaches(&w)) => {
-                self.cached = Some((ego.transform_point(w.point), now_s));
-                Some(w.point)
-            }
-            _ => {
-                self.cached = None;
-                None
-            }
-        };
-        log::trace!(
-            "t {now_s:.1}: going round: ahead {:?} way {way:?} side {:?}",
-            g.ahead,
-            self.side
-        );
-        UnstuckDecision { waypoint }
+        // Steer at the route's point WAYPOINT_REACH_M along; no route held yet, or one
+        // that goes nowhere (boxed in): no waypoint, the DOAA's both-sides turn at ω_0.
+        let here = ego.position();
+        self.aim = route
+            .and_then(|r| r.route.as_ref())
+            .and_then(|r| r.carrot(here, WAYPOINT_REACH_M))
+            .filter(|c| (c - here).norm() > 0.5 * super::local_map::MAP_CELL_M);
+        log::trace!("t {now_s:.1}: going round: aim {:?}", self.aim);
+        UnstuckDecision {
+            waypoint: self.aim.map(|a| ego.inverse_transform_point(a)),
+            no_route: false,
+            event,
+        }
     }
 
     /// The waypoint being followed, in the tracking frame (m): where the
     /// tracking law aims while a way round is followed.
     pub fn aim(&self) -> Option<Vec2> {
-        self.cached.filter(|_| self.following()).map(|(w, _)| w)
+        self.aim.filter(|_| self.following())
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The robot at the origin at `now_s` with `nominal`, seeing `points`.
-    fn at(now_s: f64, nominal: Twist, points: &[Vec2], movers_near: bool) -> Situation<'_> {
-        Situation {
-            now_s,
-            nominal,
-            points,
-            ego: Pose2::default(),
-            movers_near,
-        }
-    }
+    use crate::algo::way_round::{MapScan, RouteAsk, WayRound};
 
     fn params() -> Params {
         Params::default() // r = 0.178, d_safe = 0.2; stall 6 s, progress 0.15 m
@@ -303,100 +337,140 @@ mod tests {
         (0..=n).map(|i| Vec2::new(x, y0 + 0.02 * i as f64)).collect()
     }
 
+    /// The planner's update for a robot at the origin seeing `points`, the
+    /// reference's end at `goal`, the tracking law heading for `ahead`.
+    fn update(points: Vec<Vec2>, goal: Vec2, ahead: Vec2, now_s: f64) -> RouteUpdate {
+        let p = params();
+        let mut w = WayRound::new(&p);
+        w.insert(&MapScan {
+            stamp_s: now_s,
+            pose: Pose2::default(),
+            points,
+        });
+        let ask = RouteAsk {
+            now_s,
+            from: Vec2::zeros(),
+            goal,
+            direct_to: ahead,
+            own_m: 0.0,
+        };
+        w.plan(&ask, &p)
+    }
+
+    fn at<'a>(now_s: f64, nominal: Twist, route: Option<&'a RouteUpdate>, movers_near: bool) -> Situation<'a> {
+        Situation {
+            now_s,
+            nominal,
+            ego: Pose2::default(),
+            movers_near,
+            route,
+        }
+    }
+
+    fn guidance(along_m: f64) -> Guidance {
+        Guidance {
+            target: Vec2::new(1.5, 0.0),
+            along_m,
+            ahead: Vec2::new(2.5, 0.0),
+            end: Vec2::new(4.0, 0.0),
+            at_end: false,
+        }
+    }
+
     #[test]
-    fn no_progress_for_the_stall_time_starts_going_round_and_progress_ends_it() {
+    fn a_wall_across_the_way_ahead_is_gone_round_at_once_and_released_once_clear() {
         let p = params();
         let mut u = Unstuck::default();
-        // A wall 0.8 m ahead from y = −0.6 to 2: the reference 1.5 m ahead, behind it.
-        let pts = wall(0.8, -0.6, 2.0);
-        let g = Guidance {
-            target: Vec2::new(1.5, 0.0),
-            along_m: 3.0,
-            ahead: Vec2::new(3.0, 0.0),
-            at_end: false,
-        };
         let nominal = Twist::new(0.15, 0.0);
+        // A wall 1.5 m ahead from y = −0.6 to 2.5: the way round is to the right.
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        assert!(blocked.direct_margin_m < 0.0);
+        let d = u.step(Some(guidance(3.0)), &at(0.0, nominal, Some(&blocked), false), &p);
+        assert_eq!(d.event, Some(RouteEvent::FollowBlocked), "no stall needed: {d:?}");
+        let w = d.waypoint.unwrap();
+        assert!(w.y < -0.2 && w.x > 0.5, "towards the wall's right end: {w:?}");
+        assert_eq!(u.aim(), Some(w), "robot at the origin: tracking frame = robot frame");
+        // Kept while blocked…
+        let d = u.step(Some(guidance(3.0)), &at(0.1, nominal, Some(&blocked), false), &p);
+        assert_eq!((d.event, d.waypoint.is_some()), (None, true));
+        // …released once the straight way is clear.
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.2);
+        let d = u.step(Some(guidance(3.0)), &at(0.2, nominal, Some(&clear), false), &p);
+        assert_eq!((d.event, d.waypoint, u.following()), (Some(RouteEvent::ReleaseClear), None, false));
+        // A route planned more than ROUTE_STALE_S ago is not followed.
+        let d = u.step(Some(guidance(3.0)), &at(0.1 + ROUTE_STALE_S + 0.2, nominal, Some(&blocked), false), &p);
+        assert_eq!((d.event, d.waypoint), (None, None));
+    }
+
+    #[test]
+    fn a_stall_starts_a_follow_and_progress_ends_it() {
+        let p = params();
+        let mut u = Unstuck::default();
+        let nominal = Twist::new(0.15, 0.0);
+        // Nothing blocks the straight way (the robot is held by something the map
+        // does not show): only the stall starts a follow.
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
         for k in 0..60 {
-            let d = u.step(Some(g), &at(k as f64 * 0.1, nominal, &pts, false), &p);
+            let r = RouteUpdate {
+                made_s: k as f64 * 0.1,
+                ..clear.clone()
+            };
+            let d = u.step(Some(guidance(3.0)), &at(k as f64 * 0.1, nominal, Some(&r), false), &p);
             assert_eq!(d.waypoint, None, "no stall before 6 s");
         }
-        let d = u.step(Some(g), &at(6.0, nominal, &pts, false), &p);
-        assert!(u.following());
-        // The wall ends 0.6 m to the right: the way round is to the right.
-        let w = d.waypoint.unwrap();
-        assert!(w.y < -0.4, "{d:?}");
-        assert_eq!(u.aim().map(|a| (a - w).norm() < 1e-12), Some(true), "{d:?}");
-        // Progress made and the reference in sight: released.
-        let g2 = Guidance {
-            target: Vec2::new(1.2, -1.2),
-            along_m: 3.4,
-            ahead: Vec2::new(2.4, -1.2),
-            at_end: false,
+        let r = RouteUpdate {
+            made_s: 6.0,
+            ..clear.clone()
         };
-        let d = u.step(Some(g2), &at(8.0, nominal, &[], false), &p);
-        assert_eq!((d.waypoint, u.following()), (None, false));
+        let d = u.step(Some(guidance(3.0)), &at(6.0, nominal, Some(&r), false), &p);
+        assert_eq!(d.event, Some(RouteEvent::FollowStalled));
+        assert!(d.waypoint.is_some());
+        // 0.1 m more progress: not enough; 0.15 m: released.
+        let d = u.step(Some(guidance(3.1)), &at(6.1, nominal, Some(&r), false), &p);
+        assert_eq!(d.event, None);
+        let d = u.step(Some(guidance(3.15)), &at(6.2, nominal, Some(&r), false), &p);
+        assert_eq!(d.event, Some(RouteEvent::ReleaseProgress));
+        // A nominal at rest never starts one.
+        let mut u = Unstuck::default();
+        for k in 0..100 {
+            let d = u.step(Some(guidance(3.0)), &at(k as f64 * 0.1, Twist::ZERO, Some(&r), false), &p);
+            assert_eq!(d.waypoint, None);
+        }
     }
 
     #[test]
-    fn boxed_in_it_turns_in_place_and_without_guidance_it_does_nothing() {
+    fn closed_in_there_is_no_route_and_the_robot_rests() {
         let p = params();
         let mut u = Unstuck::default();
-        let g = Guidance {
-            target: Vec2::new(1.5, 0.3),
-            along_m: 3.0,
-            ahead: Vec2::new(3.0, 0.3),
-            at_end: false,
-        };
-        // Points all round at 0.3 m: nowhere to go.
-        let ring: Vec<Vec2> = (0..72)
+        // A ring of radius 1 m round the robot, the goal 3 m away outside it.
+        let ring: Vec<Vec2> = (0..400)
             .map(|k| {
-                let a = k as f64 * std::f64::consts::PI / 36.0;
-                Vec2::new(0.3 * a.cos(), 0.3 * a.sin())
+                let a = k as f64 * std::f64::consts::TAU / 400.0;
+                Vec2::new(a.cos(), a.sin())
             })
             .collect();
-        u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
-        let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, false), &p);
-        assert_eq!((d.waypoint, u.following(), u.aim()), (None, true, None));
-        let d = u.step(None, &at(7.1, Twist::new(0.15, 0.0), &ring, false), &p);
-        assert_eq!((d.waypoint, u.following()), (None, false));
-        // A mover near: no going round.
-        u.step(Some(g), &at(0.0, Twist::new(0.15, 0.0), &ring, false), &p);
-        let d = u.step(Some(g), &at(7.0, Twist::new(0.15, 0.0), &ring, true), &p);
-        assert_eq!((d.waypoint, u.following()), (None, false));
+        let r = update(ring, Vec2::new(3.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        assert_eq!((r.change, r.route.is_none()), (RouteChange::NoRoute, true));
+        let d = u.step(Some(guidance(3.0)), &at(0.0, Twist::new(0.15, 0.0), Some(&r), false), &p);
+        assert_eq!((d.no_route, d.waypoint, d.event), (true, None, Some(RouteEvent::NoRoute)));
+        // Reported once.
+        let d = u.step(Some(guidance(3.0)), &at(0.1, Twist::new(0.15, 0.0), Some(&r), false), &p);
+        assert_eq!((d.no_route, d.event), (true, None));
     }
 
     #[test]
-    fn progress_keeps_it_from_starting_and_so_does_a_nominal_at_rest() {
+    fn a_mover_near_or_no_guidance_ends_a_follow() {
         let p = params();
+        let nominal = Twist::new(0.15, 0.0);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
         let mut u = Unstuck::default();
-        let pts = wall(0.8, -0.6, 2.0);
-        for k in 0..200 {
-            // The reference runs on at 0.15 m/s: progress all the time.
-            let g = Guidance {
-                target: Vec2::new(1.5, 0.0),
-                along_m: 0.015 * k as f64,
-                ahead: Vec2::new(3.0, 0.0),
-                at_end: false,
-            };
-            assert_eq!(
-                u.step(Some(g), &at(k as f64 * 0.1, Twist::new(0.15, 0.0), &pts, false), &p)
-                    .waypoint,
-                None
-            );
-        }
-        let mut u = Unstuck::default();
-        let g = Guidance {
-            target: Vec2::new(1.5, 0.0),
-            along_m: 3.0,
-            ahead: Vec2::new(3.0, 0.0),
-            at_end: false,
-        };
-        for k in 0..200 {
-            assert_eq!(
-                u.step(Some(g), &at(k as f64 * 0.1, Twist::ZERO, &pts, false), &p)
-                    .waypoint,
-                None
-            );
-        }
+        u.step(Some(guidance(3.0)), &at(0.0, nominal, Some(&blocked), false), &p);
+        assert!(u.following());
+        let d = u.step(Some(guidance(3.0)), &at(0.1, nominal, Some(&blocked), true), &p);
+        assert_eq!((d.event, d.waypoint), (Some(RouteEvent::ReleaseMover), None));
+        u.step(Some(guidance(3.0)), &at(0.2, nominal, Some(&blocked), false), &p);
+        assert!(u.following());
+        let d = u.step(None, &at(0.3, nominal, Some(&blocked), false), &p);
+        assert_eq!((d.waypoint, u.following(), u.aim()), (None, false, None));
     }
 }

@@ -46,8 +46,13 @@ pub struct UnstuckParams {
     pub stall_s: f64,
     /// Progress that counts (m of the reference's arc length minus distance to it).
     pub progress_m: f64,
-    /// Width of the square window round the robot the way round is planned in (m).
+    /// Width of the square local map round the robot the way round is planned on (m).
     pub window_m: f64,
+    /// The local map remembers what it saw this long (s): obstacles out of
+    /// view are kept, then forgotten (§4c).
+    pub memory_s: f64,
+    /// The way round is planned again this often (s).
+    pub plan_period_s: f64,
     /// The way round keeps r + d_safe + this from every point (m).
     pub margin_m: f64,
     /// The way round heads for the point this far further along the
@@ -61,7 +66,9 @@ impl Default for UnstuckParams {
             enabled: true,
             stall_s: 6.0,
             progress_m: 0.15,
-            window_m: 5.0,
+            window_m: 12.0,
+            memory_s: 30.0,
+            plan_period_s: 0.5,
             margin_m: 0.05,
             ahead_m: 1.5,
         }

@@ -34,6 +34,7 @@ use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{LaserMount, LaserScan, ScanPoints, ScanRejection};
 use super::select::{CriticCosts, Selector, Tier};
 use super::unstuck::{Guidance, Unstuck};
+use super::way_round::{MapScan, RouteAsk, RouteUpdate, WayRound};
 
 mod paper;
 mod perceive;
@@ -129,6 +130,20 @@ pub struct SafetyPipeline {
     /// mark of the moving ones; scratch, reused every step.
     plan_points: Vec<Vec2>,
     on_mover: Vec<bool>,
+    /// The way-round planner, when it runs in step with the scans (§4c).
+    way_round: WayRound,
+    /// The planner runs beside the safety path (the node): the pipeline only
+    /// hands out [`Self::take_map_scan`] and [`Self::route_ask`] and takes
+    /// [`Self::offer_route`].
+    route_beside: bool,
+    /// The last scan for the map, and whether it has not been taken yet.
+    map_scan: MapScan,
+    map_scan_new: bool,
+    /// What the route is planned for now, and the latest route.
+    route_ask: Option<RouteAsk>,
+    route: Option<RouteUpdate>,
+    /// This step's way-round decision (for the record).
+    way: crate::algo::unstuck::UnstuckDecision,
 }
 
 /// Steps over which unexplained falls of h add up (1 s at 10 Hz).
@@ -166,6 +181,7 @@ impl SafetyPipeline {
         let selector = Selector::with_capacity(cap, &params);
         let max_tracks = params.obstacles.max_tracks;
         let last_box = InputBox::from_params(&params);
+        let way_round = WayRound::new(&params);
         Self {
             params,
             derived,
@@ -198,6 +214,16 @@ impl SafetyPipeline {
             last_h_next: f64::NAN,
             plan_points: Vec::with_capacity(cap),
             on_mover: Vec::with_capacity(cap),
+            way_round,
+            route_beside: false,
+            map_scan: MapScan {
+                points: Vec::with_capacity(cap),
+                ..MapScan::default()
+            },
+            map_scan_new: false,
+            route_ask: None,
+            route: None,
+            way: Default::default(),
         }
     }
 
@@ -295,6 +321,42 @@ impl SafetyPipeline {
     /// what blocks the way.
     pub fn aim_point(&self) -> Option<Vec2> {
         self.unstuck.aim()
+    }
+
+    /// Runs the way-round planner beside the safety path (the node, §4c):
+    /// the caller takes each scan for the map ([`Self::take_map_scan`]) and
+    /// what to plan for ([`Self::route_ask`]), plans at its own rate, and
+    /// hands back the route ([`Self::offer_route`]). Off (the default): the
+    /// pipeline plans in step with the scans, reproducibly.
+    pub fn plan_beside(&mut self, beside: bool) {
+        self.route_beside = beside;
+    }
+
+    /// The last scan for the map (the scan less walking people, robot
+    /// frame at its pose), once; None when taken already or planning in step.
+    pub fn take_map_scan(&mut self) -> Option<&MapScan> {
+        let new = std::mem::take(&mut self.map_scan_new) && self.route_beside;
+        new.then_some(&self.map_scan)
+    }
+
+    /// What the route is planned for at the last step (None: no reference).
+    pub fn route_ask(&self) -> Option<RouteAsk> {
+        self.route_ask
+    }
+
+    /// The planner's latest route (planning beside the safety path).
+    pub fn offer_route(&mut self, update: RouteUpdate) {
+        self.route = Some(update);
+    }
+
+    /// The latest route and why it last changed.
+    pub fn route(&self) -> Option<&RouteUpdate> {
+        self.route.as_ref()
+    }
+
+    /// The local map, when the planner runs in step.
+    pub fn local_map(&self) -> Option<&crate::algo::local_map::LocalMap> {
+        (!self.route_beside).then(|| self.way_round.map())
     }
 
     /// Where the nominal command is heading, for the next step only: the

@@ -92,6 +92,19 @@ impl SafetyPipeline {
         let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.track_obstacles(stamp_s, pose, full_circle, scan.header.range_max_m as f64);
+        if self.params.unstuck.enabled {
+            // The map takes the scan less walking people (§4c).
+            self.fill_plan_points();
+            self.map_scan.stamp_s = stamp_s;
+            self.map_scan.pose = pose;
+            self.map_scan.points.clear();
+            self.map_scan.points.extend_from_slice(&self.plan_points);
+            if self.route_beside {
+                self.map_scan_new = true;
+            } else {
+                self.way_round.insert(&self.map_scan);
+            }
+        }
         self.perceived = Perceived::Usable(Frame {
             stamp_s,
             odom: odom_pose.is_some(),
@@ -121,8 +134,11 @@ impl SafetyPipeline {
             (None, None) => (Pose2::default(), false),
         };
         if frame_changed {
-            self.tracker.reset(); // old tracks are meaningless in the new frame
+            // Old tracks, beam memory, map and route are meaningless in the new frame.
+            self.tracker.reset();
             self.memory.reset();
+            self.way_round.reset(&self.params);
+            self.route = None;
         }
         self.ego = Some((pose, odom.is_some(), stamp_s));
         pose

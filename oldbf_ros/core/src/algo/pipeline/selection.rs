@@ -11,6 +11,7 @@ use crate::algo::dtcbf::InputBox;
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::select::{Geometry, SelectInput, Tier};
 use crate::algo::unstuck::Situation;
+use crate::algo::way_round::RouteAsk;
 
 /// Where the robot is going this tick.
 #[derive(Debug, Clone, Copy)]
@@ -21,6 +22,8 @@ struct Heading {
     following: bool,
     /// The goal lies short of what is ahead (a goal in front of a wall).
     goal_short: bool,
+    /// No route to the goal: the robot rests.
+    no_route: bool,
 }
 
 /// The side with more room (+1 left, −1 right): the clearer one, then the
@@ -41,25 +44,43 @@ fn clearer_side(c: &Clearances) -> f64 {
 }
 
 impl SafetyPipeline {
-    /// Where the robot is going (§4b): the way-round waypoint while the
-    /// unstuck logic follows one (planned on the scan less walking people),
-    /// else the point ahead on the reference; nothing without a reference.
+    /// Where the robot is going (§4b, §4c): the way round's waypoint while
+    /// one is followed, else the point ahead on the reference; nothing
+    /// without a reference. Planning in step, the route is planned here
+    /// when due; beside the safety path, the latest route offered is used.
     fn heading(&mut self, now_s: f64, nominal: Twist, frame: &Frame, c: &Clearances) -> Heading {
         let p = &self.params;
         let guidance = self.guidance.take();
+        let r = p.robot_radius_m();
+        self.route_ask = guidance.filter(|_| p.unstuck.enabled).map(|g| {
+            // A robot already closer than the clearance to something (noise, a tight spot)
+            // may move within the disc it is short by, or its own cells would be walled in.
+            let clearance = r + p.barrier.d_safe_m + p.unstuck.margin_m;
+            let cell = crate::algo::local_map::MAP_CELL_M;
+            let nearest = self.points.points.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min);
+            let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell).min(nearest - cell).max(0.0);
+            RouteAsk {
+                now_s,
+                from: frame.pose.position(),
+                goal: frame.pose.transform_point(g.end),
+                direct_to: frame.pose.transform_point(g.ahead),
+                own_m,
+            }
+        });
+        if let Some(ask) = self.route_ask.filter(|_| !self.route_beside) {
+            if self.way_round.due(now_s, p) {
+                self.route = Some(self.way_round.plan(&ask, p));
+            }
+        }
         if !p.unstuck.enabled {
+            self.way = Default::default();
             return Heading {
                 target: guidance.map(|g| g.ahead),
                 following: false,
                 goal_short: false,
+                no_route: false,
             };
         }
-        let plans = self.unstuck.may_plan(now_s, p);
-        if plans {
-            self.fill_plan_points();
-        }
-        let p = &self.params;
-        let r = p.robot_radius_m();
         // Only a mover on a collision course counts: a static object's track may look
         // like a slow mover now and then while the robot goes round it.
         let movers_near = self
@@ -69,11 +90,15 @@ impl SafetyPipeline {
         let now = Situation {
             now_s,
             nominal,
-            points: if plans { &self.plan_points } else { &self.points.points },
             ego: frame.pose,
             movers_near,
+            route: self.route.as_ref(),
         };
         let way = self.unstuck.step(guidance, &now, p);
+        self.way = way;
+        if let Some(e) = way.event {
+            log::debug!("t {now_s:.1}: way round: {}", e.as_str());
+        }
         // Following with nowhere to go (boxed in): the upstream and the DOAA steer, its
         // both-sides turn at ω_0 being the paper's case of no gap.
         let following = self.unstuck.following() && way.waypoint.is_some();
@@ -85,6 +110,7 @@ impl SafetyPipeline {
             },
             following,
             goal_short: guidance.is_some_and(|g| g.at_end && g.target.norm() + GOAL_SHORT_M < c.d_front_m + r),
+            no_route: way.no_route,
         }
     }
 
@@ -100,6 +126,8 @@ impl SafetyPipeline {
         closing_in: bool,
     ) -> Decision {
         let heading = self.heading(now_s, nominal, frame, c);
+        // No route to the goal (§4c): the robot rests; the checks may still move it out of harm's way.
+        let nominal = if heading.no_route { Twist::ZERO } else { nominal };
         let p = &self.params;
         // Something ahead beyond the goal does not block the way to it: no both-sides turn.
         let mut c_doaa = *c;

@@ -1,0 +1,191 @@
+//! The way-round planner as one unit (ALGORITHM.md §4c): the rolling local
+//! map, the route planner on it, and when to plan. It runs either in step
+//! with the scans (the simulator's reproducible mode) or beside the safety
+//! path at its own rate (the node's mode): the pipeline hands it each scan
+//! ([`MapScan`]) and what to plan for ([`RouteAsk`]), and takes back the
+//! latest [`RouteUpdate`]; a scan's command never waits for a plan.
+
+use super::geometry::{Pose2, Vec2};
+use super::local_map::{cell_coords, LocalMap, MAP_CELL_M};
+use super::params::Params;
+use super::route::{Route, RouteChange, RoutePlanner, RouteRequest};
+
+/// A scan for the map: the points less walking people (robot frame at
+/// `pose`, tracking frame, m) and its stamp (s).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MapScan {
+    /// The scan's stamp (s).
+    pub stamp_s: f64,
+    /// The robot's pose at it (tracking frame).
+    pub pose: Pose2,
+    /// The points (robot frame at `pose`, m).
+    pub points: Vec<Vec2>,
+}
+
+/// What to plan for (tracking frame, m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RouteAsk {
+    /// When asked (s).
+    pub now_s: f64,
+    /// The robot's position.
+    pub from: Vec2,
+    /// Where the route goes: the reference's end.
+    pub goal: Vec2,
+    /// Where the tracking law is heading: the route is needed while the
+    /// straight way there is blocked.
+    pub direct_to: Vec2,
+    /// Cells this near the robot are never blocked (m).
+    pub own_m: f64,
+}
+
+/// A plan's outcome, for the pipeline.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RouteUpdate {
+    /// The route held (None: no route, or nothing to plan yet).
+    pub route: Option<Route>,
+    /// Why it changed at this plan.
+    pub change: RouteChange,
+    /// The least margin of the straight way from `from` to `direct_to`
+    /// over the blocked band (m; < 0: the way is blocked).
+    pub direct_margin_m: f64,
+    /// When it was planned (s).
+    pub made_s: f64,
+    /// The planner's own time for this plan (µs; 0 when not measured).
+    pub plan_us: f64,
+}
+
+/// The map, the planner and its timing.
+#[derive(Debug, Clone)]
+pub struct WayRound {
+    map: LocalMap,
+    planner: RoutePlanner,
+    last_plan_s: Option<f64>,
+    window_m: f64,
+}
+
+impl WayRound {
+    /// A planner with a map `p.unstuck.window_m` wide.
+    pub fn new(p: &Params) -> Self {
+        Self {
+            map: LocalMap::new(p.unstuck.window_m),
+            planner: RoutePlanner::default(),
+            last_plan_s: None,
+            window_m: p.unstuck.window_m,
+        }
+    }
+
+    /// The map.
+    pub fn map(&self) -> &LocalMap {
+        &self.map
+    }
+
+    /// Forgets the map and the route (a new tracking frame). A new window
+    /// width takes effect here.
+    pub fn reset(&mut self, p: &Params) {
+        if p.unstuck.window_m != self.window_m {
+            *self = Self::new(p);
+        } else {
+            self.map.clear();
+            self.planner.drop_route();
+            self.last_plan_s = None;
+        }
+    }
+
+    /// Takes a scan into the map (rays cleared within the map's half width).
+    pub fn insert(&mut self, scan: &MapScan) {
+        self.map.insert(scan.pose, &scan.points, scan.stamp_s, 0.5 * self.window_m);
+    }
+
+    /// Whether a plan is due at `now_s` (`unstuck.plan_period_s` since the
+    /// last, or the clock went back).
+    pub fn due(&self, now_s: f64, p: &Params) -> bool {
+        self.last_plan_s
+            .is_none_or(|t| now_s - t >= p.unstuck.plan_period_s || now_s < t)
+    }
+
+    /// Plans for `ask` (see [`RoutePlanner::replan`]) and measures the
+    /// straight way to `ask.direct_to` on the same fields.
+    pub fn plan(&mut self, ask: &RouteAsk, p: &Params) -> RouteUpdate {
+        self.last_plan_s = Some(ask.now_s);
+        let req = RouteRequest {
+            now_s: ask.now_s,
+            from: ask.from,
+            goal: ask.goal,
+            clearance_m: p.robot_radius_m() + p.barrier.d_safe_m + p.unstuck.margin_m,
+            own_m: ask.own_m,
+            memory_s: p.unstuck.memory_s,
+        };
+        let (route, change) = self.planner.replan(&self.map, &req);
+        let route = route.cloned();
+        let direct_margin_m = self.direct_margin(ask, &req);
+        RouteUpdate {
+            route,
+            change,
+            direct_margin_m,
+            made_s: ask.now_s,
+            plan_us: 0.0,
+        }
+    }
+
+    /// The least margin over the blocked band along the segment from the
+    /// robot to `direct_to`, leaving out the robot's own disc (m).
+    fn direct_margin(&self, ask: &RouteAsk, req: &RouteRequest) -> f64 {
+        let seg = ask.direct_to - ask.from;
+        let len = seg.norm();
+        let steps = (len / (0.5 * MAP_CELL_M)).ceil() as usize;
+        let mut least = f64::INFINITY;
+        for s in 0..=steps {
+            let q = ask.from + seg * (s as f64 / steps.max(1) as f64);
+            if (q - ask.from).norm() <= ask.own_m {
+                continue;
+            }
+            if let Some(k) = self.map.index(cell_coords(q)) {
+                least = least.min(self.planner.margin_m(k, req));
+            }
+        }
+        least
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plans_at_its_period_and_sees_a_wall_across_the_direct_way() {
+        let p = Params::default();
+        let mut w = WayRound::new(&p);
+        // A wall 1 m ahead, y from -1 to 1.
+        let wall: Vec<Vec2> = (0..=100).map(|k| Vec2::new(1.0, -1.0 + 0.02 * k as f64)).collect();
+        w.insert(&MapScan {
+            stamp_s: 0.0,
+            pose: Pose2::default(),
+            points: wall,
+        });
+        let ask = RouteAsk {
+            now_s: 0.0,
+            from: Vec2::zeros(),
+            goal: Vec2::new(3.0, 0.0),
+            direct_to: Vec2::new(2.0, 0.0),
+            own_m: 0.0,
+        };
+        assert!(w.due(0.0, &p));
+        let u = w.plan(&ask, &p);
+        assert!(!w.due(0.1, &p) && w.due(p.unstuck.plan_period_s, &p));
+        assert_eq!(u.change, RouteChange::New);
+        // The straight way runs through the wall: its margin is the wall's own
+        // (−(r + d_safe + margin − half a diagonal) at the wall's cells).
+        let block = p.robot_radius_m() + p.barrier.d_safe_m + p.unstuck.margin_m - 0.5 * 2f64.sqrt() * MAP_CELL_M;
+        assert!((u.direct_margin_m + block).abs() < 1e-9, "{}", u.direct_margin_m);
+        // The route goes round an end of the wall (|y| > 1 + the block distance there).
+        let r = u.route.unwrap();
+        let crossing = r.points.iter().find(|q| (q.x - 1.0).abs() < 1e-9).unwrap();
+        assert!(crossing.y.abs() > 1.0 + block - 1e-9, "{crossing:?}");
+        // A direct way clear of the wall: a positive margin.
+        let side = RouteAsk {
+            direct_to: Vec2::new(0.0, 2.0),
+            ..ask
+        };
+        assert!(w.plan(&side, &p).direct_margin_m > 0.0);
+    }
+}
