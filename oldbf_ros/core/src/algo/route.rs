@@ -204,7 +204,13 @@ pub struct RoutePlanner {
     z: Vec<f64>,
     held: Option<Route>,
     last_change: Option<RouteChange>,
+    /// Spots the robot got stuck at while following a route, and until when
+    /// they count as blocked (tracking frame, m; s).
+    avoid: Vec<(Vec2, f64)>,
 }
+
+/// Cells within this of a spot the robot got stuck at are blocked (m).
+pub const AVOID_RADIUS_M: f64 = 0.3;
 
 /// Squared distance of a cell with no occupied cell in reach (cells²).
 const FAR2: f64 = 1e12;
@@ -277,6 +283,22 @@ impl RoutePlanner {
         self.held = None;
     }
 
+    /// Drops the route held and blocks the cells within [`AVOID_RADIUS_M`]
+    /// of `at` until `until_s`: the robot could not get through there (the
+    /// safety checks hold it back where the map shows a gap), so the next
+    /// plan looks for another way.
+    pub fn avoid(&mut self, at: Vec2, until_s: f64) {
+        self.held = None;
+        if at.x.is_finite() && at.y.is_finite() && until_s.is_finite() {
+            self.avoid.push((at, until_s));
+        }
+    }
+
+    /// Forgets the spots to avoid.
+    pub fn clear_avoid(&mut self) {
+        self.avoid.clear();
+    }
+
     /// Distances and step-cost factors of every cell for `req`.
     fn fields(&mut self, map: &LocalMap, req: &RouteRequest) {
         let n = map.side();
@@ -321,6 +343,22 @@ impl RoutePlanner {
                 let near = ((NEAR_RAMP_M - (d_m - block_m)) / NEAR_RAMP_M).clamp(0.0, 1.0);
                 1.0 + if unknown { UNKNOWN_COST } else { 0.0 } + NEAR_COST * near
             };
+        }
+        self.avoid.retain(|&(_, until_s)| req.now_s <= until_s);
+        let reach = (AVOID_RADIUS_M / MAP_CELL_M).ceil() as i64;
+        for &(at, _) in &self.avoid {
+            let c = cell_coords(at);
+            for dj in -reach..=reach {
+                for di in -reach..=reach {
+                    let Some(k) = map.index((c.0 + di, c.1 + dj)) else {
+                        continue;
+                    };
+                    let centre = map.centre(k);
+                    if (centre - at).norm() <= AVOID_RADIUS_M && (centre - req.from).norm_squared() > own2 {
+                        self.factor[k] = f64::INFINITY;
+                    }
+                }
+            }
         }
     }
 

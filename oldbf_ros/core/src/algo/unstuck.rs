@@ -18,8 +18,8 @@
 //!   r + d_safe + `unstuck.margin_m` to something seen, walking people left
 //!   out), or when progress has stalled: less than `unstuck.progress_m` for
 //!   `unstuck.stall_s` while the nominal asks to move. The nominal becomes a
-//!   turn towards the route's point 1 m (`WAYPOINT_REACH_M`) further along
-//!   than the route point nearest the robot; the route itself is kept until
+//!   turn towards the route's farthest point within 1 m along that the
+//!   robot sees in a straight line clear of the blocked band; the route itself is kept until
 //!   blocked, beaten by a margin or its goal moves ([`super::route`]).
 //! * **Release**, with its reason recorded: the straight way is clear again
 //!   by [`RELEASE_MARGIN_M`] (a follow begun on a blocked way), progress has
@@ -40,8 +40,6 @@ use super::reference::{ReferenceProgress, ReferenceTrajectory};
 use super::route::RouteChange;
 use super::way_round::RouteUpdate;
 
-/// The robot steers at the route's point this far along it (m).
-const WAYPOINT_REACH_M: f64 = 1.0;
 /// A follow begun on a blocked straight way ends once that way is clear by this (m).
 pub const RELEASE_MARGIN_M: f64 = 0.05;
 /// A route planned longer ago than this is not followed (s): the planner has stopped.
@@ -130,6 +128,8 @@ pub enum RouteEvent {
     NoRoute,
     /// Ended: the planner's route is older than [`ROUTE_STALE_S`].
     ReleaseStale,
+    /// Stuck on the route: the spot is avoided and a new route planned.
+    Stuck,
 }
 
 impl RouteEvent {
@@ -144,6 +144,7 @@ impl RouteEvent {
             RouteEvent::ReleaseMover => "release_mover",
             RouteEvent::NoRoute => "no_route",
             RouteEvent::ReleaseStale => "release_stale",
+            RouteEvent::Stuck => "stuck",
         }
     }
 }
@@ -187,6 +188,11 @@ pub struct Unstuck {
     aim: Option<Vec2>,
     /// Whether the last step found no route.
     no_route: bool,
+    /// While following: where the robot was when it last moved
+    /// `unstuck.progress_m`, and when (tracking frame, m; s).
+    moved: Option<(Vec2, f64)>,
+    /// Stuck on the way round, not yet told to the planner.
+    stuck: bool,
 }
 
 impl Unstuck {
@@ -205,10 +211,17 @@ impl Unstuck {
         self.last_gain_s.is_some_and(|t| now_s - t >= p.unstuck.stall_s)
     }
 
+    /// Whether the robot got stuck on the way round since last asked: it has
+    /// not moved `unstuck.progress_m` for `unstuck.stall_s` while following.
+    pub fn take_stuck(&mut self) -> bool {
+        std::mem::take(&mut self.stuck)
+    }
+
     /// Ends a follow (if any) with `event`.
     fn release(&mut self, event: RouteEvent) -> UnstuckDecision {
         let was = self.following.take().is_some();
         self.aim = None;
+        self.moved = None;
         UnstuckDecision {
             event: was.then_some(event),
             ..UnstuckDecision::NONE
@@ -300,12 +313,23 @@ impl Unstuck {
                 }
             }
         }
-        // Steer at the route's point WAYPOINT_REACH_M along; no route held yet, or one
-        // that goes nowhere (boxed in): no waypoint, the DOAA's both-sides turn at ω_0.
+        // Not getting on along the route (the checks hold the robot where the map shows a
+        // gap): the planner avoids that spot and plans afresh.
         let here = ego.position();
+        match self.moved {
+            Some((at, _)) if (here - at).norm() < u.progress_m => {}
+            _ => self.moved = Some((here, now_s)),
+        }
+        if self.moved.is_some_and(|(_, t)| now_s - t >= u.stall_s) {
+            self.stuck = true;
+            self.moved = Some((here, now_s));
+            event = Some(RouteEvent::Stuck);
+        }
+        // Steer at the route's farthest point in sight within 1 m along; no route held
+        // yet, or one that goes nowhere (boxed in): no waypoint, the DOAA's both-sides
+        // turn at ω_0.
         self.aim = route
-            .and_then(|r| r.route.as_ref())
-            .and_then(|r| r.carrot(here, WAYPOINT_REACH_M))
+            .and_then(|r| r.carrot)
             .filter(|c| (c - here).norm() > 0.5 * super::local_map::MAP_CELL_M);
         log::trace!("t {now_s:.1}: going round: aim {:?}", self.aim);
         UnstuckDecision {
@@ -353,6 +377,7 @@ mod tests {
             goal,
             direct_to: ahead,
             own_m: 0.0,
+            stuck: false,
         };
         w.plan(&ask, &p)
     }

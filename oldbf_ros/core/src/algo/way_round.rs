@@ -8,6 +8,9 @@
 use super::geometry::{Pose2, Vec2};
 use super::local_map::{cell_coords, LocalMap, MAP_CELL_M};
 use super::params::Params;
+/// The robot steers at most this far along the route (m).
+pub const WAYPOINT_REACH_M: f64 = 1.0;
+
 use super::route::{Route, RouteChange, RoutePlanner, RouteRequest};
 
 /// A scan for the map: the points less walking people (robot frame at
@@ -36,6 +39,10 @@ pub struct RouteAsk {
     pub direct_to: Vec2,
     /// Cells this near the robot are never blocked (m).
     pub own_m: f64,
+    /// The robot has not got on along the route for `unstuck.stall_s`: the
+    /// spot it was steering at is avoided for `unstuck.memory_s`, and the
+    /// route planned afresh now.
+    pub stuck: bool,
 }
 
 /// A plan's outcome, for the pipeline.
@@ -48,6 +55,10 @@ pub struct RouteUpdate {
     /// The least margin of the straight way from `from` to `direct_to`
     /// over the blocked band (m; < 0: the way is blocked).
     pub direct_margin_m: f64,
+    /// Where the robot steers (tracking frame, m): the farthest route point
+    /// within [`WAYPOINT_REACH_M`] along it that the robot sees in a straight
+    /// line clear of the blocked band (at least the route's next cell).
+    pub carrot: Option<Vec2>,
     /// When it was planned (s).
     pub made_s: f64,
     /// The planner's own time for this plan (µs; 0 when not measured).
@@ -61,6 +72,8 @@ pub struct WayRound {
     planner: RoutePlanner,
     last_plan_s: Option<f64>,
     window_m: f64,
+    /// The last plan's carrot (tracking frame, m).
+    last_carrot: Option<Vec2>,
 }
 
 impl WayRound {
@@ -71,6 +84,7 @@ impl WayRound {
             planner: RoutePlanner::default(),
             last_plan_s: None,
             window_m: p.unstuck.window_m,
+            last_carrot: None,
         }
     }
 
@@ -87,7 +101,9 @@ impl WayRound {
         } else {
             self.map.clear();
             self.planner.drop_route();
+            self.planner.clear_avoid();
             self.last_plan_s = None;
+            self.last_carrot = None;
         }
     }
 
@@ -96,17 +112,25 @@ impl WayRound {
         self.map.insert(scan.pose, &scan.points, scan.stamp_s, 0.5 * self.window_m);
     }
 
-    /// Whether a plan is due at `now_s` (`unstuck.plan_period_s` since the
-    /// last, or the clock went back).
-    pub fn due(&self, now_s: f64, p: &Params) -> bool {
-        self.last_plan_s
-            .is_none_or(|t| now_s - t >= p.unstuck.plan_period_s || now_s < t)
+    /// Whether a plan for `ask` is due (`unstuck.plan_period_s` since the
+    /// last, the clock went back, or the robot is stuck).
+    pub fn due(&self, ask: &RouteAsk, p: &Params) -> bool {
+        ask.stuck
+            || self
+                .last_plan_s
+                .is_none_or(|t| ask.now_s - t >= p.unstuck.plan_period_s || ask.now_s < t)
     }
 
     /// Plans for `ask` (see [`RoutePlanner::replan`]) and measures the
     /// straight way to `ask.direct_to` on the same fields.
     pub fn plan(&mut self, ask: &RouteAsk, p: &Params) -> RouteUpdate {
         self.last_plan_s = Some(ask.now_s);
+        if ask.stuck {
+            if let Some(at) = self.last_carrot {
+                log::debug!("t {:.1}: stuck on the way round: avoiding {at:?}", ask.now_s);
+                self.planner.avoid(at, ask.now_s + p.unstuck.memory_s);
+            }
+        }
         let req = RouteRequest {
             now_s: ask.now_s,
             from: ask.from,
@@ -117,26 +141,48 @@ impl WayRound {
         };
         let (route, change) = self.planner.replan(&self.map, &req);
         let route = route.cloned();
-        let direct_margin_m = self.direct_margin(ask, &req);
+        let direct_margin_m = self.segment_margin(ask.from, ask.direct_to, ask.own_m, &req);
+        let carrot = route.as_ref().and_then(|r| self.carrot(r, ask, &req));
+        self.last_carrot = carrot;
         RouteUpdate {
             route,
             change,
             direct_margin_m,
+            carrot,
             made_s: ask.now_s,
             plan_us: 0.0,
         }
     }
 
-    /// The least margin over the blocked band along the segment from the
-    /// robot to `direct_to`, leaving out the robot's own disc (m).
-    fn direct_margin(&self, ask: &RouteAsk, req: &RouteRequest) -> f64 {
-        let seg = ask.direct_to - ask.from;
+    /// The route point the robot steers at (see [`RouteUpdate::carrot`]).
+    fn carrot(&self, route: &Route, ask: &RouteAsk, req: &RouteRequest) -> Option<Vec2> {
+        let start = route.nearest(ask.from);
+        let mut walked = 0.0;
+        let mut prev = *route.points.get(start)?;
+        let mut best = route.points.get(start + 1).copied();
+        for q in &route.points[start + 1..] {
+            walked += (q - prev).norm();
+            prev = *q;
+            if walked > WAYPOINT_REACH_M {
+                break;
+            }
+            if self.segment_margin(ask.from, *q, ask.own_m, req) >= 0.0 {
+                best = Some(*q);
+            }
+        }
+        best
+    }
+
+    /// The least margin over the blocked band along the segment from `a`
+    /// to `b`, leaving out the disc of radius `own_m` round `a` (m).
+    fn segment_margin(&self, a: Vec2, b: Vec2, own_m: f64, req: &RouteRequest) -> f64 {
+        let seg = b - a;
         let len = seg.norm();
         let steps = (len / (0.5 * MAP_CELL_M)).ceil() as usize;
         let mut least = f64::INFINITY;
         for s in 0..=steps {
-            let q = ask.from + seg * (s as f64 / steps.max(1) as f64);
-            if (q - ask.from).norm() <= ask.own_m {
+            let q = a + seg * (s as f64 / steps.max(1) as f64);
+            if (q - a).norm() <= own_m {
                 continue;
             }
             if let Some(k) = self.map.index(cell_coords(q)) {
@@ -168,10 +214,13 @@ mod tests {
             goal: Vec2::new(3.0, 0.0),
             direct_to: Vec2::new(2.0, 0.0),
             own_m: 0.0,
+            stuck: false,
         };
-        assert!(w.due(0.0, &p));
+        let at = |now_s: f64| RouteAsk { now_s, ..ask };
+        assert!(w.due(&ask, &p));
         let u = w.plan(&ask, &p);
-        assert!(!w.due(0.1, &p) && w.due(p.unstuck.plan_period_s, &p));
+        assert!(!w.due(&at(0.1), &p) && w.due(&at(p.unstuck.plan_period_s), &p));
+        assert!(w.due(&RouteAsk { stuck: true, ..at(0.1) }, &p));
         assert_eq!(u.change, RouteChange::New);
         // The straight way runs through the wall: its margin is the wall's own
         // (−(r + d_safe + margin − half a diagonal) at the wall's cells).

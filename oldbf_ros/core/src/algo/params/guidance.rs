@@ -53,7 +53,7 @@ pub struct UnstuckParams {
     pub memory_s: f64,
     /// The way round is planned again this often (s).
     pub plan_period_s: f64,
-    /// The way round keeps r + d_safe + this from every point (m).
+    /// The route keeps r + d_safe + this from everything seen (m).
     pub margin_m: f64,
     /// The way round heads for the point this far further along the
     /// reference's path than the (governed) reference point (m).

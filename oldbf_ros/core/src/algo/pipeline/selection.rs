@@ -52,6 +52,7 @@ impl SafetyPipeline {
         let p = &self.params;
         let guidance = self.guidance.take();
         let r = p.robot_radius_m();
+        let stuck = self.unstuck.take_stuck();
         self.route_ask = guidance.filter(|_| p.unstuck.enabled).map(|g| {
             // A robot already closer than the clearance to something (noise, a tight spot)
             // may move within the disc it is short by, or its own cells would be walled in.
@@ -65,10 +66,11 @@ impl SafetyPipeline {
                 goal: frame.pose.transform_point(g.end),
                 direct_to: frame.pose.transform_point(g.ahead),
                 own_m,
+                stuck,
             }
         });
         if let Some(ask) = self.route_ask.filter(|_| !self.route_beside) {
-            if self.way_round.due(now_s, p) {
+            if self.way_round.due(&ask, p) {
                 self.route = Some(self.way_round.plan(&ask, p));
             }
         }
