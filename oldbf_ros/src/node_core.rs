@@ -56,6 +56,7 @@ use crate::algo::scan::{LaserScan, ScanHeader, ScanRejection};
 use crate::algo::tracking::{towards_point, track};
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
+use crate::route_worker::RouteWorker;
 use oldbf::config::{Checker, Interval, Validate};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -103,6 +104,10 @@ pub struct NodeSettings {
     /// How long a `~enable false` lasts unless renewed by another (s); 0:
     /// until `~enable true`.
     pub disable_timeout_s: f64,
+    /// Plan the way round beside the safety path, in a thread of its own
+    /// at `unstuck.plan_period_s` (the node); false: in step with the scans
+    /// (the simulator, reproducible).
+    pub plan_beside: bool,
     /// `hardware_id` of the node's /diagnostics status. Empty: the
     /// `frame_id` of the latest scan (the LiDAR it watches), or the node's
     /// name before the first scan.
@@ -124,6 +129,7 @@ impl Default for NodeSettings {
             robot: String::new(),
             e_stop_timeout_s: 0.0,
             disable_timeout_s: 0.0,
+            plan_beside: true,
             hardware_id: String::new(),
             base_limits_file: String::new(),
         }
@@ -136,6 +142,7 @@ impl NodeSettings {
     pub fn for_scenario() -> Self {
         Self {
             nominal_source: NominalSource::Auto,
+            plan_beside: false,
             ..Self::default()
         }
     }
@@ -364,9 +371,11 @@ impl Tick {
 }
 
 /// The node's state between ticks.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct NodeCore {
     pipeline: SafetyPipeline,
+    /// The way-round planner beside the safety path (`node.plan_beside`).
+    route_worker: Option<RouteWorker>,
     settings: NodeSettings,
     scan: OwnedScan,
     odom: Option<OdomSample>,
@@ -403,10 +412,18 @@ impl NodeCore {
     }
 
     pub fn new(params: Params, settings: NodeSettings, reference: Option<ReferenceTrajectory>) -> Self {
+        let mut pipeline = SafetyPipeline::new(params);
+        // Beside the safety path: a thread of its own; if it cannot start, plan in step.
+        let route_worker = settings
+            .plan_beside
+            .then(|| RouteWorker::start(pipeline.params()))
+            .and_then(|w| w.map_err(|e| log::warn!("route planner thread: {e}; planning in step")).ok());
+        pipeline.plan_beside(route_worker.is_some());
         Self {
             constant: None,
             fixed_period: false,
-            pipeline: SafetyPipeline::new(params),
+            pipeline,
+            route_worker,
             settings,
             scan: OwnedScan::default(),
             odom: None,
@@ -476,6 +493,9 @@ impl NodeCore {
     /// is returned. Tracks, the scan in hand and the stamp history are kept.
     pub fn set_params(&mut self, params: Params) -> Result<(), Vec<ParamError>> {
         params.validate()?;
+        if let Some(w) = &mut self.route_worker {
+            w.set_params(&params);
+        }
         self.pipeline.set_params(params);
         Ok(())
     }
@@ -811,6 +831,9 @@ impl NodeCore {
             }
         };
         let scan_stamp_s = self.scan.header.map_or(f64::NAN, |h| h.stamp_s);
+        if let Some(w) = &mut self.route_worker {
+            w.feed(&mut self.pipeline);
+        }
 
         self.lapse_disable(now_s);
         let e_stop_silence = self.e_stop_silence(now_s);

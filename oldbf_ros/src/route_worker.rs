@@ -1,0 +1,224 @@
+//! The way-round planner beside the safety path (ALGORITHM.md §4c): a
+//! thread of its own that takes each scan into the rolling local map and
+//! plans at `unstuck.plan_period_s`, so a scan's command never waits for a
+//! plan. The node hands it scans and what to plan for after every tick
+//! ([`RouteWorker::feed`]) and offers the pipeline the newest route it has
+//! made; the simulator plans in step instead (reproducible results), through
+//! the same [`WayRound`].
+
+use crate::algo::way_round::{MapScan, RouteAsk, RouteUpdate, WayRound};
+use crate::algo::{Params, SafetyPipeline};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// What the node sends the planner.
+enum Job {
+    Scan(MapScan),
+    Ask(RouteAsk),
+    Params(Box<Params>),
+}
+
+/// The planner thread and its channels. Dropping it stops the thread.
+pub struct RouteWorker {
+    jobs: Option<Sender<Job>>,
+    routes: Receiver<RouteUpdate>,
+    thread: Option<JoinHandle<()>>,
+    /// The last ask sent (an unchanged one is not sent again).
+    last_ask: Option<RouteAsk>,
+    /// Plans received, and the planner's own times (µs), for reports.
+    pub plan_us: Vec<f64>,
+}
+
+impl std::fmt::Debug for RouteWorker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RouteWorker").finish_non_exhaustive()
+    }
+}
+
+impl RouteWorker {
+    /// Starts the planner thread for `params`.
+    pub fn start(params: &Params) -> std::io::Result<Self> {
+        let (jobs, job_rx) = channel::<Job>();
+        let (route_tx, routes) = channel::<RouteUpdate>();
+        let params = params.clone();
+        let thread = std::thread::Builder::new()
+            .name("oldbf-route".into())
+            .spawn(move || run(params, job_rx, route_tx))?;
+        Ok(Self {
+            jobs: Some(jobs),
+            routes,
+            thread: Some(thread),
+            last_ask: None,
+            plan_us: Vec::new(),
+        })
+    }
+
+    /// After a tick: sends the pipeline's new scan for the map and what to
+    /// plan for, and offers it the newest route made.
+    pub fn feed(&mut self, pipeline: &mut SafetyPipeline) {
+        let Some(jobs) = &self.jobs else { return };
+        if let Some(scan) = pipeline.take_map_scan() {
+            let _ = jobs.send(Job::Scan(scan.clone()));
+        }
+        if let Some(ask) = pipeline.route_ask() {
+            if self.last_ask != Some(ask) {
+                let _ = jobs.send(Job::Ask(ask));
+                self.last_ask = Some(ask);
+            }
+        }
+        let mut newest = None;
+        while let Ok(u) = self.routes.try_recv() {
+            self.plan_us.push(u.plan_us);
+            newest = Some(u);
+        }
+        if let Some(u) = newest {
+            pipeline.offer_route(u);
+        }
+    }
+
+    /// New parameters (dynamic_reconfigure).
+    pub fn set_params(&mut self, params: &Params) {
+        if let Some(jobs) = &self.jobs {
+            let _ = jobs.send(Job::Params(Box::new(params.clone())));
+        }
+    }
+
+    /// Waits until the planner has made at least `n` plans in all, or
+    /// `timeout` passes (tests); offers the newest to `pipeline`.
+    pub fn wait_for_plans(&mut self, n: usize, timeout: Duration, pipeline: &mut SafetyPipeline) -> bool {
+        let until = Instant::now() + timeout;
+        while self.plan_us.len() < n {
+            let left = until.saturating_duration_since(Instant::now());
+            match self.routes.recv_timeout(left) {
+                Ok(u) => {
+                    self.plan_us.push(u.plan_us);
+                    pipeline.offer_route(u);
+                }
+                Err(_) => return false,
+            }
+        }
+        true
+    }
+}
+
+impl Drop for RouteWorker {
+    fn drop(&mut self) {
+        self.jobs = None; // the thread's receiver disconnects and it ends
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The planner thread: takes scans as they come; plans for the newest ask
+/// whenever one is due; ends when the node drops its sender.
+fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<RouteUpdate>) {
+    let mut way = WayRound::new(&params);
+    let mut ask: Option<RouteAsk> = None;
+    let wait = Duration::from_secs_f64(params.unstuck.plan_period_s.clamp(0.01, 1.0) / 4.0);
+    loop {
+        match jobs.recv_timeout(wait) {
+            Ok(job) => {
+                let mut take = |job| match job {
+                    Job::Scan(s) => way.insert(&s),
+                    Job::Ask(a) => {
+                        // A stuck flag stays until a plan has used it.
+                        let stuck = a.stuck || ask.is_some_and(|o| o.stuck);
+                        ask = Some(RouteAsk { stuck, ..a });
+                    }
+                    Job::Params(p) => {
+                        params = *p;
+                        way.reset(&params);
+                    }
+                };
+                take(job);
+                while let Ok(more) = jobs.try_recv() {
+                    take(more);
+                }
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => return,
+        }
+        if let Some(a) = ask.filter(|a| way.due(a, &params)) {
+            let started = Instant::now();
+            let mut update = way.plan(&a, &params);
+            update.plan_us = started.elapsed().as_secs_f64() * 1e6;
+            ask = Some(RouteAsk { stuck: false, ..a });
+            if routes.send(update).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::unstuck::Guidance;
+    use crate::algo::{LaserScan, ScanHeader, Twist, Vec2};
+    use std::f32::consts::PI;
+
+    /// 360 beams round the robot: a wall across x = 1.5 for |y| ≤ 1, nothing else.
+    fn wall_scan() -> Vec<f32> {
+        (0..360)
+            .map(|k| {
+                let a = -PI + k as f32 * 2.0 * PI / 360.0;
+                let r = 1.5 / a.cos();
+                if a.cos() > 0.0 && (r * a.sin()).abs() <= 1.0 {
+                    r
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect()
+    }
+
+    fn step(pipe: &mut SafetyPipeline, ranges: &[f32], now_s: f64) {
+        let header = ScanHeader {
+            stamp_s: now_s,
+            angle_min_rad: -PI,
+            angle_increment_rad: 2.0 * PI / 360.0,
+            range_min_m: 0.12,
+            range_max_m: 3.5,
+        };
+        pipe.set_guidance(Some(Guidance {
+            target: Vec2::new(0.5, 0.0),
+            along_m: 0.5,
+            ahead: Vec2::new(2.0, 0.0),
+            end: Vec2::new(3.0, 0.0),
+            at_end: false,
+        }));
+        let scan = LaserScan {
+            header,
+            ranges_m: ranges,
+            intensities: &[],
+        };
+        pipe.step(&scan, now_s, Twist::new(0.1, 0.0), f64::NAN);
+    }
+
+    #[test]
+    fn beside_the_safety_path_it_plans_the_same_route_as_in_step() {
+        let p = Params::default();
+        let ranges = wall_scan();
+        // In step: the pipeline plans at its first scan.
+        let mut in_step = SafetyPipeline::new(p.clone());
+        step(&mut in_step, &ranges, 1.0);
+        let expected = in_step.route().expect("planned in step").clone();
+        assert!(expected.direct_margin_m < 0.0, "the wall blocks the straight way");
+        // Beside: the step hands out the scan and the ask, and plans nothing itself.
+        let mut beside = SafetyPipeline::new(p.clone());
+        beside.plan_beside(true);
+        let mut worker = RouteWorker::start(&p).unwrap();
+        step(&mut beside, &ranges, 1.0);
+        assert!(beside.route().is_none(), "the step does not wait for a plan");
+        worker.feed(&mut beside);
+        assert!(worker.wait_for_plans(1, Duration::from_secs(10), &mut beside));
+        let got = beside.route().unwrap();
+        assert_eq!(got.route, expected.route);
+        assert_eq!((got.change, got.carrot), (expected.change, expected.carrot));
+        assert!(got.plan_us > 0.0);
+        // The thread ends when the worker is dropped.
+        drop(worker);
+    }
+}
