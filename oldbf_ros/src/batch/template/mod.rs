@@ -612,3 +612,61 @@ mod tests {
         assert_eq!(e.keys(), ["moving_obstacles"], "{e}");
     }
 }
+
+/// Worlds drawn by the existing templates are pinned: a change to the
+/// generator must not change them (new keys default to today's behaviour and
+/// draw nothing from the RNG when absent).
+#[cfg(test)]
+mod pinned {
+    use super::*;
+
+    const DOORWAYS: &str = include_str!("../../../../config/batch/doorways.yaml");
+    const CLUTTER: &str = include_str!("../../../../config/batch/static_clutter.yaml");
+
+    /// FNV-1a of the text (stable across Rust versions, unlike `DefaultHasher`).
+    fn fnv1a(text: &str) -> u64 {
+        text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+
+    fn fingerprints(text: &str) -> Vec<(u64, bool, &'static str)> {
+        let t = Template::from_str(text, "t.yaml", None).unwrap_or_else(|e| panic!("{e}"));
+        (0..8)
+            .map(|i| {
+                let w = t.world(5, i).unwrap_or_else(|e| panic!("{e}"));
+                (fnv1a(&w.yaml), w.path_exists, w.label)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn existing_templates_draw_the_same_worlds() {
+        let got = (fingerprints(DOORWAYS), fingerprints(CLUTTER));
+        // Taken from the generator before tilted doorways, benches, near-line
+        // placement and room ranges were added (commit c2803d2).
+        let want = (
+            vec![
+                (17748755722854959547, true, "wide_doorway"),
+                (8081338910400203228, true, "wide_doorway"),
+                (8542756155794530880, true, "wide_doorway"),
+                (2314452832898679304, true, "wide_doorway"),
+                (18021306081845898920, true, "wide_doorway"),
+                (8353475731693459728, true, "wide_doorway"),
+                (12839073600481438406, true, "wide_doorway"),
+                (17984552697298857293, true, "wide_doorway"),
+            ],
+            vec![
+                (16420812514027837288, true, "room"),
+                (11941709751766943082, true, "room"),
+                (13464337055002299904, true, "room"),
+                (13350115847216950855, true, "room"),
+                (5485973994880471590, true, "room"),
+                (3948110918245619368, true, "room"),
+                (11626489584874143945, true, "room"),
+                (4375708969341328206, true, "room"),
+            ],
+        );
+        assert_eq!(got, want);
+    }
+}
