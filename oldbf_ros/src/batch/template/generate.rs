@@ -170,13 +170,17 @@ impl Generator<'_> {
         for i in 0..n {
             let radius_m = self.uniform(spec.circles.radius_m);
             let near_k = is_near(k);
-            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
-                let c = CircleSpec {
-                    center: self.centre(line, radius_m, near_k)?,
-                    radius_m,
-                };
-                keeps_free(&|p| distance_to_circle(p, &c)).then_some(c)
-            });
+            let mut draw = |near: bool| {
+                (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                    let c = CircleSpec {
+                        center: self.centre(line, radius_m, near)?,
+                        radius_m,
+                    };
+                    keeps_free(&|p| distance_to_circle(p, &c)).then_some(c)
+                })
+            };
+            // Near the line if it fits there (a short line may leave no room), else anywhere.
+            let placed = draw(near_k).or_else(|| if near_k { draw(false) } else { None });
             world
                 .circles
                 .push(placed.ok_or_else(|| self.crowded("static_obstacles.circles", "circle", i))?);
@@ -208,7 +212,8 @@ impl Generator<'_> {
     }
 
     /// A box of `size` at a yaw uniform in [0°, 180°), inside the room and
-    /// clear of the start and the goal (near the line if `near`).
+    /// clear of the start and the goal (near the line if `near` and it fits
+    /// there in [`PLACEMENT_ATTEMPTS`] draws, else anywhere).
     fn place_box(
         &mut self,
         line: &Line,
@@ -221,14 +226,18 @@ impl Generator<'_> {
         let free = self.free_radius_m;
         let yaw_deg = self.rng.gen_range(0.0..180.0);
         let half_diag = 0.5 * size[0].hypot(size[1]);
-        let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
-            let b = BoxSpec {
-                center: self.centre(line, half_diag, near)?,
-                size,
-                yaw_deg,
-            };
-            (distance_to_box(line.start, &b) >= free && distance_to_box(line.goal, &b) >= free).then_some(b)
-        });
+        let mut draw = |near: bool| {
+            (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                let b = BoxSpec {
+                    center: self.centre(line, half_diag, near)?,
+                    size,
+                    yaw_deg,
+                };
+                (distance_to_box(line.start, &b) >= free && distance_to_box(line.goal, &b) >= free).then_some(b)
+            })
+        };
+        // Near the line if it fits there (a short line may leave no room), else anywhere.
+        let placed = draw(near).or_else(|| if near { draw(false) } else { None });
         placed.ok_or_else(|| self.crowded(key, what, i))
     }
 

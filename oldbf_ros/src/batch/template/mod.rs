@@ -839,6 +839,10 @@ mod tests {
                 assert!((w.time_budget_s.unwrap() - 2.5 * line_s).abs() < 1e-9);
             }
         }
+        // World 81 of seed 1: a 1.6 m bench drawn for its short (2.4 m) line cannot sit on
+        // it clear of the start and the goal, and goes elsewhere in the room.
+        let w = t.world(1, 81).unwrap_or_else(|e| panic!("{e}"));
+        check_world(&t, &w).unwrap_or_else(|e| panic!("{e}\n{}", w.yaml));
         let spread =
             |v: &[f64]| v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min);
         assert!(

@@ -123,7 +123,9 @@ pub(super) fn default_near_line_m() -> f64 {
 
 /// Static obstacles, placed uniformly in the room away from start and goal;
 /// `near_line_fraction` of them (rounded to the nearest count, chosen at
-/// random) with their centre within ±`near_line_m` of the start→goal line.
+/// random) with their centre within ±`near_line_m` of the start→goal line
+/// (one that does not fit there clear of the start and the goal, as on a
+/// short line, is placed anywhere instead).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StaticObstaclesSpec {
