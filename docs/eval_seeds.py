@@ -63,7 +63,7 @@ def pool(out, template, seeds, controller):
             return None
         r = rows[0]
         if acc is None:
-            acc = {k: 0.0 for k in ("worlds", "contact_worlds", "closing", "passive", "reached", "with_path",
+            acc = {k: 0.0 for k in ("worlds", "contact_worlds", "closing", "passive", "reached", "with_path", "in_budget",
                                     "tv_v", "tv_w", "rev_w", "rev_v", "steps", "window", "switch_min",
                                     "above", "rev_escape", "rev_evade", "rev_other", "sign", "moving", "evade",
                                     "clear_med", "p99", "max_us", "infeasible", "cbf_feasible", "brake_feasible")}
@@ -74,6 +74,10 @@ def pool(out, template, seeds, controller):
         acc["passive"] += r["passive_contacts_total"]
         acc["reached"] += r["worlds_reached_with_path"]
         acc["with_path"] += r["worlds_with_path"]
+        # Only templates with time_budget_factor have it (None otherwise, absent in older JSON).
+        if r.get("worlds_within_budget_with_path") is not None:
+            acc["in_budget"] += r["worlds_within_budget_with_path"]
+            acc["has_budget"] = True
         acc["tv_v"] += r["mean_variation_v_per_s"] * w
         acc["tv_w"] += r["mean_variation_omega_per_s"] * w
         acc["rev_w"] += r["omega_reversal_rate"] * n
@@ -100,6 +104,8 @@ def pool(out, template, seeds, controller):
         "contact worlds": int(acc["contact_worlds"]),
         "closing / passive": f"{int(acc['closing'])} / {int(acc['passive'])}",
         "goal rate": f"{100 * acc['reached'] / max(acc['with_path'], 1):.1f} %",
+        "goal in budget": (f"{100 * acc['in_budget'] / max(acc['with_path'], 1):.1f} %"
+                           if acc.get("has_budget") else "–"),
         "TV v": f"{acc['tv_v'] / w:.3f}",
         "TV ω": f"{acc['tv_w'] / w:.3f}",
         "rev Δv": f"{100 * acc['rev_v'] / n:.2f} %",

@@ -45,6 +45,11 @@ pub struct WorldOutcome {
     /// the goal, and the world's kind (`room`, `wide_doorway`, `narrow_doorway`).
     pub path_exists: bool,
     pub label: &'static str,
+    /// The template's time budget for this world (s): `time_budget_factor` ×
+    /// line length / v_nom; None when the template sets none.
+    pub time_budget_s: Option<f64>,
+    /// Whether the goal was reached within `time_budget_s` (None without one).
+    pub goal_within_budget: Option<bool>,
     /// Control steps run.
     pub steps: usize,
     /// What the run measured (the world has one robot).
@@ -67,6 +72,10 @@ impl WorldOutcome {
             sensor_seed: world.sensor_seed,
             path_exists: world.path_exists,
             label: world.label,
+            time_budget_s: world.time_budget_s,
+            goal_within_budget: world
+                .time_budget_s
+                .map(|budget| s.figures.reached_goal && s.figures.time_to_goal_s.is_some_and(|t| t <= budget)),
             steps: s.steps,
             figures: s.figures.clone(),
             mean_step_us: s.mean_step_us,

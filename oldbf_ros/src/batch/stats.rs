@@ -84,6 +84,11 @@ pub struct ControllerStats {
     pub worlds_with_path: usize,
     pub worlds_reached_with_path: usize,
     pub goal_rate_with_path: f64,
+    /// With a time budget (`time_budget_factor`): of the worlds with a path,
+    /// those where the goal was reached within it, and their fraction. None
+    /// when the template sets no budget.
+    pub worlds_within_budget_with_path: Option<usize>,
+    pub goal_within_budget_rate_with_path: Option<f64>,
     /// Mean time to goal over the worlds where it was reached (s).
     pub mean_time_to_goal_s: Option<f64>,
     /// Mean path length over all worlds (m).
@@ -152,6 +157,7 @@ impl ControllerStats {
         let clearances: Vec<f64> = outcomes.iter().map(|o| o.figures.min_clearance_m).collect();
         let worlds_with_collision = count(|o| o.figures.collisions > 0);
         let worlds_reached = count(|o| o.figures.reached_goal);
+        let has_budget = outcomes.iter().any(|o| o.goal_within_budget.is_some());
         let mut steps_us: Vec<f64> = outcomes
             .iter()
             .flat_map(|o| o.step_us.iter().map(|&t| f64::from(t)))
@@ -182,6 +188,14 @@ impl ControllerStats {
                 count(|o| o.path_exists && o.figures.reached_goal),
                 count(|o| o.path_exists),
             ),
+            worlds_within_budget_with_path: has_budget
+                .then(|| count(|o| o.path_exists && o.goal_within_budget == Some(true))),
+            goal_within_budget_rate_with_path: has_budget.then(|| {
+                rate(
+                    count(|o| o.path_exists && o.goal_within_budget == Some(true)),
+                    count(|o| o.path_exists),
+                )
+            }),
             mean_time_to_goal_s: mean(outcomes.iter().filter_map(|o| o.figures.time_to_goal_s)),
             mean_path_length_m: mean(outcomes.iter().map(|o| o.figures.path_length_m)),
             mean_max_tracking_error_m: mean(outcomes.iter().filter_map(|o| o.figures.max_tracking_error_m)),
@@ -265,6 +279,8 @@ mod tests {
             sensor_seed: 0,
             path_exists: world != 3,
             label: "room",
+            time_budget_s: None,
+            goal_within_budget: None,
             steps: steps_us.len(),
             figures: RunFigures {
                 collisions,
@@ -351,6 +367,33 @@ mod tests {
         // Pooled steps 1 2 3 4 100: mean 22, p99 at rank 3.96 = 4 + 0.96 · 96.
         assert!(close(s.mean_step_us, 22.0));
         assert!(close(s.p99_step_us, 4.0 + 0.96 * 96.0));
+    }
+
+    #[test]
+    fn goal_within_budget_counts_worlds_with_a_path_reached_in_time() {
+        // Budget 40 s everywhere: world 0 reached at 30 s (in budget), world 2 at 50 s (late),
+        // world 1 not reached, world 3 has no path (reached at 10 s, not counted).
+        let mut o = [
+            outcome(0, 0, 0.40, Some(30.0), &[1.0]),
+            outcome(1, 0, 0.40, None, &[1.0]),
+            outcome(2, 0, 0.40, Some(50.0), &[1.0]),
+            outcome(3, 0, 0.40, Some(10.0), &[1.0]),
+        ];
+        let refs: Vec<&WorldOutcome> = o.iter().collect();
+        let s = ControllerStats::from_outcomes(Controller::Oldbf, &refs);
+        assert_eq!(
+            (s.worlds_within_budget_with_path, s.goal_within_budget_rate_with_path),
+            (None, None)
+        );
+        for w in &mut o {
+            w.time_budget_s = Some(40.0);
+            w.goal_within_budget = Some(w.figures.time_to_goal_s.is_some_and(|t| t <= 40.0));
+        }
+        let refs: Vec<&WorldOutcome> = o.iter().collect();
+        let s = ControllerStats::from_outcomes(Controller::Oldbf, &refs);
+        assert_eq!((s.worlds_with_path, s.worlds_reached_with_path), (3, 2));
+        assert_eq!(s.worlds_within_budget_with_path, Some(1));
+        assert!(close(s.goal_within_budget_rate_with_path, 1.0 / 3.0));
     }
 
     #[test]

@@ -17,7 +17,7 @@ fn rate(r: f64, count: usize, total: usize) -> String {
 }
 
 /// The header of the text table, two lines per column (name, unit).
-const TEXT_HEADER: [(&str, &str); 15] = [
+const TEXT_HEADER: [(&str, &str); 16] = [
     ("controller", ""),
     ("worlds", ""),
     ("collision", "rate"),
@@ -25,6 +25,7 @@ const TEXT_HEADER: [(&str, &str); 15] = [
     ("passive", "(worlds)"),
     ("min clear. (m)", "median / p5"),
     ("goal", "rate"),
+    ("goal in", "budget"),
     ("time to", "goal (s)"),
     ("stalled", "mean (s)"),
     ("TV v / ω", "per s"),
@@ -35,7 +36,7 @@ const TEXT_HEADER: [(&str, &str); 15] = [
     ("step (µs)", "mean / p99"),
 ];
 
-fn text_cells(r: &ControllerStats) -> [String; 15] {
+fn text_cells(r: &ControllerStats) -> [String; 16] {
     [
         controller_name(r.controller),
         r.worlds.to_string(),
@@ -48,6 +49,10 @@ fn text_cells(r: &ControllerStats) -> [String; 15] {
             opt(r.min_clearance_p5_m, 3)
         ),
         rate(r.goal_rate_with_path, r.worlds_reached_with_path, r.worlds_with_path),
+        match (r.goal_within_budget_rate_with_path, r.worlds_within_budget_with_path) {
+            (Some(x), Some(n)) => rate(x, n, r.worlds_with_path),
+            _ => "–".to_string(),
+        },
         opt(r.mean_time_to_goal_s, 1),
         opt(r.mean_stalled_s, 1),
         format!(
@@ -73,7 +78,7 @@ fn text_cells(r: &ControllerStats) -> [String; 15] {
 /// The readable comparison: a title line, the aligned table (one row per
 /// controller) and a legend of the columns.
 pub fn text(report: &BatchReport) -> String {
-    let mut rows: Vec<[String; 15]> = vec![
+    let mut rows: Vec<[String; 16]> = vec![
         TEXT_HEADER.map(|(name, _)| name.to_string()),
         TEXT_HEADER.map(|(_, unit)| unit.to_string()),
     ];
@@ -115,6 +120,7 @@ pub fn text(report: &BatchReport) -> String {
         "  onset); passive: the others (at rest, turning or moving away); contacts (worlds with any).",
         "min clear.: each world's least body-to-obstacle distance; median and 5th percentile over worlds.",
         "goal rate: over the worlds where a path keeps r + d_safe from the static obstacles (reached / those).",
+        "goal in budget: of those, reached within time_budget_factor x line length / v_nom (– without a budget).",
         "time to goal: mean over the worlds reached. stalled: |v| < 0.02 m/s before the goal, mean over worlds.",
         "TV v / ω: total variation of the command (sum of |dv|, |domega|) per second, mean over worlds.",
         "rev. dv / domega: sign reversals of the command's change (both steps above 0.02 m/s, omega_max/6).",
@@ -130,7 +136,7 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 49] = [
+pub const CSV_COLUMNS: [&str; 51] = [
     "controller",
     "worlds",
     "worlds_with_collision",
@@ -148,6 +154,8 @@ pub const CSV_COLUMNS: [&str; 49] = [
     "worlds_with_path",
     "worlds_reached_with_path",
     "goal_rate_with_path",
+    "worlds_within_budget_with_path",
+    "goal_within_budget_rate_with_path",
     "mean_time_to_goal_s",
     "mean_path_length_m",
     "mean_max_tracking_error_m",
@@ -210,6 +218,9 @@ pub fn csv(report: &BatchReport) -> String {
             r.worlds_with_path.to_string(),
             r.worlds_reached_with_path.to_string(),
             r.goal_rate_with_path.to_string(),
+            r.worlds_within_budget_with_path
+                .map_or(String::new(), |n| n.to_string()),
+            num(r.goal_within_budget_rate_with_path),
             num(r.mean_time_to_goal_s),
             num(r.mean_path_length_m),
             num(r.mean_max_tracking_error_m),
@@ -253,7 +264,7 @@ pub fn csv(report: &BatchReport) -> String {
 pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
     let mut out = String::from(
         "world,controller,sensor_seed,path_exists,label,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
-         reached_goal,time_to_goal_s,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
+         reached_goal,time_to_goal_s,time_budget_s,goal_within_budget,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
          cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
          driven_blind_steps,blind_steps,variation_v_per_s,variation_omega_per_s,omega_reversals,v_reversals,\
          window_exceeded,state_switches,above_upstream_steps,reverse_escape_steps,reverse_evade_steps,\
@@ -263,7 +274,7 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
         let m = &o.figures.motion;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
@@ -276,6 +287,8 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
             o.figures.min_clearance_m,
             o.figures.reached_goal,
             num(o.figures.time_to_goal_s),
+            num(o.time_budget_s),
+            o.goal_within_budget.map_or(String::new(), |b| b.to_string()),
             o.figures.path_length_m,
             num(o.figures.max_tracking_error_m),
             o.figures.cbf_violations,
@@ -330,6 +343,8 @@ mod tests {
             worlds_with_path: 4,
             worlds_reached_with_path: 3,
             goal_rate_with_path: 0.75,
+            worlds_within_budget_with_path: Some(2),
+            goal_within_budget_rate_with_path: Some(0.5),
             mean_time_to_goal_s: None,
             mean_path_length_m: Some(6.5),
             mean_max_tracking_error_m: Some(0.5),
@@ -384,6 +399,7 @@ mod tests {
         let none = lines.iter().find(|l| l.starts_with("none")).expect("none row");
         assert_eq!(oldbf.chars().count(), none.chars().count(), "{t}");
         assert!(oldbf.contains("0.00 (0/4)") && none.contains("0.75 (3/4)"), "{t}");
+        assert!(oldbf.contains("0.50 (2/4)"), "goal within budget: {t}");
         // none: 3 contacts, 1 closing in 1 world, 2 passive in 2.
         assert!(none.contains("1 (1)") && none.contains("2 (2)"), "{t}");
         assert!(oldbf.contains("0.200 / 0.010") && oldbf.contains("6.2 / 40.0"), "{t}");
@@ -416,7 +432,8 @@ mod tests {
         assert_eq!(row.len(), CSV_COLUMNS.len());
         assert_eq!(row[0], "oldbf");
         assert_eq!(row[9], "-0.0125");
-        assert_eq!(row[17], "", "a missing value is an empty cell");
+        assert_eq!((row[17], row[18]), ("2", "0.5"), "goal within budget");
+        assert_eq!(row[19], "", "a missing value is an empty cell");
         assert_eq!(lines.count(), 1);
     }
 }

@@ -94,8 +94,8 @@ enum Command {
     },
     /// Compare controllers over N seeded random worlds drawn from a template.
     ///
-    /// Draws N worlds from TEMPLATE (room, static circles and boxes, moving
-    /// discs whose speed is a fraction of the robot's nominal speed, a line
+    /// Draws N worlds from TEMPLATE (room, static circles, boxes and benches,
+    /// moving discs whose speed is a fraction of the robot's nominal speed, a line
     /// from one wall to the opposite one; see config/batch/*.yaml), runs
     /// every controller on every world with the same world, sensor seed and
     /// nominal line, worlds in parallel, and prints one row per controller:
@@ -103,7 +103,9 @@ enum Command {
     /// closing contacts (the robot drove in: its speed towards the touched
     /// point above 0.02 m/s) and passive ones (it was at rest or moving
     /// away), with the worlds having any; least clearance (m), median and
-    /// 5th percentile over worlds; goal-reach rate; mean time to goal over
+    /// 5th percentile over worlds; goal-reach rate (over the worlds with a
+    /// safe path) and, when the template sets `time_budget_factor`, the rate
+    /// of goals reached within that factor × the nominal line time; mean time to goal over
     /// the worlds reached (s); mean time stalled (s); total variation of v and
     /// ω per second and sign reversals of Δv and Δω (% of steps); DTCBF condition and braking
     /// check violations (steps, all and on steps not marked infeasible);

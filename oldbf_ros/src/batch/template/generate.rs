@@ -64,6 +64,8 @@ pub(super) struct Generator<'a> {
     pub(super) rng: StdRng,
     pub(super) index: usize,
     pub(super) free_radius_m: f64,
+    /// This world's room (width, height) (m).
+    pub(super) room_m: (f64, f64),
 }
 
 impl Generator<'_> {
@@ -76,7 +78,15 @@ impl Generator<'_> {
     }
 
     pub(super) fn room(&self) -> (f64, f64) {
-        (self.t.spec.room.width_m, self.t.spec.room.height_m)
+        self.room_m
+    }
+
+    /// A room side: drawn when the template gives a range, else fixed (no draw).
+    pub(super) fn extent(&mut self, e: Extent) -> f64 {
+        match e {
+            Extent::Fixed(x) => x,
+            Extent::Range(r) => self.uniform(r),
+        }
     }
 
     pub(super) fn line(&mut self) -> Line {
@@ -113,54 +123,185 @@ impl Generator<'_> {
         )
     }
 
-    pub(super) fn static_obstacles(&mut self, line: &Line, world: &mut WorldSpec) -> Result<(), ConfigError> {
+    /// A centre for an obstacle reaching `extent_m` from it: uniform in the
+    /// room, or (`near`) within ±`near_line_m` of the line, anywhere along it.
+    fn centre(&mut self, line: &Line, extent_m: f64, near: bool) -> Option<[f64; 2]> {
         let (w, h) = self.room();
+        if !near {
+            return Some([
+                self.rng.gen_range(extent_m..=w - extent_m),
+                self.rng.gen_range(extent_m..=h - extent_m),
+            ]);
+        }
+        let band = self.t.spec.static_obstacles.near_line_m;
+        let along = self.rng.gen_range(0.0..=line.length_m);
+        let off = self.rng.gen_range(-band..=band);
+        let n = Vec2::new(-line.direction().y, line.direction().x);
+        let c = line.start + line.direction() * along + n * off;
+        let inside = c.x >= extent_m && c.x <= w - extent_m && c.y >= extent_m && c.y <= h - extent_m;
+        inside.then_some([c.x, c.y])
+    }
+
+    pub(super) fn static_obstacles(&mut self, line: &Line, world: &mut WorldSpec) -> Result<(), ConfigError> {
         let spec = self.t.spec.static_obstacles;
         let free = self.free_radius_m;
         let keeps_free = |dist: &dyn Fn(Vec2) -> f64| dist(line.start) >= free && dist(line.goal) >= free;
-        let n = self.count(spec.circles.count);
+        // Without near-line placement the counts are drawn kind by kind, as
+        // they always were (old templates draw the same worlds); with it, all
+        // counts first, then which obstacles (by index over all kinds) go near.
+        let mut near = Vec::new();
+        let mut counts = None;
+        if spec.near_line_fraction > 0.0 {
+            let c = [
+                self.count(spec.circles.count),
+                self.count(spec.boxes.count),
+                spec.benches.map_or(0, |b| self.count(b.count)),
+            ];
+            let total = c.iter().sum::<usize>();
+            near = near_line_choice(&mut self.rng, total, spec.near_line_fraction);
+            counts = Some(c);
+        }
+        let is_near = |k: usize| near.get(k).copied().unwrap_or(false);
+        let mut k = 0;
+        let n = match counts {
+            Some(c) => c[0],
+            None => self.count(spec.circles.count),
+        };
         for i in 0..n {
             let radius_m = self.uniform(spec.circles.radius_m);
-            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
-                let c = CircleSpec {
-                    center: [
-                        self.rng.gen_range(radius_m..=w - radius_m),
-                        self.rng.gen_range(radius_m..=h - radius_m),
-                    ],
-                    radius_m,
-                };
-                keeps_free(&|p| distance_to_circle(p, &c)).then_some(c)
-            });
+            let near_k = is_near(k);
+            let mut draw = |near: bool| {
+                (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                    let c = CircleSpec {
+                        center: self.centre(line, radius_m, near)?,
+                        radius_m,
+                    };
+                    keeps_free(&|p| distance_to_circle(p, &c)).then_some(c)
+                })
+            };
+            // Near the line if it fits there (a short line may leave no room), else anywhere.
+            let placed = draw(near_k).or_else(|| if near_k { draw(false) } else { None });
             world
                 .circles
                 .push(placed.ok_or_else(|| self.crowded("static_obstacles.circles", "circle", i))?);
+            k += 1;
         }
-        let n = self.count(spec.boxes.count);
+        let n = match counts {
+            Some(c) => c[1],
+            None => self.count(spec.boxes.count),
+        };
         for i in 0..n {
             let size = [self.uniform(spec.boxes.size_m), self.uniform(spec.boxes.size_m)];
-            let yaw_deg = self.rng.gen_range(0.0..180.0);
-            let half_diag = 0.5 * size[0].hypot(size[1]);
-            let placed = (0..PLACEMENT_ATTEMPTS).find_map(|_| {
-                let b = BoxSpec {
-                    center: [
-                        self.rng.gen_range(half_diag..=w - half_diag),
-                        self.rng.gen_range(half_diag..=h - half_diag),
-                    ],
-                    size,
-                    yaw_deg,
-                };
-                keeps_free(&|p| distance_to_box(p, &b)).then_some(b)
-            });
-            world
-                .boxes
-                .push(placed.ok_or_else(|| self.crowded("static_obstacles.boxes", "box", i))?);
+            let b = self.place_box(line, size, is_near(k), "static_obstacles.boxes", "box", i)?;
+            world.boxes.push(b);
+            k += 1;
+        }
+        if let Some(benches) = spec.benches {
+            let n = match counts {
+                Some(c) => c[2],
+                None => self.count(benches.count),
+            };
+            for i in 0..n {
+                let size = [self.uniform(benches.length_m), self.uniform(benches.width_m)];
+                let b = self.place_box(line, size, is_near(k), "static_obstacles.benches", "bench", i)?;
+                world.boxes.push(b);
+                k += 1;
+            }
         }
         Ok(())
     }
 
-    /// Adds a wall across the room through the line, perpendicular to it, with
-    /// a doorway; returns the doorway's width (m).
-    pub(super) fn doorway(&mut self, line: &Line, d: &DoorwaySpec, world: &mut WorldSpec) -> f64 {
+    /// A box of `size` at a yaw uniform in [0°, 180°), inside the room and
+    /// clear of the start and the goal (near the line if `near` and it fits
+    /// there in [`PLACEMENT_ATTEMPTS`] draws, else anywhere).
+    fn place_box(
+        &mut self,
+        line: &Line,
+        size: [f64; 2],
+        near: bool,
+        key: &str,
+        what: &str,
+        i: usize,
+    ) -> Result<BoxSpec, ConfigError> {
+        let free = self.free_radius_m;
+        let yaw_deg = self.rng.gen_range(0.0..180.0);
+        let half_diag = 0.5 * size[0].hypot(size[1]);
+        let mut draw = |near: bool| {
+            (0..PLACEMENT_ATTEMPTS).find_map(|_| {
+                let b = BoxSpec {
+                    center: self.centre(line, half_diag, near)?,
+                    size,
+                    yaw_deg,
+                };
+                (distance_to_box(line.start, &b) >= free && distance_to_box(line.goal, &b) >= free).then_some(b)
+            })
+        };
+        // Near the line if it fits there (a short line may leave no room), else anywhere.
+        let placed = draw(near).or_else(|| if near { draw(false) } else { None });
+        placed.ok_or_else(|| self.crowded(key, what, i))
+    }
+
+    /// Adds a wall across the room through the line with a doorway (tilted,
+    /// thick and with a passage if the template says so); returns the
+    /// doorway's width (m), measured across the passage.
+    pub(super) fn doorway(&mut self, line: &Line, d: &DoorwaySpec, world: &mut WorldSpec) -> Result<f64, ConfigError> {
+        if !d.is_extended() {
+            return Ok(self.thin_doorway(line, d, world));
+        }
+        for _ in 0..PLACEMENT_ATTEMPTS {
+            if let Some((width, parts)) = self.extended_doorway(line, d) {
+                world.walls.extend(parts.walls);
+                world.boxes.extend(parts.boxes);
+                return Ok(width);
+            }
+        }
+        Err(invalid(
+            &self.t.file,
+            "doorway",
+            format!(
+                "could not place the doorway of world {} inside the room and clear of the start and the goal \
+                 ({:.3} m) after {PLACEMENT_ATTEMPTS} attempts: the passage is too long or the room too small",
+                self.index, self.free_radius_m
+            ),
+        ))
+    }
+
+    /// One draw of a tilted / thick doorway with a passage; None if a part
+    /// leaves the room or comes within the free radius of the start or goal.
+    ///
+    /// Geometry: the partition crosses the line at `along`, its direction `u`
+    /// is the line's normal turned by `tilt_deg`; the passage runs along `a`,
+    /// the line's direction turned by the same angle (perpendicular to the
+    /// partition). The partition is a thin wall from room edge to room edge
+    /// (as before) with a gap of the door's width along `u`; when thick, a
+    /// solid box of that thickness covers each side of it (ending where its
+    /// corners meet the room's outline); when there is a passage, two thin
+    /// side walls along `a`, `passage_m` long and centred on the partition,
+    /// continue the gap's edges: a corridor as wide as the door.
+    pub(super) fn extended_doorway(&mut self, line: &Line, d: &DoorwaySpec) -> Option<(f64, DoorwayParts)> {
+        let (w, h) = self.room();
+        let width = self.uniform(d.width_m);
+        let along = self.uniform(d.along) * line.length_m;
+        let offset = self.uniform(d.offset_m);
+        let tilt = d.tilt_deg.map_or(0.0, |r| self.uniform(r)).to_radians();
+        let thickness = d.thickness_m.map_or(0.0, |r| self.uniform(r));
+        let passage = d.passage_m.map_or(0.0, |r| self.uniform(r));
+        let p = line.start + line.direction() * along;
+        let a = Vec2::new((line.heading_rad + tilt).cos(), (line.heading_rad + tilt).sin());
+        let u = Vec2::new(-a.y, a.x);
+        let parts = doorway_parts(p, a, u, width, offset, thickness, passage, (w, h))?;
+        let free = self.free_radius_m;
+        let clear = |q: Vec2| {
+            parts.walls.iter().all(|s| {
+                crate::sim::Segment::new(Vec2::new(s.from[0], s.from[1]), Vec2::new(s.to[0], s.to[1])).distance_to(q)
+                    >= free
+            }) && parts.boxes.iter().all(|b| distance_to_box(q, b) >= free)
+        };
+        (clear(line.start) && clear(line.goal)).then_some((width, parts))
+    }
+
+    /// The doorway as it always was: a thin wall perpendicular to the line.
+    fn thin_doorway(&mut self, line: &Line, d: &DoorwaySpec, world: &mut WorldSpec) -> f64 {
         let (w, h) = self.room();
         let width = self.uniform(d.width_m);
         let along = self.uniform(d.along) * line.length_m;
@@ -344,6 +485,98 @@ impl Generator<'_> {
             .sum();
         (perimeter_m >= MIN_LOOP_M).then_some(MotionSpec::WaypointLoop { waypoints, speed_mps })
     }
+}
+
+/// The walls and boxes of one doorway.
+#[derive(Debug, Clone, Default)]
+pub(super) struct DoorwayParts {
+    pub(super) walls: Vec<WallSpec>,
+    pub(super) boxes: Vec<BoxSpec>,
+}
+
+/// The doorway through the partition crossing `p` along `u` (unit; `a`, the
+/// passage's direction, is perpendicular to it): a gap `width` wide centred
+/// `offset` along `u` from `p` (clamped to fit the partition), thin partition
+/// walls from room edge to room edge, boxes `thickness` thick either side
+/// of the gap (if > 0), side walls `passage` long along `a` (if > 0). None
+/// if the gap does not fit or a side wall leaves the room `(w, h)`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn doorway_parts(
+    p: Vec2,
+    a: Vec2,
+    u: Vec2,
+    width: f64,
+    offset: f64,
+    thickness: f64,
+    passage: f64,
+    (w, h): (f64, f64),
+) -> Option<DoorwayParts> {
+    let (lo, hi) = (Vec2::new(0.0, 0.0), Vec2::new(w, h));
+    let inside = |q: Vec2| q.x >= 0.0 && q.x <= w && q.y >= 0.0 && q.y <= h;
+    if !inside(p) {
+        return None;
+    }
+    let (s_min, s_max) = (-exit_distance(p, -u, lo, hi), exit_distance(p, u, lo, hi));
+    if s_max - s_min <= width {
+        return None;
+    }
+    let centre = offset.clamp(s_min + 0.5 * width, s_max - 0.5 * width);
+    let (left, right) = (centre - 0.5 * width, centre + 0.5 * width);
+    let at = |q: Vec2| [q.x, q.y];
+    let mut parts = DoorwayParts::default();
+    parts.walls.push(WallSpec {
+        from: at(p + u * s_min),
+        to: at(p + u * left),
+    });
+    parts.walls.push(WallSpec {
+        from: at(p + u * right),
+        to: at(p + u * s_max),
+    });
+    if thickness > 0.0 {
+        let half = a * (0.5 * thickness);
+        let (fa, fb) = (p + half, p - half);
+        if !inside(fa) || !inside(fb) {
+            return None;
+        }
+        // Each box ends where the first of its two long edges meets the room's outline.
+        let s_lo = (-exit_distance(fa, -u, lo, hi)).max(-exit_distance(fb, -u, lo, hi));
+        let s_hi = exit_distance(fa, u, lo, hi).min(exit_distance(fb, u, lo, hi));
+        let yaw_deg = u.y.atan2(u.x).to_degrees().rem_euclid(180.0);
+        for (from, to) in [(s_lo, left), (right, s_hi)] {
+            if to - from > 1e-6 {
+                let c = p + u * (0.5 * (from + to));
+                parts.boxes.push(BoxSpec {
+                    center: [c.x, c.y],
+                    size: [to - from, thickness],
+                    yaw_deg,
+                });
+            }
+        }
+    }
+    if passage > 0.0 {
+        for e in [left, right] {
+            let (q0, q1) = (p + u * e - a * (0.5 * passage), p + u * e + a * (0.5 * passage));
+            if !inside(q0) || !inside(q1) {
+                return None;
+            }
+            parts.walls.push(WallSpec {
+                from: at(q0),
+                to: at(q1),
+            });
+        }
+    }
+    Some(parts)
+}
+
+/// Which of `total` obstacles go near the line: round(`fraction` × total)
+/// of them, chosen uniformly at random.
+pub(super) fn near_line_choice(rng: &mut StdRng, total: usize, fraction: f64) -> Vec<bool> {
+    let k = ((fraction * total as f64).round() as usize).min(total);
+    let mut near = vec![false; total];
+    for i in rand::seq::index::sample(rng, total, k) {
+        near[i] = true;
+    }
+    near
 }
 
 /// Whether a chain of grid cells (4-connected, [`PATH_GRID_M`] apart) leads

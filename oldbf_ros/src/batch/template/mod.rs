@@ -139,8 +139,21 @@ impl Template {
         let file = &self.file;
         let mut c = Checker::new();
         c.range("duration_s", s.duration_s, DURATION_S);
-        c.range("room.width_m", s.room.width_m, ROOM_M);
-        c.range("room.height_m", s.room.height_m, ROOM_M);
+        for (key, e) in [("room.width_m", s.room.width_m), ("room.height_m", s.room.height_m)] {
+            match e {
+                Extent::Fixed(x) => {
+                    c.range(key, x, ROOM_M);
+                }
+                Extent::Range(r) => check_pair(&mut c, key, r, ROOM_M),
+            }
+        }
+        if let Some(f) = s.time_budget_factor {
+            c.range(
+                "time_budget_factor",
+                f,
+                Interval::closed(1.0, 100.0).unit("(of the nominal line time)"),
+            );
+        }
         c.range(
             "nominal.v_mps",
             s.nominal.v_mps,
@@ -178,7 +191,7 @@ impl Template {
                 "at least {clear:.3} m, what the start and goal need from the walls (r + d_safe + start_clearance_m)"
             ),
         );
-        let short_side = s.room.width_m.min(s.room.height_m);
+        let short_side = s.room.least_side_m();
         c.rule(
             2.0 * s.nominal.wall_margin_m < short_side,
             "nominal.wall_margin_m",
@@ -187,7 +200,7 @@ impl Template {
                 "below half the room's shorter side ({short_side} m), to leave room between the start and the goal"
             ),
         );
-        let longest_line_m = s.room.width_m.hypot(s.room.height_m);
+        let longest_line_m = s.room.most_diagonal_m();
         let longest_nominal_s = longest_line_m / s.nominal.v_mps;
         c.rule(
             s.duration_s >= longest_nominal_s,
@@ -206,6 +219,22 @@ impl Template {
         check_pair(&mut c, "static_obstacles.circles.radius_m", so.circles.radius_m, size);
         check_count(&mut c, "static_obstacles.boxes.count", so.boxes.count, MAX_COUNT);
         check_pair(&mut c, "static_obstacles.boxes.size_m", so.boxes.size_m, size);
+        if let Some(b) = &so.benches {
+            check_count(&mut c, "static_obstacles.benches.count", b.count, MAX_COUNT);
+            let length = Interval::open_closed(0.0, 0.5 * short_side).unit("m (half the room's shorter side)");
+            check_pair(&mut c, "static_obstacles.benches.length_m", b.length_m, length);
+            check_pair(&mut c, "static_obstacles.benches.width_m", b.width_m, size);
+        }
+        c.range(
+            "static_obstacles.near_line_fraction",
+            so.near_line_fraction,
+            Interval::closed(0.0, 1.0).unit("(of the static obstacles)"),
+        );
+        c.range(
+            "static_obstacles.near_line_m",
+            so.near_line_m,
+            Interval::closed(0.0, 0.5 * short_side).unit("m (half the room's shorter side)"),
+        );
         if let Some(d) = &s.doorway {
             let width = Interval::open_closed(0.0, short_side).unit("m");
             check_pair(&mut c, "doorway.width_m", d.width_m, width);
@@ -213,6 +242,21 @@ impl Template {
             check_pair(&mut c, "doorway.along", d.along, along);
             let offset = Interval::closed(-short_side, short_side).unit("m");
             check_pair(&mut c, "doorway.offset_m", d.offset_m, offset);
+            if let Some(t) = d.tilt_deg {
+                check_pair(&mut c, "doorway.tilt_deg", t, Interval::closed(-45.0, 45.0).unit("°"));
+            }
+            if let Some(t) = d.thickness_m {
+                check_pair(&mut c, "doorway.thickness_m", t, Interval::closed(0.0, 1.0).unit("m"));
+            }
+            if let Some(p) = d.passage_m {
+                let most = 0.5 * short_side;
+                check_pair(
+                    &mut c,
+                    "doorway.passage_m",
+                    p,
+                    Interval::closed(0.0, most).unit("m (half the room's shorter side)"),
+                );
+            }
         }
         let m = &s.moving_obstacles;
         check_count(&mut c, "moving_obstacles.count", m.count, MAX_COUNT);
@@ -249,15 +293,15 @@ impl Template {
             rng,
             index,
             free_radius_m: self.start_clearance_radius_m(),
+            room_m: (0.0, 0.0),
         };
+        // A fixed side draws nothing: templates with a fixed room draw as before.
+        let width_m = g.extent(self.spec.room.width_m);
+        let height_m = g.extent(self.spec.room.height_m);
+        g.room_m = (width_m, height_m);
         let line = g.line();
         let mut world = WorldSpec {
-            polygons: vec![vec![
-                [0.0, 0.0],
-                [self.spec.room.width_m, 0.0],
-                [self.spec.room.width_m, self.spec.room.height_m],
-                [0.0, self.spec.room.height_m],
-            ]],
+            polygons: vec![vec![[0.0, 0.0], [width_m, 0.0], [width_m, height_m], [0.0, height_m]]],
             ..WorldSpec::default()
         };
         let room = world.clone();
@@ -268,7 +312,7 @@ impl Template {
             world = room.clone();
             g.static_obstacles(&line, &mut world)?;
             if let Some(d) = self.spec.doorway {
-                label = if g.doorway(&line, &d, &mut world) >= 2.0 * clearance_m {
+                label = if g.doorway(&line, &d, &mut world)? >= 2.0 * clearance_m {
                     "wide_doorway"
                 } else {
                     "narrow_doorway"
@@ -324,6 +368,8 @@ impl Template {
             yaml,
             path_exists,
             label,
+            room_m: [width_m, height_m],
+            time_budget_s: spec.time_budget_factor.map(|f| f * line.length_m / spec.nominal.v_mps),
         })
     }
 }
@@ -357,7 +403,7 @@ mod tests {
 
     /// Every validity rule of the module docs, checked independently of the generator.
     fn check_world(t: &Template, w: &GeneratedWorld) -> anyhow::Result<()> {
-        let (width, height) = (t.spec.room.width_m, t.spec.room.height_m);
+        let [width, height] = w.room_m;
         let free = t.start_clearance_radius_m();
         let agent = &w.scenario.agents[0];
         let start = agent.start.position();
@@ -579,6 +625,283 @@ mod tests {
         assert_eq!(keys, ["lidar.dropout"]);
     }
 
+    const ROOMS: &str = include_str!("../../../../config/batch/rooms.yaml");
+    const TILTED: &str = include_str!("../../../../config/batch/doorways_tilted.yaml");
+
+    /// A template over the slow one's robot and room, with `statics` as its
+    /// static obstacles and no movers.
+    fn statics_template(statics: &str) -> Template {
+        let base = SLOW
+            .split("static_obstacles:")
+            .next()
+            .expect("the slow template has static obstacles");
+        template(&format!("{base}static_obstacles:\n{statics}"))
+    }
+
+    #[test]
+    fn a_bench_is_a_box_with_its_own_length_and_width() {
+        // A 1.6 x 0.4 m bench at (2, 3), turned 90°: corners (1.8, 2.2), (2.2, 2.2), (2.2, 3.8), (1.8, 3.8).
+        let b = BoxSpec {
+            center: [2.0, 3.0],
+            size: [1.6, 0.4],
+            yaw_deg: 90.0,
+        };
+        for [x, y] in [[1.8, 2.2], [2.2, 2.2], [2.2, 3.8], [1.8, 3.8]] {
+            assert!(distance_to_box(Vec2::new(x, y), &b) < 1e-12, "corner ({x}, {y})");
+            // 0.1 m out along the diagonal from the centre's side: 0.1 √2 from the corner.
+            let out = Vec2::new(x + 0.1 * (x - 2.0).signum(), y + 0.1 * (y - 3.0).signum());
+            assert!((distance_to_box(out, &b) - 0.1 * 2f64.sqrt()).abs() < 1e-12);
+        }
+        assert!(
+            (distance_to_box(Vec2::new(2.0, 4.3), &b) - 0.5).abs() < 1e-12,
+            "beyond the far end"
+        );
+        // Generated benches keep their drawn length and width (any yaw), and lie in the room.
+        let t = statics_template(
+            "  benches: {count: [3, 3], length_m: [1.6, 1.6], width_m: [0.4, 0.4]}\n  require_path: true\n",
+        );
+        let mut yaws = Vec::new();
+        for i in 0..8 {
+            let w = t.world(9, i).unwrap();
+            let boxes = &w.scenario.spec.world.boxes;
+            assert_eq!(boxes.len(), 3);
+            for b in boxes {
+                assert_eq!(b.size, [1.6, 0.4]);
+                assert!((0.0..180.0).contains(&b.yaw_deg));
+                yaws.push(b.yaw_deg);
+            }
+            check_world(&t, &w).unwrap_or_else(|e| panic!("{e}\n{}", w.yaml));
+        }
+        assert!(
+            yaws.iter().any(|&y| y < 60.0) && yaws.iter().any(|&y| y > 120.0),
+            "{yaws:?}"
+        );
+    }
+
+    #[test]
+    fn the_near_line_fraction_places_its_count_on_the_line() {
+        let mut rng = StdRng::seed_from_u64(1);
+        // round(0.4 · 10) = 4, round(0.5 · 7) = round(3.5) = 4, round(0.4 · 0) = 0.
+        for (n, f, k) in [(10, 0.4, 4), (7, 0.5, 4), (0, 0.4, 0), (5, 1.0, 5), (5, 0.0, 0)] {
+            let near = generate::near_line_choice(&mut rng, n, f);
+            assert_eq!((near.len(), near.iter().filter(|&&b| b).count()), (n, k));
+        }
+        // All of 10 posts near the line: every centre within 0.35 m of the segment.
+        let band = |fraction: f64| {
+            statics_template(&format!(
+                "  circles: {{count: [10, 10], radius_m: [0.1, 0.1]}}\n  near_line_fraction: {fraction}\n  \
+                 near_line_m: 0.35\n"
+            ))
+        };
+        let near_counts = |t: &Template| -> Vec<usize> {
+            (0..20)
+                .map(|i| {
+                    let w = t.world(4, i).unwrap();
+                    check_world(t, &w).unwrap_or_else(|e| panic!("{e}\n{}", w.yaml));
+                    let a = &w.scenario.agents[0];
+                    let seg = crate::sim::Segment::new(a.start.position(), a.reference.unwrap().goal().position());
+                    let on = |c: &CircleSpec| seg.distance_to(Vec2::new(c.center[0], c.center[1])) <= 0.35 + 1e-9;
+                    w.scenario.spec.world.circles.iter().filter(|c| on(c)).count()
+                })
+                .collect()
+        };
+        assert!(near_counts(&band(1.0)).iter().all(|&k| k == 10));
+        // 40 %: at least the 4 placed there (uniform ones may land in the band too), and
+        // on average far fewer than all.
+        let counts = near_counts(&band(0.4));
+        assert!(counts.iter().all(|&k| k >= 4), "{counts:?}");
+        assert!(counts.iter().sum::<usize>() < 20 * 7, "{counts:?}");
+    }
+
+    /// The room with `parts` in it.
+    fn doorway_world(parts: &generate::DoorwayParts) -> WorldSpec {
+        WorldSpec {
+            polygons: vec![vec![[0.0, 0.0], [8.0, 0.0], [8.0, 6.0], [0.0, 6.0]]],
+            walls: parts.walls.clone(),
+            boxes: parts.boxes.clone(),
+            ..WorldSpec::default()
+        }
+    }
+
+    #[test]
+    fn a_thick_doorway_with_a_passage_by_hand() {
+        // Untilted: partition along y through (4, 3), 0.2 m thick, door 0.6 m centred on the line,
+        // passage 1.0 m along x.
+        let (a, u) = (Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0));
+        let parts = generate::doorway_parts(Vec2::new(4.0, 3.0), a, u, 0.6, 0.0, 0.2, 1.0, (8.0, 6.0)).unwrap();
+        let walls: Vec<([f64; 2], [f64; 2])> = parts.walls.iter().map(|w| (w.from, w.to)).collect();
+        let near = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).abs() < 1e-12 && (p[1] - q[1]).abs() < 1e-12;
+        let want = [
+            ([4.0, 0.0], [4.0, 2.7]),
+            ([4.0, 3.3], [4.0, 6.0]),
+            ([3.5, 2.7], [4.5, 2.7]),
+            ([3.5, 3.3], [4.5, 3.3]),
+        ];
+        assert_eq!(walls.len(), 4);
+        for (w, (f, t)) in walls.iter().zip(want) {
+            assert!(near(w.0, f) && near(w.1, t), "{walls:?}");
+        }
+        // Boxes from the room's edge to the door: 2.7 m long, 0.2 m thick, at y = 1.35 and 4.65.
+        assert_eq!(parts.boxes.len(), 2);
+        for (b, y) in parts.boxes.iter().zip([1.35, 4.65]) {
+            assert!(near(b.center, [4.0, y]), "{b:?}");
+            assert!(
+                (b.size[0] - 2.7).abs() < 1e-12 && b.size[1] == 0.2 && b.yaw_deg == 90.0,
+                "{b:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_tilted_doorway_measures_its_width_across_the_passage() {
+        let tilt = 15f64.to_radians();
+        let a = Vec2::new(tilt.cos(), tilt.sin());
+        let u = Vec2::new(-a.y, a.x);
+        let p = Vec2::new(4.0, 3.0);
+        let build = |width: f64| generate::doorway_parts(p, a, u, width, 0.2, 0.25, 2.0, (8.0, 6.0)).unwrap();
+        let parts = build(0.6);
+        // The two side walls: parallel to the passage, 2.0 m long, 0.6 m apart across it.
+        let side: Vec<(Vec2, Vec2)> = parts.walls[2..]
+            .iter()
+            .map(|w| (Vec2::new(w.from[0], w.from[1]), Vec2::new(w.to[0], w.to[1])))
+            .collect();
+        for (f, t) in &side {
+            let d = *t - *f;
+            assert!((d.norm() - 2.0).abs() < 1e-12);
+            assert!((d.x * a.y - d.y * a.x).abs() < 1e-12, "along the passage");
+        }
+        let across = (side[1].0 - side[0].0).dot(&u);
+        assert!((across - 0.6).abs() < 1e-12, "{across}");
+        // The door's centre is 0.2 m along the partition from the line's crossing point.
+        let mid = (side[0].0 + side[1].1) * 0.5;
+        assert!(((mid - p).dot(&u) - 0.2).abs() < 1e-12 && (mid - p).dot(&a).abs() < 1e-12);
+        // Boxes along the partition (yaw 105°), 0.25 m thick, corners inside the room,
+        // their inner ends on the side walls' line.
+        for b in &parts.boxes {
+            assert!((b.yaw_deg - 105.0).abs() < 1e-9 && b.size[1] == 0.25, "{b:?}");
+            let c = Vec2::new(b.center[0], b.center[1]);
+            for (sx, sy) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+                let q = c + u * (0.5 * sx * b.size[0]) + a * (0.5 * sy * b.size[1]);
+                assert!(
+                    q.x > -1e-9 && q.x < 8.0 + 1e-9 && q.y > -1e-9 && q.y < 6.0 + 1e-9,
+                    "{q:?}"
+                );
+            }
+        }
+        // r + d_safe = 0.378 m: a 0.6 m door has no path at that clearance (+2 cm), a 1.0 m one has.
+        let (start, goal) = (Vec2::new(1.0, 3.0), Vec2::new(7.0, 3.0));
+        let clearance = 0.378 + PATH_SLACK_M;
+        assert!(!path_exists_in(&doorway_world(&parts), start, goal, clearance, "t").unwrap());
+        assert!(path_exists_in(&doorway_world(&build(1.0)), start, goal, clearance, "t").unwrap());
+    }
+
+    /// Start and goal clear of every static part (boxes as solids), every
+    /// obstacle corner inside the room.
+    fn check_static_parts(t: &Template, w: &GeneratedWorld) {
+        let free = t.start_clearance_radius_m();
+        let [width, height] = w.room_m;
+        let a = &w.scenario.agents[0];
+        let spec = &w.scenario.spec.world;
+        let statics = World::new(&WorldSpec {
+            moving: Vec::new(),
+            ..spec.clone()
+        })
+        .unwrap();
+        for p in [a.start.position(), a.reference.unwrap().goal().position()] {
+            assert!(statics.distance_to_nearest(p) >= free - 1e-9, "{p:?}\n{}", w.yaml);
+            for b in &spec.boxes {
+                assert!(distance_to_box(p, b) >= free - 1e-9, "{p:?} near {b:?}");
+            }
+            assert!(p.x > 0.0 && p.x < width && p.y > 0.0 && p.y < height);
+        }
+        let (lo, hi) = statics.bounds().unwrap();
+        assert!(lo.x > -1e-9 && lo.y > -1e-9 && hi.x < width + 1e-9 && hi.y < height + 1e-9);
+    }
+
+    #[test]
+    fn rooms_template_draws_valid_worlds_over_several_seeds() {
+        let t = template(ROOMS);
+        assert_eq!(t.spec.time_budget_factor, Some(2.5));
+        let (mut widths, mut heights) = (Vec::new(), Vec::new());
+        for seed in [1, 2, 3, 77] {
+            for i in 0..3 {
+                let w = t.world(seed, i).unwrap_or_else(|e| panic!("{e}"));
+                let [width, height] = w.room_m;
+                assert!((6.0..=12.0).contains(&width) && (3.5..=8.0).contains(&height));
+                widths.push(width);
+                heights.push(height);
+                check_world(&t, &w).unwrap_or_else(|e| panic!("{e}\n{}", w.yaml));
+                check_static_parts(&t, &w);
+                assert!(w.path_exists && w.label == "room");
+                let n = w.scenario.spec.world.circles.len() + w.scenario.spec.world.boxes.len();
+                assert!((5..=15).contains(&n), "{n} obstacles");
+                let line_s = w.scenario.agents[0].reference.unwrap().duration_s;
+                assert!((w.time_budget_s.unwrap() - 2.5 * line_s).abs() < 1e-9);
+            }
+        }
+        // World 81 of seed 1: a 1.6 m bench drawn for its short (2.4 m) line cannot sit on
+        // it clear of the start and the goal, and goes elsewhere in the room.
+        let w = t.world(1, 81).unwrap_or_else(|e| panic!("{e}"));
+        check_world(&t, &w).unwrap_or_else(|e| panic!("{e}\n{}", w.yaml));
+        let spread =
+            |v: &[f64]| v.iter().copied().fold(f64::MIN, f64::max) - v.iter().copied().fold(f64::MAX, f64::min);
+        assert!(
+            spread(&widths) > 1.0 && spread(&heights) > 1.0,
+            "{widths:?} {heights:?}"
+        );
+    }
+
+    #[test]
+    fn tilted_doorways_are_labelled_by_their_width() {
+        let t = template(TILTED);
+        let clearance = t.params.robot_radius_m() + t.params.barrier.d_safe_m;
+        let mut labels = std::collections::BTreeSet::new();
+        for seed in [1, 2] {
+            for i in 0..8 {
+                let w = t.world(seed, i).unwrap_or_else(|e| panic!("{e}"));
+                check_static_parts(&t, &w);
+                let spec = &w.scenario.spec.world;
+                // Two partition walls, two side walls, up to two boxes.
+                assert_eq!(spec.walls.len(), 4, "{}", w.yaml);
+                let d = Vec2::new(
+                    spec.walls[3].from[0] - spec.walls[2].from[0],
+                    spec.walls[3].from[1] - spec.walls[2].from[1],
+                );
+                let width = d.norm();
+                assert!((0.5 - 1e-9..=0.9 + 1e-9).contains(&width), "{width}");
+                let narrow = width < 2.0 * clearance;
+                assert_eq!(w.label, if narrow { "narrow_doorway" } else { "wide_doorway" });
+                assert_eq!(w.path_exists, !narrow, "{width} m door\n{}", w.yaml);
+                labels.insert(w.label);
+            }
+        }
+        assert_eq!(labels.len(), 2, "both kinds appear");
+    }
+
+    #[test]
+    fn new_template_keys_are_checked_by_name() {
+        let (keys, msg) = error_keys(&ROOMS.replace("width_m: [0.3, 0.5]}", "width_m: [0.3, 0.5], colour: red}"));
+        assert_eq!(keys, ["static_obstacles.benches.colour"], "{msg}");
+        let (keys, _) = error_keys(&ROOMS.replace("near_line_fraction: 0.4", "near_line_fraction: 1.5"));
+        assert_eq!(keys, ["static_obstacles.near_line_fraction"]);
+        let (keys, _) = error_keys(&ROOMS.replace("near_line_m: 0.35", "near_line_m: -0.1"));
+        assert_eq!(keys, ["static_obstacles.near_line_m"]);
+        let (keys, _) = error_keys(&ROOMS.replace("length_m: [1.0, 1.6]", "length_m: [1.6, 1.0]"));
+        assert_eq!(keys, ["static_obstacles.benches.length_m"]);
+        let (keys, _) = error_keys(&ROOMS.replace("width_m: [6.0, 12.0]", "width_m: [12.0, 6.0]"));
+        assert_eq!(keys, ["room.width_m"]);
+        let (keys, _) = error_keys(&ROOMS.replace("time_budget_factor: 2.5", "time_budget_factor: 0.5"));
+        assert_eq!(keys, ["time_budget_factor"]);
+        let (keys, _) = error_keys(&TILTED.replace("tilt_deg: [-15, 15]", "tilt_deg: [-60, 15]"));
+        assert_eq!(keys, ["doorway.tilt_deg[0]"]);
+        let (keys, _) = error_keys(&TILTED.replace("thickness_m: [0.08, 0.25]", "thickness_m: [0.25, 0.08]"));
+        assert_eq!(keys, ["doorway.thickness_m"]);
+        let (keys, _) = error_keys(&TILTED.replace("passage_m: [0.6, 2.0]", "passage_m: [0.6, 9.0]"));
+        assert_eq!(keys, ["doorway.passage_m[1]"]);
+        let (keys, msg) = error_keys(&TILTED.replace("passage_m: [0.6, 2.0]", "corridor_m: [0.6, 2.0]"));
+        assert_eq!(keys, ["doorway.corridor_m"], "{msg}");
+    }
+
     /// The error of world 0 (a world is too large to print on failure).
     fn crowded_error(text: &str) -> ConfigError {
         match template(text).world(1, 0) {
@@ -610,5 +933,63 @@ mod tests {
             .replace("radius_m: [0.12, 0.25]", "radius_m: [0.5, 0.5]");
         let e = crowded_error(&movers);
         assert_eq!(e.keys(), ["moving_obstacles"], "{e}");
+    }
+}
+
+/// Worlds drawn by the existing templates are pinned: a change to the
+/// generator must not change them (new keys default to today's behaviour and
+/// draw nothing from the RNG when absent).
+#[cfg(test)]
+mod pinned {
+    use super::*;
+
+    const DOORWAYS: &str = include_str!("../../../../config/batch/doorways.yaml");
+    const CLUTTER: &str = include_str!("../../../../config/batch/static_clutter.yaml");
+
+    /// FNV-1a of the text (stable across Rust versions, unlike `DefaultHasher`).
+    fn fnv1a(text: &str) -> u64 {
+        text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+
+    fn fingerprints(text: &str) -> Vec<(u64, bool, &'static str)> {
+        let t = Template::from_str(text, "t.yaml", None).unwrap_or_else(|e| panic!("{e}"));
+        (0..8)
+            .map(|i| {
+                let w = t.world(5, i).unwrap_or_else(|e| panic!("{e}"));
+                (fnv1a(&w.yaml), w.path_exists, w.label)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn existing_templates_draw_the_same_worlds() {
+        let got = (fingerprints(DOORWAYS), fingerprints(CLUTTER));
+        // Taken from the generator before tilted doorways, benches, near-line
+        // placement and room ranges were added (commit c2803d2).
+        let want = (
+            vec![
+                (17748755722854959547, true, "wide_doorway"),
+                (8081338910400203228, true, "wide_doorway"),
+                (8542756155794530880, true, "wide_doorway"),
+                (2314452832898679304, true, "wide_doorway"),
+                (18021306081845898920, true, "wide_doorway"),
+                (8353475731693459728, true, "wide_doorway"),
+                (12839073600481438406, true, "wide_doorway"),
+                (17984552697298857293, true, "wide_doorway"),
+            ],
+            vec![
+                (16420812514027837288, true, "room"),
+                (11941709751766943082, true, "room"),
+                (13464337055002299904, true, "room"),
+                (13350115847216950855, true, "room"),
+                (5485973994880471590, true, "room"),
+                (3948110918245619368, true, "room"),
+                (11626489584874143945, true, "room"),
+                (4375708969341328206, true, "room"),
+            ],
+        );
+        assert_eq!(got, want);
     }
 }

@@ -3,12 +3,49 @@
 
 use super::*;
 
+/// A room side (m): one number, the same in every world, or `[least, most]`,
+/// drawn uniformly per world.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum Extent {
+    Fixed(f64),
+    Range([f64; 2]),
+}
+
+impl Extent {
+    /// The least and the most this side can be (m).
+    pub fn bounds(self) -> [f64; 2] {
+        match self {
+            Extent::Fixed(x) => [x, x],
+            Extent::Range(r) => r,
+        }
+    }
+    pub fn least(self) -> f64 {
+        self.bounds()[0]
+    }
+    pub fn most(self) -> f64 {
+        self.bounds()[1]
+    }
+}
+
 /// The rectangular room [0, width] × [0, height] (m); its outline is a wall.
+/// A side given as `[least, most]` is drawn per world (width first).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RoomSpec {
-    pub width_m: f64,
-    pub height_m: f64,
+    pub width_m: Extent,
+    pub height_m: Extent,
+}
+
+impl RoomSpec {
+    /// The shortest side any world can have (m).
+    pub fn least_side_m(&self) -> f64 {
+        self.width_m.least().min(self.height_m.least())
+    }
+    /// The longest diagonal any world can have (m).
+    pub fn most_diagonal_m(&self) -> f64 {
+        self.width_m.most().hypot(self.height_m.most())
+    }
 }
 
 pub(super) fn default_wall_margin() -> f64 {
@@ -67,19 +104,62 @@ impl Default for BoxesSpec {
     }
 }
 
-/// Static obstacles, placed uniformly in the room away from start and goal.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Deserialize)]
+/// Benches (and other long boxes): length and width drawn separately, yaw
+/// uniform in [0°, 180°).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BenchesSpec {
+    /// [least, most] benches per world (inclusive).
+    pub count: [usize; 2],
+    /// [least, most] length (m), uniform.
+    pub length_m: [f64; 2],
+    /// [least, most] width (m), uniform.
+    pub width_m: [f64; 2],
+}
+
+pub(super) fn default_near_line_m() -> f64 {
+    0.35
+}
+
+/// Static obstacles, placed uniformly in the room away from start and goal;
+/// `near_line_fraction` of them (rounded to the nearest count, chosen at
+/// random) with their centre within ±`near_line_m` of the start→goal line
+/// (one that does not fit there clear of the start and the goal, as on a
+/// short line, is placed anywhere instead).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StaticObstaclesSpec {
     #[serde(default)]
     pub circles: CirclesSpec,
     #[serde(default)]
     pub boxes: BoxesSpec,
+    /// Absent: none (and nothing drawn for them).
+    #[serde(default)]
+    pub benches: Option<BenchesSpec>,
+    /// Fraction in [0, 1] of all static obstacles placed near the line.
+    #[serde(default)]
+    pub near_line_fraction: f64,
+    /// Half-width of the band around the line their centres lie in (m).
+    #[serde(default = "default_near_line_m")]
+    pub near_line_m: f64,
     /// Redraw the static obstacles until a path from the start to the goal
     /// keeps the robot's centre r + d_safe from every static obstacle and
     /// wall (`path_exists` of each world says whether one does).
     #[serde(default)]
     pub require_path: bool,
+}
+
+impl Default for StaticObstaclesSpec {
+    fn default() -> Self {
+        Self {
+            circles: CirclesSpec::default(),
+            boxes: BoxesSpec::default(),
+            benches: None,
+            near_line_fraction: 0.0,
+            near_line_m: default_near_line_m(),
+            require_path: false,
+        }
+    }
 }
 
 /// A wall across the room, perpendicular to the robot's line, with one
@@ -96,6 +176,28 @@ pub struct DoorwaySpec {
     /// [least, most] offset of the doorway's centre from the line, along the wall (m).
     #[serde(default = "default_doorway_offset")]
     pub offset_m: [f64; 2],
+    /// [least, most] angle of the partition from perpendicular to the line
+    /// (degrees, CCW). Absent: 0 (perpendicular), nothing drawn.
+    #[serde(default)]
+    pub tilt_deg: Option<[f64; 2]>,
+    /// [least, most] thickness of the partition (m): solid boxes either side
+    /// of the doorway. Absent: a thin wall (segments), as before.
+    #[serde(default)]
+    pub thickness_m: Option<[f64; 2]>,
+    /// [least, most] length of the passage (m): two thin side walls,
+    /// perpendicular to the partition and centred on it, along the doorway's
+    /// edges, so the doorway is a corridor of its width and this length.
+    /// Absent: no side walls (the passage is the partition's thickness).
+    #[serde(default)]
+    pub passage_m: Option<[f64; 2]>,
+}
+
+impl DoorwaySpec {
+    /// Whether any of the tilted / thick / passage keys is given: the
+    /// doorway is then drawn by the newer geometry (absent, exactly as before).
+    pub fn is_extended(&self) -> bool {
+        self.tilt_deg.is_some() || self.thickness_m.is_some() || self.passage_m.is_some()
+    }
 }
 
 pub(super) fn default_doorway_along() -> [f64; 2] {
@@ -188,6 +290,10 @@ pub struct TemplateSpec {
     /// A wall with a doorway across the robot's line.
     #[serde(default)]
     pub doorway: Option<DoorwaySpec>,
+    /// When given, each world also records whether the goal was reached within
+    /// this factor × the nominal line time (line length / v_nom).
+    #[serde(default)]
+    pub time_budget_factor: Option<f64>,
     /// Overrides of `config/oldbf.yaml`, as in a scenario file.
     #[serde(default)]
     pub oldbf: Option<Value>,
@@ -221,4 +327,8 @@ pub struct GeneratedWorld {
     pub path_exists: bool,
     /// What kind of world: `room`, `wide_doorway` or `narrow_doorway`.
     pub label: &'static str,
+    /// The room drawn for this world, [width, height] (m).
+    pub room_m: [f64; 2],
+    /// `time_budget_factor` × line length / v_nom (s), when the template sets it.
+    pub time_budget_s: Option<f64>,
 }
