@@ -136,7 +136,7 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
          v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
          clearance_true_m,state,filter_changed,condition_held,braking_held,infeasible,unknown_beams,held_beams,\
-         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us,tier,added_motion,{}",
+         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us,tier,added_motion,route_event,no_route,{}",
         Critic::ALL.map(|c| format!("cost_{}", c.name())).join(",")
     )?;
     for r in rows {
@@ -182,7 +182,14 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
             csv_value(r.min_ttc_s),
             r.step_us
         );
-        let _ = write!(line, ",{},{}", r.tier, u8::from(r.added_motion));
+        let _ = write!(
+            line,
+            ",{},{},{},{}",
+            r.tier,
+            u8::from(r.added_motion),
+            r.route_event,
+            u8::from(r.no_route)
+        );
         for c in r.costs.0 {
             let _ = write!(line, ",{}", csv_value(c));
         }

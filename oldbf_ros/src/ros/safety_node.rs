@@ -71,6 +71,8 @@ fn state_msg(frame: &str, now: f64, tick: &Tick) -> BarrierState {
         infeasible: r.infeasibility.map(|i| i.code().to_string()).unwrap_or_default(),
         tier: r.tier.map(|t| t.code().to_string()).unwrap_or_default(),
         added_motion: r.added_motion,
+        route_event: r.route_event.map(|e| e.as_str().to_string()).unwrap_or_default(),
+        no_route: r.no_route,
         critic_names: Critic::ALL.iter().map(|c| c.name().to_string()).collect(),
         critic_costs: r.costs.0.to_vec(),
         e_stop: tick.e_stop,

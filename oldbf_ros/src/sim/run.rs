@@ -99,6 +99,10 @@ pub struct StepRow {
     /// The command went faster than the upstream or reversed where it did
     /// not (escape or evasion, §5c).
     pub added_motion: bool,
+    /// A way round began or ended at this step, and why (§4c; empty: neither).
+    pub route_event: &'static str,
+    /// No route to the goal: the robot rests (§4c).
+    pub no_route: bool,
     /// Beams reading unknown, and held of those.
     pub unknown_beams: usize,
     pub held_beams: usize,
@@ -439,6 +443,8 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
                 tier: rec.tier.map_or("", |t| t.code()),
                 costs: rec.costs,
                 added_motion: rec.added_motion,
+                route_event: rec.route_event.map_or("", |e| e.as_str()),
+                no_route: rec.no_route,
                 unknown_beams: rec.unknown_beams,
                 held_beams: rec.held_beams,
                 driven_blind,

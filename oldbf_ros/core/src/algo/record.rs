@@ -131,6 +131,10 @@ pub struct StepRecord {
     /// A tracked mover threatened: the window was opened to the base's own
     /// limits for evasion (`passive.evasion_*accel*`, §5c).
     pub evading: bool,
+    /// A way round began or ended at this step, and why (§4c).
+    pub route_event: Option<crate::algo::unstuck::RouteEvent>,
+    /// No route to the goal: the robot rests (§4c).
+    pub no_route: bool,
     /// Barrier of the left side, B_l = B_d,l + B_v (dimensionless).
     pub b_left: f64,
     /// Barrier of the right side, B_r = B_d,r + B_v.
@@ -190,6 +194,8 @@ impl StepRecord {
             costs: CriticCosts::default(),
             added_motion: false,
             evading: false,
+            route_event: None,
+            no_route: false,
             b_left: f64::NAN,
             b_right: f64::NAN,
             b_velocity: f64::NAN,

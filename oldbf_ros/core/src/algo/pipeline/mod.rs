@@ -459,6 +459,7 @@ impl SafetyPipeline {
             // The next scan's h is measured against this (one scan period on).
             self.last_h_next = d.h_next_m;
         }
+        let way = std::mem::take(&mut self.way);
         let p = &self.params;
         StepRecord {
             stamp_s: now_s,
@@ -477,6 +478,8 @@ impl SafetyPipeline {
             costs: d.costs,
             added_motion: d.added_motion,
             evading: d.evading,
+            route_event: way.event,
+            no_route: way.no_route,
             b_left: b.b_left,
             b_right: b.b_right,
             b_velocity: b.b_velocity,
