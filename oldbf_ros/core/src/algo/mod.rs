@@ -15,7 +15,6 @@ pub mod doaa;
 pub mod dtcbf;
 pub mod geometry;
 pub mod local_map;
-pub mod local_plan;
 pub mod obstacle_tracker;
 pub mod params;
 pub mod passive;
