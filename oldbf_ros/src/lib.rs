@@ -39,7 +39,7 @@ pub mod replay;
 #[cfg(feature = "eval")]
 pub mod report;
 pub mod resubscribe;
-pub mod route_worker;
 #[cfg(feature = "ros")]
 pub mod ros;
+pub mod route_worker;
 pub mod sim;

@@ -417,7 +417,10 @@ impl NodeCore {
         let route_worker = settings
             .plan_beside
             .then(|| RouteWorker::start(pipeline.params()))
-            .and_then(|w| w.map_err(|e| log::warn!("route planner thread: {e}; planning in step")).ok());
+            .and_then(|w| {
+                w.map_err(|e| log::warn!("route planner thread: {e}; planning in step"))
+                    .ok()
+            });
         pipeline.plan_beside(route_worker.is_some());
         Self {
             constant: None,

@@ -488,7 +488,9 @@ impl RoutePlanner {
         let mut cost = 0.0;
         let mut prev: Option<(Vec2, f64)> = None;
         for p in &route.points[start..] {
-            let f = map.index(cell_coords(*p)).map_or(1.0 + UNKNOWN_COST, |k| self.factor[k]);
+            let f = map
+                .index(cell_coords(*p))
+                .map_or(1.0 + UNKNOWN_COST, |k| self.factor[k]);
             if let Some((q, fq)) = prev {
                 cost += (p - q).norm() * 0.5 * (f + fq);
             }
@@ -506,7 +508,14 @@ impl RoutePlanner {
             .held
             .as_ref()
             .map(|r| (self.remaining_cost(map, r, req.from), (r.goal - req.goal).norm()));
-        let planned = self.search(map, req);
+        let mut planned = self.search(map, req);
+        if planned == Planned::NoRoute && !self.avoid.is_empty() {
+            // Closed in only with the spots the robot got stuck at: those are not what
+            // the map shows; forget them rather than give up.
+            self.avoid.clear();
+            self.fields(map, req);
+            planned = self.search(map, req);
+        }
         let change = match (planned, held_cost) {
             (Planned::NoRoute, _) => {
                 self.held = None;
@@ -659,6 +668,14 @@ mod tests {
         assert_eq!(why, RouteChange::Blocked);
         let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
         assert!(side > 0.0, "round the other side: {side}");
+        // Stuck at the held route's crossing: that spot is blocked, and the next plan
+        // (the wall gone again) goes round the other way.
+        let crossing = *r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap();
+        p.avoid(crossing, 10.0);
+        let (r, why) = p.replan(&map_with(&post2), &req(goal));
+        assert_eq!(why, RouteChange::New);
+        let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
+        assert!(side < 0.0, "round the right again, the left's spot avoided: {side}");
         // The goal moves 1 m: planned afresh.
         let (_, why) = p.replan(&map_with(&pts), &req(Vec2::new(3.0, 1.0)));
         assert_eq!(why, RouteChange::GoalMoved);

@@ -421,9 +421,16 @@ mod tests {
         // …released once the straight way is clear.
         let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.2);
         let d = u.step(Some(guidance(3.0)), &at(0.2, nominal, Some(&clear), false), &p);
-        assert_eq!((d.event, d.waypoint, u.following()), (Some(RouteEvent::ReleaseClear), None, false));
+        assert_eq!(
+            (d.event, d.waypoint, u.following()),
+            (Some(RouteEvent::ReleaseClear), None, false)
+        );
         // A route planned more than ROUTE_STALE_S ago is not followed.
-        let d = u.step(Some(guidance(3.0)), &at(0.1 + ROUTE_STALE_S + 0.2, nominal, Some(&blocked), false), &p);
+        let d = u.step(
+            Some(guidance(3.0)),
+            &at(0.1 + ROUTE_STALE_S + 0.2, nominal, Some(&blocked), false),
+            &p,
+        );
         assert_eq!((d.event, d.waypoint), (None, None));
     }
 
@@ -458,7 +465,11 @@ mod tests {
         // A nominal at rest never starts one.
         let mut u = Unstuck::default();
         for k in 0..100 {
-            let d = u.step(Some(guidance(3.0)), &at(k as f64 * 0.1, Twist::ZERO, Some(&r), false), &p);
+            let d = u.step(
+                Some(guidance(3.0)),
+                &at(k as f64 * 0.1, Twist::ZERO, Some(&r), false),
+                &p,
+            );
             assert_eq!(d.waypoint, None);
         }
     }
@@ -476,10 +487,21 @@ mod tests {
             .collect();
         let r = update(ring, Vec2::new(3.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
         assert_eq!((r.change, r.route.is_none()), (RouteChange::NoRoute, true));
-        let d = u.step(Some(guidance(3.0)), &at(0.0, Twist::new(0.15, 0.0), Some(&r), false), &p);
-        assert_eq!((d.no_route, d.waypoint, d.event), (true, None, Some(RouteEvent::NoRoute)));
+        let d = u.step(
+            Some(guidance(3.0)),
+            &at(0.0, Twist::new(0.15, 0.0), Some(&r), false),
+            &p,
+        );
+        assert_eq!(
+            (d.no_route, d.waypoint, d.event),
+            (true, None, Some(RouteEvent::NoRoute))
+        );
         // Reported once.
-        let d = u.step(Some(guidance(3.0)), &at(0.1, Twist::new(0.15, 0.0), Some(&r), false), &p);
+        let d = u.step(
+            Some(guidance(3.0)),
+            &at(0.1, Twist::new(0.15, 0.0), Some(&r), false),
+            &p,
+        );
         assert_eq!((d.no_route, d.event), (true, None));
     }
 

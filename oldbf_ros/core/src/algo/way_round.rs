@@ -109,7 +109,8 @@ impl WayRound {
 
     /// Takes a scan into the map (rays cleared within the map's half width).
     pub fn insert(&mut self, scan: &MapScan) {
-        self.map.insert(scan.pose, &scan.points, scan.stamp_s, 0.5 * self.window_m);
+        self.map
+            .insert(scan.pose, &scan.points, scan.stamp_s, 0.5 * self.window_m);
     }
 
     /// Whether a plan for `ask` is due (`unstuck.plan_period_s` since the

@@ -228,7 +228,11 @@ impl Validate for Params {
         c.range("unstuck.progress_m", u.progress_m, DIST_10_POS);
         c.range("unstuck.window_m", u.window_m, Interval::closed(1.0, 20.0).unit("m"));
         c.range("unstuck.memory_s", u.memory_s, Interval::closed(0.0, 600.0).unit("s"));
-        c.range("unstuck.plan_period_s", u.plan_period_s, Interval::closed(0.05, 10.0).unit("s"));
+        c.range(
+            "unstuck.plan_period_s",
+            u.plan_period_s,
+            Interval::closed(0.05, 10.0).unit("s"),
+        );
         c.range("unstuck.margin_m", u.margin_m, MARGIN_1);
         c.range("unstuck.ahead_m", u.ahead_m, Interval::closed(0.0, 20.0).unit("m"));
 

@@ -58,8 +58,15 @@ impl SafetyPipeline {
             // may move within the disc it is short by, or its own cells would be walled in.
             let clearance = r + p.barrier.d_safe_m + p.unstuck.margin_m;
             let cell = crate::algo::local_map::MAP_CELL_M;
-            let nearest = self.points.points.iter().map(|q| q.norm()).fold(f64::INFINITY, f64::min);
-            let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell).min(nearest - cell).max(0.0);
+            let nearest = self
+                .points
+                .points
+                .iter()
+                .map(|q| q.norm())
+                .fold(f64::INFINITY, f64::min);
+            let own_m = ((clearance - nearest).max(0.0) + 2.0 * cell)
+                .min(nearest - cell)
+                .max(0.0);
             RouteAsk {
                 now_s,
                 from: frame.pose.position(),
