@@ -7,7 +7,9 @@
 //!   exact Euclidean distance transform; the half diagonal undoes the cells'
 //!   rounding, so a gap of 2 (r + d_safe) is open and a much narrower one is
 //!   not). The cells within `own_m` of the robot are never blocked: it is
-//!   there already.
+//!   there already; nor, within [`ESCAPE_M`] of it, those at least as far
+//!   from everything as the robot is now: a robot in a tight spot can leave
+//!   it the way it came.
 //! * **Cost** of a step: its length, times 1 + [`UNKNOWN_COST`] through
 //!   unknown cells (the route may cross what is not yet seen, which the
 //!   next scans will show; the safety checks never take unknown for free),
@@ -36,6 +38,9 @@ pub const UNKNOWN_COST: f64 = 0.5;
 pub const NEAR_COST: f64 = 1.0;
 /// Width of the band beyond the blocked cells that costs more (m).
 pub const NEAR_RAMP_M: f64 = 0.3;
+/// Within this of the robot, cells as far from everything as the robot is
+/// now are not blocked, even nearer than the clearance (m).
+pub const ESCAPE_M: f64 = 1.0;
 /// Closed in: the nearest reached cell is farther than this from a goal inside the window (m).
 pub const NO_ROUTE_M: f64 = 0.5;
 /// A new plan must be cheaper than the held route's remainder by this (m)…
@@ -333,10 +338,19 @@ impl RoutePlanner {
         self.factor.clear();
         self.factor.resize(cells, 1.0);
         let own2 = req.own_m * req.own_m;
+        // A robot nearer than the clearance to something (it got into a tight spot) may
+        // leave through cells no nearer to anything than it is now, within ESCAPE_M.
+        let here_m = map
+            .index(cell_coords(req.from))
+            .map_or(block_m, |k| self.dist2[k].sqrt() * MAP_CELL_M);
+        let escape_block_m = block_m.min(here_m - MAP_CELL_M);
+        let escape2 = ESCAPE_M * ESCAPE_M;
         for k in 0..cells {
             let d_m = self.dist2[k].sqrt() * MAP_CELL_M;
-            let own = (map.centre(k) - req.from).norm_squared() <= own2;
-            self.factor[k] = if d_m < block_m && !own {
+            let from2 = (map.centre(k) - req.from).norm_squared();
+            let own = from2 <= own2;
+            let block_here_m = if from2 <= escape2 { escape_block_m } else { block_m };
+            self.factor[k] = if d_m < block_here_m && !own {
                 f64::INFINITY
             } else {
                 let unknown = map.state(k, req.now_s, req.memory_s) == CellState::Unknown;
@@ -499,24 +513,58 @@ impl RoutePlanner {
         cost
     }
 
-    /// Plans for `req` and decides whether the new plan replaces the route
-    /// held (see the module's rule). Returns the route now held (None: no
-    /// route) and why it changed.
-    pub fn replan(&mut self, map: &LocalMap, req: &RouteRequest) -> (Option<&Route>, RouteChange) {
+    /// Plans for `req` on fresh fields; closed in only by the spots the
+    /// robot got stuck at, those are forgotten (they are not what the map
+    /// shows) and it plans again.
+    fn plan_fresh(&mut self, map: &LocalMap, req: &RouteRequest) -> Planned {
         self.fields(map, req);
-        let held_cost = self
-            .held
-            .as_ref()
-            .map(|r| (self.remaining_cost(map, r, req.from), (r.goal - req.goal).norm()));
-        let mut planned = self.search(map, req);
+        let planned = self.search(map, req);
         if planned == Planned::NoRoute && !self.avoid.is_empty() {
-            // Closed in only with the spots the robot got stuck at: those are not what
-            // the map shows; forget them rather than give up.
             self.avoid.clear();
             self.fields(map, req);
-            planned = self.search(map, req);
+            return self.search(map, req);
         }
-        let change = match (planned, held_cost) {
+        planned
+    }
+
+    /// Plans and decides whether the new plan replaces the route held (see
+    /// the module's rule). `reqs` is an ordered relaxation of one request
+    /// (the same goal, less clearance each): the first whose route reaches
+    /// the goal is taken, else the first. Returns the route now held (None:
+    /// no route) and why it changed.
+    pub fn replan(&mut self, map: &LocalMap, reqs: &[RouteRequest]) -> (Option<&Route>, RouteChange) {
+        let Some(first) = reqs.first() else {
+            return (self.held.as_ref(), RouteChange::Kept);
+        };
+        let mut planned = self.plan_fresh(map, first);
+        let (mut chosen, mut fields_of) = (0, 0);
+        for (i, relaxed) in reqs.iter().enumerate().skip(1) {
+            if matches!(&planned, Planned::Route(r) if r.reaches_goal) {
+                break;
+            }
+            let p = self.plan_fresh(map, relaxed);
+            fields_of = i;
+            if matches!(&p, Planned::Route(r) if r.reaches_goal) {
+                planned = p;
+                chosen = i;
+                break;
+            }
+        }
+        let req = &reqs[chosen];
+        if fields_of != chosen {
+            // The held route's cost is taken on the chosen request's fields.
+            self.fields(map, req);
+        }
+        let held = self.held.as_ref().map(|r| {
+            let at_end = r.nearest(req.from) + 1 >= r.points.len();
+            (
+                self.remaining_cost(map, r, req.from),
+                (r.goal - req.goal).norm(),
+                r.reaches_goal,
+                at_end,
+            )
+        });
+        let change = match (planned, held) {
             (Planned::NoRoute, _) => {
                 self.held = None;
                 RouteChange::NoRoute
@@ -525,15 +573,22 @@ impl RoutePlanner {
                 self.held = Some(r);
                 RouteChange::New
             }
-            (Planned::Route(r), Some((_, moved))) if moved > GOAL_MOVED_M => {
+            (Planned::Route(r), Some((_, moved, _, _))) if moved > GOAL_MOVED_M => {
                 self.held = Some(r);
                 RouteChange::GoalMoved
             }
-            (Planned::Route(r), Some((c, _))) if c.is_infinite() => {
+            (Planned::Route(r), Some((c, _, _, _))) if c.is_infinite() => {
                 self.held = Some(r);
                 RouteChange::Blocked
             }
-            (Planned::Route(r), Some((c, _))) if r.cost < c - BETTER_M.max(BETTER_FRACTION * c) => {
+            // The robot is at the end of a route that stopped short of the goal.
+            (Planned::Route(r), Some((_, _, _, true))) => {
+                self.held = Some(r);
+                RouteChange::New
+            }
+            (Planned::Route(r), Some((c, _, held_reaches, _)))
+                if (r.reaches_goal && !held_reaches) || r.cost < c - BETTER_M.max(BETTER_FRACTION * c) =>
+            {
                 self.held = Some(r);
                 RouteChange::Better
             }
@@ -636,7 +691,7 @@ mod tests {
             .collect();
         let mut p = RoutePlanner::default();
         assert_eq!(p.plan(&map_with(&ring), &req(Vec2::new(3.0, 0.0))), Planned::NoRoute);
-        let (held, why) = p.replan(&map_with(&ring), &req(Vec2::new(3.0, 0.0)));
+        let (held, why) = p.replan(&map_with(&ring), &[req(Vec2::new(3.0, 0.0))]);
         assert_eq!((held, why), (None, RouteChange::NoRoute));
     }
 
@@ -651,20 +706,20 @@ mod tests {
             .collect();
         let mut p = RoutePlanner::default();
         let goal = Vec2::new(3.0, 0.0);
-        let (r, why) = p.replan(&map_with(&post), &req(goal));
+        let (r, why) = p.replan(&map_with(&post), &[req(goal)]);
         assert_eq!(why, RouteChange::New);
         let first = r.unwrap().clone();
         let side = first.points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
         assert!(side < 0.0, "the shorter side: {side}");
         // The post moves to (1.5, -0.1): the left is now a little shorter, not by 1 m.
         let post2: Vec<Vec2> = post.iter().map(|q| q - Vec2::new(0.0, 0.2)).collect();
-        let (r, why) = p.replan(&map_with(&post2), &req(goal));
+        let (r, why) = p.replan(&map_with(&post2), &[req(goal)]);
         assert_eq!(why, RouteChange::Kept);
         assert_eq!(r.unwrap(), &first);
         // A wall now stands across the held route's side: blocked, a new route.
         let mut pts = post2.clone();
         pts.extend((0..60).map(|k| Vec2::new(1.5, -0.3 - 0.02 * k as f64)));
-        let (r, why) = p.replan(&map_with(&pts), &req(goal));
+        let (r, why) = p.replan(&map_with(&pts), &[req(goal)]);
         assert_eq!(why, RouteChange::Blocked);
         let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
         assert!(side > 0.0, "round the other side: {side}");
@@ -672,12 +727,12 @@ mod tests {
         // (the wall gone again) goes round the other way.
         let crossing = *r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap();
         p.avoid(crossing, 10.0);
-        let (r, why) = p.replan(&map_with(&post2), &req(goal));
+        let (r, why) = p.replan(&map_with(&post2), &[req(goal)]);
         assert_eq!(why, RouteChange::New);
         let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
         assert!(side < 0.0, "round the right again, the left's spot avoided: {side}");
         // The goal moves 1 m: planned afresh.
-        let (_, why) = p.replan(&map_with(&pts), &req(Vec2::new(3.0, 1.0)));
+        let (_, why) = p.replan(&map_with(&pts), &[req(Vec2::new(3.0, 1.0))]);
         assert_eq!(why, RouteChange::GoalMoved);
     }
 

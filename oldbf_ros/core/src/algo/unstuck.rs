@@ -42,6 +42,9 @@ use super::way_round::RouteUpdate;
 
 /// A follow begun on a blocked straight way ends once that way is clear by this (m).
 pub const RELEASE_MARGIN_M: f64 = 0.05;
+/// While following, not moving `unstuck.progress_m` for this fraction of
+/// `unstuck.stall_s` is stuck.
+pub const STUCK_FRACTION: f64 = 0.5;
 /// A route planned longer ago than this is not followed (s): the planner has stopped.
 pub const ROUTE_STALE_S: f64 = 3.0;
 
@@ -212,7 +215,7 @@ impl Unstuck {
     }
 
     /// Whether the robot got stuck on the way round since last asked: it has
-    /// not moved `unstuck.progress_m` for `unstuck.stall_s` while following.
+    /// not moved `unstuck.progress_m` for half `unstuck.stall_s` while following.
     pub fn take_stuck(&mut self) -> bool {
         std::mem::take(&mut self.stuck)
     }
@@ -320,7 +323,7 @@ impl Unstuck {
             Some((at, _)) if (here - at).norm() < u.progress_m => {}
             _ => self.moved = Some((here, now_s)),
         }
-        if self.moved.is_some_and(|(_, t)| now_s - t >= u.stall_s) {
+        if self.moved.is_some_and(|(_, t)| now_s - t >= STUCK_FRACTION * u.stall_s) {
             self.stuck = true;
             self.moved = Some((here, now_s));
             event = Some(RouteEvent::Stuck);

@@ -39,7 +39,7 @@ pub struct RouteAsk {
     pub direct_to: Vec2,
     /// Cells this near the robot are never blocked (m).
     pub own_m: f64,
-    /// The robot has not got on along the route for `unstuck.stall_s`: the
+    /// The robot has not got on along the route for half `unstuck.stall_s`: the
     /// spot it was steering at is avoided for `unstuck.memory_s`, and the
     /// route planned afresh now.
     pub stuck: bool,
@@ -140,11 +140,25 @@ impl WayRound {
             own_m: ask.own_m,
             memory_s: p.unstuck.memory_s,
         };
-        let (route, change) = self.planner.replan(&self.map, &req);
+        // Gaps narrower than 2 (r + d_safe + margin) but not than 2 (r + d_safe) are
+        // taken only when no wider way reaches the goal.
+        let tight = RouteRequest {
+            clearance_m: p.robot_radius_m() + p.barrier.d_safe_m,
+            ..req
+        };
+        let (route, change) = self.planner.replan(&self.map, &[req, tight]);
         let route = route.cloned();
         let direct_margin_m = self.segment_margin(ask.from, ask.direct_to, ask.own_m, &req);
         let carrot = route.as_ref().and_then(|r| self.carrot(r, ask, &req));
         self.last_carrot = carrot;
+        log::trace!(
+            "t {:.1}: route {} points ({}), reaches {:?}, carrot {carrot:?}, direct margin {direct_margin_m:.2} m, from {:?}",
+            ask.now_s,
+            route.as_ref().map_or(0, |r| r.points.len()),
+            change.as_str(),
+            route.as_ref().map(|r| r.reaches_goal),
+            ask.from
+        );
         RouteUpdate {
             route,
             change,
