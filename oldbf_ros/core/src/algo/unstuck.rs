@@ -34,7 +34,7 @@
 //!
 //! Everything still goes through the DTCBF and the passive checks.
 
-use super::geometry::{Pose2, Twist, Vec2};
+use super::geometry::{wrap_angle, Pose2, Twist, Vec2};
 use super::params::Params;
 use super::reference::{ReferenceProgress, ReferenceTrajectory};
 use super::route::RouteChange;
@@ -42,9 +42,12 @@ use super::way_round::RouteUpdate;
 
 /// A follow begun on a blocked straight way ends once that way is clear by this (m).
 pub const RELEASE_MARGIN_M: f64 = 0.05;
-/// While following, not moving `unstuck.progress_m` for this fraction of
-/// `unstuck.stall_s` is stuck.
+/// While following, neither moving `unstuck.progress_m` nor turning
+/// [`STUCK_TURN_RAD`] for this fraction of `unstuck.stall_s` is stuck (a
+/// robot turning to face its waypoint is not).
 pub const STUCK_FRACTION: f64 = 0.5;
+/// See [`STUCK_FRACTION`] (rad).
+pub const STUCK_TURN_RAD: f64 = 0.5;
 /// A route planned longer ago than this is not followed (s): the planner has stopped.
 pub const ROUTE_STALE_S: f64 = 3.0;
 
@@ -191,9 +194,9 @@ pub struct Unstuck {
     aim: Option<Vec2>,
     /// Whether the last step found no route.
     no_route: bool,
-    /// While following: where the robot was when it last moved
-    /// `unstuck.progress_m`, and when (tracking frame, m; s).
-    moved: Option<(Vec2, f64)>,
+    /// While following: the robot's pose when it last moved
+    /// `unstuck.progress_m` or turned [`STUCK_TURN_RAD`], and when (tracking frame; s).
+    moved: Option<(Pose2, f64)>,
     /// Stuck on the way round, not yet told to the planner.
     stuck: bool,
 }
@@ -215,7 +218,8 @@ impl Unstuck {
     }
 
     /// Whether the robot got stuck on the way round since last asked: it has
-    /// not moved `unstuck.progress_m` for half `unstuck.stall_s` while following.
+    /// neither moved `unstuck.progress_m` nor turned [`STUCK_TURN_RAD`] for
+    /// half `unstuck.stall_s` while following.
     pub fn take_stuck(&mut self) -> bool {
         std::mem::take(&mut self.stuck)
     }
@@ -320,12 +324,14 @@ impl Unstuck {
         // gap): the planner avoids that spot and plans afresh.
         let here = ego.position();
         match self.moved {
-            Some((at, _)) if (here - at).norm() < u.progress_m => {}
-            _ => self.moved = Some((here, now_s)),
+            Some((at, _))
+                if (here - at.position()).norm() < u.progress_m
+                    && wrap_angle(ego.theta - at.theta).abs() < STUCK_TURN_RAD => {}
+            _ => self.moved = Some((ego, now_s)),
         }
         if self.moved.is_some_and(|(_, t)| now_s - t >= STUCK_FRACTION * u.stall_s) {
             self.stuck = true;
-            self.moved = Some((here, now_s));
+            self.moved = Some((ego, now_s));
             event = Some(RouteEvent::Stuck);
         }
         // Steer at the route's farthest point in sight within 1 m along; no route held
