@@ -212,6 +212,8 @@ pub struct RoutePlanner {
     /// Spots the robot got stuck at while following a route, and until when
     /// they count as blocked (tracking frame, m; s).
     avoid: Vec<(Vec2, f64)>,
+    /// The request of the last replan's route (its fields are the last built).
+    chosen: Option<RouteRequest>,
 }
 
 /// Cells within this of a spot the robot got stuck at are blocked (m).
@@ -271,6 +273,12 @@ impl RoutePlanner {
     /// (m; < 0: blocked).
     pub fn margin_m(&self, k: usize, req: &RouteRequest) -> f64 {
         self.dist2.get(k).map_or(f64::INFINITY, |d2| d2.sqrt() * MAP_CELL_M) - block_m(req)
+    }
+
+    /// The request (of the relaxation given to [`Self::replan`]) the last
+    /// route was planned with: [`Self::margin_m`] is on its fields.
+    pub fn chosen(&self) -> Option<&RouteRequest> {
+        self.chosen.as_ref()
     }
 
     /// The route held, if any.
@@ -551,6 +559,7 @@ impl RoutePlanner {
             }
         }
         let req = &reqs[chosen];
+        self.chosen = Some(*req);
         if fields_of != chosen {
             // The held route's cost is taken on the chosen request's fields.
             self.fields(map, req);

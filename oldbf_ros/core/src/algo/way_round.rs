@@ -148,6 +148,8 @@ impl WayRound {
         };
         let (route, change) = self.planner.replan(&self.map, &[req, tight]);
         let route = route.cloned();
+        // Sight lines are judged with the clearance the route was planned with.
+        let req = self.planner.chosen().copied().unwrap_or(req);
         let direct_margin_m = self.segment_margin(ask.from, ask.direct_to, ask.own_m, &req);
         let carrot = route.as_ref().and_then(|r| self.carrot(r, ask, &req));
         self.last_carrot = carrot;
