@@ -529,4 +529,40 @@ mod tests {
         let d = u.step(None, &at(0.3, nominal, Some(&blocked), false), &p);
         assert_eq!((d.waypoint, u.following(), u.aim()), (None, false, None));
     }
+
+    #[test]
+    fn held_still_on_the_route_is_stuck_turning_is_not() {
+        let p = params(); // stall 6 s: stuck after 3 s
+        let nominal = Twist::new(0.15, 0.0);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        let step = |u: &mut Unstuck, t: f64, ego: Pose2| {
+            let r = RouteUpdate {
+                made_s: t,
+                ..blocked.clone()
+            };
+            let now = Situation {
+                ego,
+                ..at(t, nominal, Some(&r), false)
+            };
+            u.step(Some(guidance(3.0)), &now, &p).event
+        };
+        // Turning in place at 0.3 rad/s: 0.5 rad every 1.7 s, never stuck.
+        let mut u = Unstuck::default();
+        for k in 0..100 {
+            let t = 0.1 * k as f64;
+            let e = step(&mut u, t, Pose2::new(0.0, 0.0, -0.03 * k as f64));
+            assert_ne!(e, Some(RouteEvent::Stuck), "at {t} s");
+        }
+        // Held still: stuck at 3 s, told once to the planner, and again 3 s later.
+        let mut u = Unstuck::default();
+        let mut stuck_at = vec![];
+        for k in 0..70 {
+            let t = 0.1 * k as f64;
+            if step(&mut u, t, Pose2::default()) == Some(RouteEvent::Stuck) {
+                stuck_at.push(k);
+                assert!(u.take_stuck() && !u.take_stuck());
+            }
+        }
+        assert_eq!(stuck_at, vec![30, 60]);
+    }
 }
