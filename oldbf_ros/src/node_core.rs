@@ -461,6 +461,18 @@ impl NodeCore {
         self
     }
 
+    /// The way round's latest route, the waypoint followed (tracking frame)
+    /// and why it last changed (§4c).
+    pub fn route(&self) -> Option<&crate::algo::way_round::RouteUpdate> {
+        self.pipeline.route()
+    }
+
+    /// The newest snapshot of the local map's occupied cells (tracking
+    /// frame, m), once, when the planner runs beside the safety path.
+    pub fn take_map_cells(&mut self) -> Option<Vec<crate::algo::Vec2>> {
+        self.route_worker.as_mut().and_then(RouteWorker::take_map_cells)
+    }
+
     /// Has the pipeline build clusters even with tracking off, for a baseline
     /// that reads them ([`SafetyPipeline::keep_clusters`]).
     pub fn keep_clusters(mut self, keep: bool) -> Self {

@@ -7,10 +7,13 @@
 //! the same [`WayRound`].
 
 use crate::algo::way_round::{MapScan, RouteAsk, RouteUpdate, WayRound};
-use crate::algo::{Params, SafetyPipeline};
+use crate::algo::{Params, SafetyPipeline, Vec2};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// The map's occupied cells are sent for display this often (s).
+const MAP_SNAPSHOT_S: f64 = 1.0;
 
 /// What the node sends the planner.
 enum Job {
@@ -22,7 +25,10 @@ enum Job {
 /// The planner thread and its channels. Dropping it stops the thread.
 pub struct RouteWorker {
     jobs: Option<Sender<Job>>,
-    routes: Receiver<RouteUpdate>,
+    routes: Receiver<(RouteUpdate, Option<Vec<Vec2>>)>,
+    /// The newest snapshot of the map's occupied cells (tracking frame, m),
+    /// not yet taken ([`Self::take_map_cells`]).
+    map_cells: Option<Vec<Vec2>>,
     thread: Option<JoinHandle<()>>,
     /// The last ask sent (an unchanged one is not sent again).
     last_ask: Option<RouteAsk>,
@@ -40,7 +46,7 @@ impl RouteWorker {
     /// Starts the planner thread for `params`.
     pub fn start(params: &Params) -> std::io::Result<Self> {
         let (jobs, job_rx) = channel::<Job>();
-        let (route_tx, routes) = channel::<RouteUpdate>();
+        let (route_tx, routes) = channel::<(RouteUpdate, Option<Vec<Vec2>>)>();
         let params = params.clone();
         let thread = std::thread::Builder::new()
             .name("oldbf-route".into())
@@ -51,6 +57,7 @@ impl RouteWorker {
             thread: Some(thread),
             last_ask: None,
             plan_us: Vec::new(),
+            map_cells: None,
         })
     }
 
@@ -68,13 +75,22 @@ impl RouteWorker {
             }
         }
         let mut newest = None;
-        while let Ok(u) = self.routes.try_recv() {
+        while let Ok((u, cells)) = self.routes.try_recv() {
             self.plan_us.push(u.plan_us);
             newest = Some(u);
+            if cells.is_some() {
+                self.map_cells = cells;
+            }
         }
         if let Some(u) = newest {
             pipeline.offer_route(u);
         }
+    }
+
+    /// The newest snapshot of the map's occupied cells (tracking frame, m),
+    /// once: sent about once a second, for display.
+    pub fn take_map_cells(&mut self) -> Option<Vec<Vec2>> {
+        self.map_cells.take()
     }
 
     /// New parameters (dynamic_reconfigure).
@@ -91,9 +107,12 @@ impl RouteWorker {
         while self.plan_us.len() < n {
             let left = until.saturating_duration_since(Instant::now());
             match self.routes.recv_timeout(left) {
-                Ok(u) => {
+                Ok((u, cells)) => {
                     self.plan_us.push(u.plan_us);
                     pipeline.offer_route(u);
+                    if cells.is_some() {
+                        self.map_cells = cells;
+                    }
                 }
                 Err(_) => return false,
             }
@@ -113,9 +132,10 @@ impl Drop for RouteWorker {
 
 /// The planner thread: takes scans as they come; plans for the newest ask
 /// whenever one is due; ends when the node drops its sender.
-fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<RouteUpdate>) {
+fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<(RouteUpdate, Option<Vec<Vec2>>)>) {
     let mut way = WayRound::new(&params);
     let mut ask: Option<RouteAsk> = None;
+    let mut last_snapshot_s = f64::NEG_INFINITY;
     let wait = Duration::from_secs_f64(params.unstuck.plan_period_s.clamp(0.01, 1.0) / 4.0);
     loop {
         match jobs.recv_timeout(wait) {
@@ -145,7 +165,14 @@ fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<RouteUpdate>) {
             let mut update = way.plan(&a, &params);
             update.plan_us = started.elapsed().as_secs_f64() * 1e6;
             ask = Some(RouteAsk { stuck: false, ..a });
-            if routes.send(update).is_err() {
+            let snapshot = (a.now_s - last_snapshot_s).abs() >= MAP_SNAPSHOT_S;
+            let cells = snapshot.then(|| {
+                last_snapshot_s = a.now_s;
+                let mut cells = Vec::new();
+                way.occupied_cells(a.now_s, &params, &mut cells);
+                cells
+            });
+            if routes.send((update, cells)).is_err() {
                 return;
             }
         }
@@ -156,7 +183,7 @@ fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<RouteUpdate>) {
 mod tests {
     use super::*;
     use crate::algo::unstuck::Guidance;
-    use crate::algo::{LaserScan, ScanHeader, Twist, Vec2};
+    use crate::algo::{LaserScan, ScanHeader, Twist};
     use std::f32::consts::PI;
 
     /// 360 beams round the robot: a wall across x = 1.5 for |y| ≤ 1, nothing else.
@@ -218,6 +245,13 @@ mod tests {
         assert_eq!(got.route, expected.route);
         assert_eq!((got.change, got.carrot), (expected.change, expected.carrot));
         assert!(got.plan_us > 0.0);
+        // The first plan comes with the map's occupied cells: the wall, x = 1.5 m.
+        let cells = worker.take_map_cells().expect("a snapshot with the first plan");
+        assert!(
+            !cells.is_empty() && cells.iter().all(|c| (c.x - 1.5).abs() <= 0.05),
+            "{cells:?}"
+        );
+        assert!(worker.take_map_cells().is_none(), "taken once");
         // The thread ends when the worker is dropped.
         drop(worker);
     }

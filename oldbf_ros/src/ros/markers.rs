@@ -2,13 +2,15 @@
 //! hemisphere and front sectors, the closest left/right points, the command
 //! a label with B_l, B_r and the DOAA state, and each tracked obstacle on a
 //! collision course (its circle, its velocity over 1 s, its time to
-//! collision). All in the base frame.
+//! collision). All in the base frame. The way round (§4c): the route, its
+//! waypoint and the local map, in the odometry frame ([`route_markers`]).
 
 use super::msg::{
     geometry_msgs::Point, std_msgs::ColorRGBA, visualization_msgs::Marker, visualization_msgs::MarkerArray,
 };
 use crate::algo::pipeline::Threat;
-use crate::algo::Params;
+use crate::algo::way_round::RouteUpdate;
+use crate::algo::{Params, Vec2};
 use crate::node_core::Tick;
 
 const NS: &str = "oldbf";
@@ -219,10 +221,105 @@ fn threat_markers(frame: &str, stamp: rosrust::Time, threats: &[Threat]) -> Vec<
     out
 }
 
+/// Namespace of the way round's markers (§4c): the route (id 0), the
+/// waypoint followed (id 1) and the local map's occupied cells (id 2), in the
+/// odometry frame the route is planned in.
+pub const ROUTE_NS: &str = "oldbf_route";
+
+/// The way round for rviz, in `odom_frame`: the route held as a line (blue
+/// while followed, grey otherwise), the waypoint as a sphere, and, when a new
+/// snapshot is given, the map's occupied cells as 5 cm cubes. No route (or
+/// none yet): the line and the sphere are deleted.
+pub fn route_markers(
+    odom_frame: &str,
+    stamp: rosrust::Time,
+    route: Option<&RouteUpdate>,
+    following: bool,
+    map_cells: Option<&[Vec2]>,
+) -> MarkerArray {
+    let ns = |m: &mut Marker| m.ns = ROUTE_NS.into();
+    let mut v = Vec::with_capacity(3);
+    let mut line = marker(odom_frame, stamp, 0, Marker::LINE_STRIP as i32);
+    ns(&mut line);
+    let mut aim = marker(odom_frame, stamp, 1, Marker::SPHERE as i32);
+    ns(&mut aim);
+    match route.and_then(|u| u.route.as_ref().map(|r| (r, u.carrot))) {
+        Some((r, carrot)) => {
+            line.scale.x = 0.03;
+            line.color = if following {
+                color(0.1, 0.4, 0.95, 0.9)
+            } else {
+                color(0.6, 0.6, 0.6, 0.6)
+            };
+            line.points = r.points.iter().map(|q| point(q.x, q.y)).collect();
+            match carrot {
+                Some(c) => {
+                    aim.pose.position = point(c.x, c.y);
+                    aim.scale.x = 0.1;
+                    aim.scale.y = 0.1;
+                    aim.scale.z = 0.1;
+                    aim.color = color(0.1, 0.4, 0.95, 0.9);
+                }
+                None => aim.action = Marker::DELETE as i32,
+            }
+        }
+        None => {
+            line.action = Marker::DELETE as i32;
+            aim.action = Marker::DELETE as i32;
+        }
+    }
+    v.push(line);
+    v.push(aim);
+    if let Some(cells) = map_cells {
+        let mut map = marker(odom_frame, stamp, 2, Marker::CUBE_LIST as i32);
+        ns(&mut map);
+        let cell = crate::algo::local_map::MAP_CELL_M;
+        map.scale.x = cell;
+        map.scale.y = cell;
+        map.scale.z = 0.02;
+        map.color = color(0.3, 0.3, 0.3, 0.7);
+        map.points = cells.iter().map(|q| point(q.x, q.y)).collect();
+        v.push(map);
+    }
+    MarkerArray { markers: v }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::algo::Vec2;
+    use crate::algo::route::{Route, RouteChange};
+
+    #[test]
+    fn the_route_its_waypoint_and_the_map_are_drawn_in_the_odometry_frame() {
+        let u = RouteUpdate {
+            route: Some(Route {
+                points: vec![Vec2::new(1.0, 2.0), Vec2::new(1.05, 2.0)],
+                reaches_goal: true,
+                cost: 0.05,
+                goal: Vec2::new(1.05, 2.0),
+                made_s: 3.0,
+            }),
+            change: RouteChange::New,
+            direct_margin_m: -0.1,
+            carrot: Some(Vec2::new(1.05, 2.0)),
+            made_s: 3.0,
+            plan_us: 0.0,
+        };
+        let cells = [Vec2::new(2.0, 2.0)];
+        let m = route_markers("odom", rosrust::Time::default(), Some(&u), true, Some(&cells)).markers;
+        assert_eq!(m.len(), 3);
+        assert!(m.iter().all(|k| k.header.frame_id == "odom" && k.ns == ROUTE_NS));
+        assert_eq!(
+            m[0].points.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(),
+            vec![(1.0, 2.0), (1.05, 2.0)]
+        );
+        assert_eq!((m[1].pose.position.x, m[1].action), (1.05, Marker::ADD as i32));
+        assert_eq!((m[2].type_, m[2].points.len()), (Marker::CUBE_LIST as i32, 1));
+        // No route: the line and the waypoint are deleted; no snapshot, no map marker.
+        let m = route_markers("odom", rosrust::Time::default(), None, false, None).markers;
+        assert_eq!(m.len(), 2);
+        assert!(m.iter().all(|k| k.action == Marker::DELETE as i32));
+    }
 
     #[test]
     fn the_label_sits_above_the_d_act_circle_in_the_odometry_frame_whatever_the_heading() {

@@ -31,7 +31,7 @@
 use super::convert::{odom_from_msg, scan_header, time_from_s, twist_from_msg, twist_to_msg};
 use super::diagnostics::{diagnostics, Activity};
 use super::lifecycle::{self, now_s, MasterHealth, MasterWatch};
-use super::markers::markers;
+use super::markers::{markers, route_markers};
 use super::msg::{
     diagnostic_msgs::DiagnosticArray, geometry_msgs, nav_msgs, oldbf_ros::BarrierState, sensor_msgs, std_msgs,
     std_srvs, visualization_msgs::MarkerArray,
@@ -161,6 +161,10 @@ struct Node {
     /// When a scan and odometry last arrived (s, [`mono_s`]).
     scan_heard: Option<f64>,
     odom_heard: Option<f64>,
+    /// The odometry's frame_id (the frame routes are planned in), and the
+    /// stamp of the last route drawn (s).
+    odom_frame: String,
+    route_drawn_s: f64,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
 }
@@ -187,6 +191,21 @@ impl Node {
                 self.core.params(),
                 yaw,
             ));
+            // The way round, when there is one to draw: a new plan or a new map snapshot.
+            let cells = self.core.take_map_cells();
+            let made_s = self.core.route().map_or(f64::NAN, |u| u.made_s);
+            let new_plan = made_s.to_bits() != self.route_drawn_s.to_bits();
+            if !self.odom_frame.is_empty() && (new_plan || cells.is_some()) {
+                self.route_drawn_s = made_s;
+                let following = tick.record.state == crate::algo::DoaaState::Follow;
+                let _ = self.markers_pub.send(route_markers(
+                    &self.odom_frame,
+                    time_from_s(now),
+                    self.core.route(),
+                    following,
+                    cells.as_deref(),
+                ));
+            }
         }
         self.activity.ticked(now, &tick);
         // |Δ| so that a clock stepped back does not silence the diagnostics.
@@ -260,6 +279,8 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         last_status: None,
         scan_heard: None,
         odom_heard: None,
+        odom_frame: String::new(),
+        route_drawn_s: f64::NAN,
         stopping: false,
     }));
 
@@ -290,6 +311,9 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
             let now = now_s();
             node.core.on_odom(pose, twist, now);
             node.odom_heard = Some(mono_s());
+            if node.odom_frame != m.header.frame_id {
+                node.odom_frame.clone_from(&m.header.frame_id);
+            }
         })
         .map_err(RosError::doing("subscribing to odom"))
     };

@@ -93,6 +93,18 @@ impl WayRound {
         &self.map
     }
 
+    /// The centres of the cells the map shows occupied at `now_s` (tracking
+    /// frame, m), into `out` (cleared first): for display.
+    pub fn occupied_cells(&self, now_s: f64, p: &Params, out: &mut Vec<Vec2>) {
+        out.clear();
+        let n = self.map.side();
+        for k in 0..n * n {
+            if self.map.state(k, now_s, p.unstuck.memory_s) == super::local_map::CellState::Occupied {
+                out.push(self.map.centre(k));
+            }
+        }
+    }
+
     /// Forgets the map and the route (a new tracking frame). A new window
     /// width takes effect here.
     pub fn reset(&mut self, p: &Params) {
