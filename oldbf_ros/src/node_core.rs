@@ -467,6 +467,11 @@ impl NodeCore {
         self.pipeline.route()
     }
 
+    /// The planner's own time of every plan made beside the safety path (µs).
+    pub fn plan_times_us(&self) -> &[f64] {
+        self.route_worker.as_ref().map_or(&[], |w| &w.plan_us)
+    }
+
     /// The newest snapshot of the local map's occupied cells (tracking
     /// frame, m), once, when the planner runs beside the safety path.
     pub fn take_map_cells(&mut self) -> Option<Vec<crate::algo::Vec2>> {

@@ -12,7 +12,7 @@ use oldbf_ros::compare;
 use oldbf_ros::config;
 use oldbf_ros::replay::replay_carmen;
 use oldbf_ros::report::{summary_text, write_outputs};
-use oldbf_ros::sim::run::{run_scenario, Controller};
+use oldbf_ros::sim::run::{run_scenario_with, Controller, RunOptions};
 use oldbf_ros::sim::scenario::Scenario;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -56,6 +56,12 @@ enum Command {
         /// scenario's `oldbf:` section is merged over it.
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
+        /// Plan the way round in a thread beside the safety path, as the node
+        /// does, and report the planner's own time per plan: for timing the
+        /// safety path in the node's mode (the simulated clock outruns the
+        /// planner, so the run is not reproducible).
+        #[arg(long)]
+        plan_beside: bool,
         /// Controller closing the loop: `oldbf` (the filter), the baselines
         /// `dcbf` (DCBF-QP) and `vo` (ORCA velocity obstacles) on the same
         /// perception, or `none` (the nominal command unfiltered, to see what
@@ -300,6 +306,7 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
             json,
             config,
             controller,
+            plan_beside,
         } => {
             let scn = Scenario::load(&scenario, config.as_deref())?;
             let seed = seed.unwrap_or(scn.spec.seed);
@@ -307,7 +314,9 @@ fn run(command: Command) -> anyhow::Result<ExitCode> {
                 "running {} ({}) with {controller:?}, seed {seed}",
                 scn.spec.name, scn.file
             );
-            let result = run_scenario(&scn, controller, seed).map_err(|m| anyhow::anyhow!("{}: {m}", scn.file))?;
+            let options = RunOptions { plan_beside };
+            let result =
+                run_scenario_with(&scn, controller, seed, options).map_err(|m| anyhow::anyhow!("{}: {m}", scn.file))?;
             println!("{}", summary_text(&result.summary));
             if let Some(dir) = out {
                 write_outputs(&dir, &scn, &result).with_context(|| format!("writing outputs to {}", dir.display()))?;

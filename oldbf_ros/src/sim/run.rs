@@ -142,9 +142,13 @@ pub struct RunSummary {
     pub sim_time_s: f64,
     #[serde(flatten)]
     pub figures: RunFigures,
-    /// Mean / largest wall-clock time of the pipeline per step (µs).
+    /// Mean / 99th percentile / largest wall-clock time of the pipeline per step (µs).
     pub mean_step_us: f64,
+    pub p99_step_us: f64,
     pub max_step_us: f64,
+    /// The planner's own time per plan, when it ran beside the safety path.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plan_times: Option<PlanTimes>,
     /// The first robot's final pose.
     pub final_pose: Pose2,
     pub robots: Vec<RobotSummary>,
@@ -207,8 +211,46 @@ struct AgentLoop {
     row: Option<StepRow>,
 }
 
+/// How a run is made beyond its scenario.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Plan the way round beside the safety path, in a thread, as the node
+    /// does (§4c): for timing the safety path in the node's mode. The
+    /// simulated clock runs faster than the planner's, so routes come late
+    /// in simulated time and the run is not reproducible.
+    pub plan_beside: bool,
+}
+
+/// The planner's own time per plan, in the node's mode (µs).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PlanTimes {
+    pub plans: usize,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub max_us: f64,
+}
+
+/// The `q`-quantile of `v` (sorted in place; NaN when empty).
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
 /// Runs `scenario` in closed loop with `controller`.
 pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> Result<RunResult, FleetError> {
+    run_scenario_with(scenario, controller, seed, RunOptions::default())
+}
+
+/// As [`run_scenario`], with `options`.
+pub fn run_scenario_with(
+    scenario: &Scenario,
+    controller: Controller,
+    seed: u64,
+    options: RunOptions,
+) -> Result<RunResult, FleetError> {
     let spec = &scenario.spec;
     let paper_params;
     let params = if controller == Controller::OldbfPaper {
@@ -239,10 +281,17 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .map(|plan| AgentLoop {
             plan: plan.clone(),
             // The scenario's reference, else its constant command (none: stand still).
-            node: NodeCore::new(params.clone(), NodeSettings::for_scenario(), plan.reference)
-                .with_constant(plan.constant.unwrap_or(Twist::ZERO))
-                .with_fixed_period()
-                .keep_clusters(controller == Controller::Vo),
+            node: NodeCore::new(
+                params.clone(),
+                NodeSettings {
+                    plan_beside: options.plan_beside,
+                    ..NodeSettings::for_scenario()
+                },
+                plan.reference,
+            )
+            .with_constant(plan.constant.unwrap_or(Twist::ZERO))
+            .with_fixed_period()
+            .keep_clusters(controller == Controller::Vo),
             dcbf: DcbfFilter::new(),
             ranges: Vec::with_capacity(lidar.beams),
             truth: Vec::with_capacity(lidar.beams),
@@ -275,6 +324,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         .map(|m| (Vec::with_capacity(steps_max), m.radius_m()))
         .collect();
     let (mut sum_us, mut max_us, mut timed_steps) = (0.0f64, 0.0f64, 0usize);
+    let mut all_us = Vec::with_capacity(steps_max);
     let mut next_scan_t = 0.0;
     let mut steps = 0;
 
@@ -407,6 +457,7 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
             }
             a.counts.add(rec.state);
             sum_us += step_us;
+            all_us.push(step_us);
             max_us = max_us.max(step_us);
             timed_steps += 1;
             fleet.set_cmd(i, cmd);
@@ -494,6 +545,16 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         }
     }
 
+    let mut plan_us: Vec<f64> = agents
+        .iter()
+        .flat_map(|a| a.node.plan_times_us().iter().copied())
+        .collect();
+    let plan_times = options.plan_beside.then(|| PlanTimes {
+        plans: plan_us.len(),
+        p50_us: quantile(&mut plan_us, 0.5),
+        p99_us: quantile(&mut plan_us, 0.99),
+        max_us: quantile(&mut plan_us, 1.0),
+    });
     let robots: Vec<RobotRun> = agents
         .into_iter()
         .enumerate()
@@ -550,7 +611,9 @@ pub fn run_scenario(scenario: &Scenario, controller: Controller, seed: u64) -> R
         } else {
             0.0
         },
+        p99_step_us: quantile(&mut all_us, 0.99),
         max_step_us: max_us,
+        plan_times,
         final_pose: robots[0].summary.final_pose,
         robots: robots.iter().map(|r| r.summary.clone()).collect(),
     };
