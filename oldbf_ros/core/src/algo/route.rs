@@ -197,6 +197,8 @@ impl PartialOrd for Open {
 pub struct RoutePlanner {
     /// Squared distance to the nearest occupied cell (cells²).
     dist2: Vec<f64>,
+    /// Per cell: unknown at the last plan.
+    unknown: Vec<bool>,
     /// Per cell: extra cost factor (∞: blocked).
     factor: Vec<f64>,
     g: Vec<f64>,
@@ -314,13 +316,24 @@ impl RoutePlanner {
 
     /// Distances and step-cost factors of every cell for `req`.
     fn fields(&mut self, map: &LocalMap, req: &RouteRequest) {
+        self.distances(map, req);
+        self.costs(map, req);
+    }
+
+    /// The map's squared distances to the nearest occupied cell and its
+    /// unknown cells at `req.now_s` (independent of the clearance).
+    fn distances(&mut self, map: &LocalMap, req: &RouteRequest) {
         let n = map.side();
         let cells = n * n;
         self.dist2.clear();
         self.dist2.resize(cells, FAR2);
+        self.unknown.clear();
+        self.unknown.resize(cells, false);
         for k in 0..cells {
-            if map.state(k, req.now_s, req.memory_s) == CellState::Occupied {
-                self.dist2[k] = 0.0;
+            match map.state(k, req.now_s, req.memory_s) {
+                CellState::Occupied => self.dist2[k] = 0.0,
+                CellState::Unknown => self.unknown[k] = true,
+                CellState::Free => {}
             }
         }
         self.col.resize(n, 0.0);
@@ -342,6 +355,13 @@ impl RoutePlanner {
             dt1d(&self.col, &mut self.out, &mut self.v, &mut self.z);
             self.dist2[j * n..(j + 1) * n].copy_from_slice(&self.out);
         }
+    }
+
+    /// The step-cost factor of every cell for `req`'s clearance, on the
+    /// last [`Self::distances`].
+    fn costs(&mut self, map: &LocalMap, req: &RouteRequest) {
+        let n = map.side();
+        let cells = n * n;
         let block_m = block_m(req);
         self.factor.clear();
         self.factor.resize(cells, 1.0);
@@ -353,18 +373,29 @@ impl RoutePlanner {
             .map_or(block_m, |k| self.dist2[k].sqrt() * MAP_CELL_M);
         let escape_block_m = block_m.min(here_m - MAP_CELL_M);
         let escape2 = ESCAPE_M * ESCAPE_M;
-        for k in 0..cells {
-            let d_m = self.dist2[k].sqrt() * MAP_CELL_M;
-            let from2 = (map.centre(k) - req.from).norm_squared();
-            let own = from2 <= own2;
-            let block_here_m = if from2 <= escape2 { escape_block_m } else { block_m };
-            self.factor[k] = if d_m < block_here_m && !own {
-                f64::INFINITY
-            } else {
-                let unknown = map.state(k, req.now_s, req.memory_s) == CellState::Unknown;
-                let near = ((NEAR_RAMP_M - (d_m - block_m)) / NEAR_RAMP_M).clamp(0.0, 1.0);
-                1.0 + if unknown { UNKNOWN_COST } else { 0.0 } + NEAR_COST * near
-            };
+        // Beyond the ramp no distance matters: no square root there.
+        let far2 = ((block_m + NEAR_RAMP_M) / MAP_CELL_M).powi(2);
+        let origin = map.centre(0);
+        for j in 0..n {
+            let dy = origin.y + j as f64 * MAP_CELL_M - req.from.y;
+            for i in 0..n {
+                let k = j * n + i;
+                let extra = if self.unknown[k] { UNKNOWN_COST } else { 0.0 };
+                if self.dist2[k] >= far2 {
+                    self.factor[k] = 1.0 + extra;
+                    continue;
+                }
+                let d_m = self.dist2[k].sqrt() * MAP_CELL_M;
+                let dx = origin.x + i as f64 * MAP_CELL_M - req.from.x;
+                let from2 = dx * dx + dy * dy;
+                let block_here_m = if from2 <= escape2 { escape_block_m } else { block_m };
+                self.factor[k] = if d_m < block_here_m && from2 > own2 {
+                    f64::INFINITY
+                } else {
+                    let near = ((NEAR_RAMP_M - (d_m - block_m)) / NEAR_RAMP_M).clamp(0.0, 1.0);
+                    1.0 + extra + NEAR_COST * near
+                };
+            }
         }
         self.avoid.retain(|&(_, until_s)| req.now_s <= until_s);
         let reach = (AVOID_RADIUS_M / MAP_CELL_M).ceil() as i64;
@@ -525,11 +556,11 @@ impl RoutePlanner {
     /// robot got stuck at, those are forgotten (they are not what the map
     /// shows) and it plans again.
     fn plan_fresh(&mut self, map: &LocalMap, req: &RouteRequest) -> Planned {
-        self.fields(map, req);
+        self.costs(map, req);
         let planned = self.search(map, req);
         if planned == Planned::NoRoute && !self.avoid.is_empty() {
             self.avoid.clear();
-            self.fields(map, req);
+            self.costs(map, req);
             return self.search(map, req);
         }
         planned
@@ -544,6 +575,7 @@ impl RoutePlanner {
         let Some(first) = reqs.first() else {
             return (self.held.as_ref(), RouteChange::Kept);
         };
+        self.distances(map, first);
         let mut planned = self.plan_fresh(map, first);
         let (mut chosen, mut fields_of) = (0, 0);
         for (i, relaxed) in reqs.iter().enumerate().skip(1) {
@@ -562,7 +594,7 @@ impl RoutePlanner {
         self.chosen = Some(*req);
         if fields_of != chosen {
             // The held route's cost is taken on the chosen request's fields.
-            self.fields(map, req);
+            self.costs(map, req);
         }
         let held = self.held.as_ref().map(|r| {
             let at_end = r.nearest(req.from) + 1 >= r.points.len();
