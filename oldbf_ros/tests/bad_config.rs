@@ -75,6 +75,8 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("unstuck.stall_s", "0"),
     ("unstuck.progress_m", "0"),
     ("unstuck.window_m", "0.5"),
+    ("unstuck.memory_s", "601"),
+    ("unstuck.plan_period_s", "0.01"),
     ("unstuck.margin_m", "-1"),
     ("unstuck.ahead_m", "21"),
     ("passive.enabled", "yes please"),
@@ -136,6 +138,7 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.robot", "robot9"),
     ("node.e_stop_timeout_s", "-0.5"),
     ("node.disable_timeout_s", "3601"),
+    ("node.plan_beside", "sometimes"),
     ("node.hardware_id", "\"two\\nlines\""),
     ("node.base_limits_file", "/no/such/base_limits.yaml"),
 ];
@@ -187,10 +190,19 @@ fn assert_complete(file: &str, leaf_keys: &BTreeSet<String>, rows: &BTreeSet<Str
     );
 }
 
+/// Keys that take a number or a `[least, most]` pair: a three-element list
+/// is their wrong list.
+const NUMBER_OR_PAIR: &[&str] = &["room.width_m", "room.height_m"];
+
 /// Wrong-type values for a leaf: a list and a mapping always; a string
 /// unless the key is free text; NaN and ±inf for a float.
 fn wrong_values(shipped: &Value, key: &str) -> Vec<&'static str> {
-    let mut v = vec!["[1, 2]", "{a: 1}"];
+    let list = if NUMBER_OR_PAIR.contains(&key) {
+        "[1, 2, 3]"
+    } else {
+        "[1, 2]"
+    };
+    let mut v = vec![list, "{a: 1}"];
     if !FREE_TEXT.contains(&key) && !shipped.is_string() {
         v.push("\"abc\"");
     }
@@ -409,6 +421,15 @@ const TEMPLATE_ROWS: &[(&str, &str)] = &[
     ("static_obstacles.boxes.count", "[0, 1001]"),
     ("static_obstacles.boxes.size_m", "[0.8, 0.3]"),
     ("static_obstacles.require_path", "maybe"),
+    ("static_obstacles.benches.count", "[4, 1]"),
+    ("static_obstacles.benches.length_m", "[1.6, 1.0]"),
+    ("static_obstacles.benches.width_m", "[-0.3, 0.5]"),
+    ("static_obstacles.near_line_fraction", "1.5"),
+    ("static_obstacles.near_line_m", "-0.1"),
+    ("doorway.tilt_deg", "[-60, 15]"),
+    ("doorway.thickness_m", "[0.25, 0.08]"),
+    ("doorway.passage_m", "[0.6, 9.0]"),
+    ("time_budget_factor", "0.5"),
     ("doorway.width_m", "[1.3, 0.5]"),
     ("doorway.along", "[0.05, 0.5]"),
     ("doorway.offset_m", "[-100, 0.5]"),
