@@ -67,9 +67,11 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
     for seed in SEEDS {
         let r = run(&s, Controller::Oldbf, seed);
         assert!(r.figures.reached_goal, "seed {seed}: {r:?}");
-        // 6 m at 0.15 m/s is 40 s; the detours cost time but not more than 30 s.
+        // 6 m at 0.15 m/s is 40 s; the detours cost time, but not more than 45 s (the way
+        // round, §4c, goes round the crate early and then waits for the two people:
+        // 55-80 s on these seeds, against 50-70 s for the reactive steering alone).
         let t = r.figures.time_to_goal_s.unwrap();
-        assert!((40.0..70.0).contains(&t), "seed {seed}: {t}");
+        assert!((40.0..85.0).contains(&t), "seed {seed}: {t}");
         // The crate on the line is passed, so the robot must have left the line and the barrier
         // must have been active.
         assert!(
@@ -191,7 +193,15 @@ world:
 
 #[test]
 fn unknown_is_not_free_a_wall_inside_range_min_stops_the_robot() {
+    // With the way round (§4c) the robot sees at once that the wall closes the room
+    // (its gaps are 0.5 m): no route, it rests where it is and says so.
     let s = Scenario::from_str(WALL_INSIDE_RANGE_MIN, "wall_inside_range_min", None).unwrap();
+    let r = run(&s, Controller::Oldbf, 1);
+    assert_eq!(r.figures.collisions, 0, "{r:?}");
+    assert!(r.figures.path_length_m < 0.05 && !r.figures.reached_goal, "{r:?}");
+    // The sensor semantics themselves, without the way round: driving at the wall.
+    let reactive = format!("{WALL_INSIDE_RANGE_MIN}oldbf: {{unstuck: {{enabled: false}}}}\n");
+    let s = Scenario::from_str(&reactive, "wall_inside_range_min", None).unwrap();
     let r = run(&s, Controller::Oldbf, 1);
     assert_eq!(r.figures.collisions, 0, "{r:?}");
     // It stopped short of the wall: not just out of contact, but outside d_safe

@@ -28,6 +28,10 @@ pub const MAP_CELL_M: f64 = 0.05;
 pub const CLEAR_SHORT_CELLS: i64 = 2;
 /// Never seen.
 const NEVER: f64 = f64::NEG_INFINITY;
+/// A cell last hit by a slowly moving track counts as occupied this long (s):
+/// a person standing or shuffling is planned round where they are, and
+/// leaves no trail.
+pub const TRANSIENT_S: f64 = 2.0;
 
 /// What the map knows of a cell.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,6 +52,8 @@ pub struct LocalMap {
     origin: (i64, i64),
     hit_s: Vec<f64>,
     free_s: Vec<f64>,
+    /// Per cell: its last hit was a slowly moving track's (1.0) or not (0.0).
+    transient: Vec<f64>,
     /// Scratch for moving the window.
     scratch: Vec<f64>,
     placed: bool,
@@ -67,6 +73,7 @@ impl LocalMap {
             origin: (0, 0),
             hit_s: vec![NEVER; side * side],
             free_s: vec![NEVER; side * side],
+            transient: vec![0.0; side * side],
             scratch: Vec::new(),
             placed: false,
         }
@@ -86,6 +93,7 @@ impl LocalMap {
     pub fn clear(&mut self) {
         self.hit_s.fill(NEVER);
         self.free_s.fill(NEVER);
+        self.transient.fill(0.0);
         self.placed = false;
     }
 
@@ -108,6 +116,11 @@ impl LocalMap {
     /// What the map knows of window cell `k` at `now_s`, remembering `memory_s`.
     pub fn state(&self, k: usize, now_s: f64, memory_s: f64) -> CellState {
         let (hit, free) = (self.hit_s[k], self.free_s[k]);
+        let memory_s = if self.transient[k] > 0.0 {
+            memory_s.min(TRANSIENT_S)
+        } else {
+            memory_s
+        };
         if hit > free && now_s - hit <= memory_s {
             CellState::Occupied
         } else if free >= hit && now_s - free <= memory_s {
@@ -138,9 +151,13 @@ impl LocalMap {
             self.placed = true;
             return;
         }
-        for layer in [&mut self.hit_s, &mut self.free_s] {
+        for (layer, empty) in [
+            (&mut self.hit_s, NEVER),
+            (&mut self.free_s, NEVER),
+            (&mut self.transient, 0.0),
+        ] {
             self.scratch.clear();
-            self.scratch.resize(layer.len(), NEVER);
+            self.scratch.resize(layer.len(), empty);
             for j in 0..n {
                 let sj = j + off.1;
                 if !(0..n).contains(&sj) {
@@ -184,7 +201,53 @@ impl LocalMap {
         for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
             if let Some(k) = self.index(cell_coords(map.point(*q))) {
                 self.hit_s[k] = stamp_s;
+                self.transient[k] = 0.0;
             }
+        }
+    }
+
+    /// Marks the cells of `points` (robot frame at `pose`, m; a slowly
+    /// moving track's) occupied at `stamp_s` for [`TRANSIENT_S`] only. Rays
+    /// are not cleared (the same scan's [`Self::insert`] does that). A cell
+    /// a static point hit in this scan stays static.
+    pub fn insert_transient(&mut self, pose: Pose2, points: &[Vec2], stamp_s: f64) {
+        if !pose.is_finite() || !stamp_s.is_finite() {
+            return;
+        }
+        let map = pose.frame_map();
+        for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
+            if let Some(k) = self.index(cell_coords(map.point(*q))) {
+                if self.hit_s[k] != stamp_s {
+                    self.hit_s[k] = stamp_s;
+                    self.transient[k] = 1.0;
+                }
+            }
+        }
+    }
+
+    /// Clears the rays from the robot at `pose` to `ends` (robot frame, m;
+    /// beams that saw nothing in range, so what they cross is free up to
+    /// their end), within `clear_range_m`, at `stamp_s`. Marks nothing
+    /// occupied. Call before [`Self::insert`] of the same scan's points, so
+    /// its hits win.
+    pub fn clear_open(&mut self, pose: Pose2, ends: &[Vec2], stamp_s: f64, clear_range_m: f64) {
+        if !pose.is_finite() || !stamp_s.is_finite() {
+            return;
+        }
+        self.follow(pose.position());
+        let from = cell_coords(pose.position());
+        let map = pose.frame_map();
+        for q in ends.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
+            let len = q.norm().max(1e-9);
+            let (q, len) = if len > clear_range_m {
+                (q * (clear_range_m / len), clear_range_m)
+            } else {
+                (*q, len)
+            };
+            let to = cell_coords(map.point(q));
+            // The ray's end is no surface: clear up to it (a cell beyond it is the "end").
+            let beyond = cell_coords(map.point(q * (1.0 + (CLEAR_SHORT_CELLS as f64 + 1.0) * MAP_CELL_M / len)));
+            self.clear_ray(from, to, beyond, stamp_s);
         }
     }
 
@@ -281,5 +344,35 @@ mod tests {
         assert_eq!(m.state_at(Vec2::new(0.5, 1.0), 1.0, 5.0), CellState::Occupied);
         m.insert(Pose2::new(f64::NAN, 0.0, 0.0), &[Vec2::new(1.0, 0.0)], 2.0, 5.0);
         assert_eq!(m.state_at(Vec2::new(0.5, 1.0), 2.0, 5.0), CellState::Occupied);
+    }
+
+    #[test]
+    fn a_beam_that_saw_nothing_clears_a_trail_to_its_end() {
+        let mut m = LocalMap::new(8.0);
+        // Someone stood 1 m ahead, then walked off: the beam now sees nothing in 3.5 m.
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.0)], 1.0, 5.0);
+        m.clear_open(at(0.0, 0.0), &[Vec2::new(3.5, 0.0)], 1.1, 5.0);
+        let s = |x: f64| m.state_at(Vec2::new(x, 0.0), 1.1, 5.0);
+        assert_eq!(
+            (s(1.0), s(3.4), s(3.5)),
+            (CellState::Free, CellState::Free, CellState::Free)
+        );
+        assert_eq!(s(3.6), CellState::Unknown, "nothing beyond the range");
+        // Cleared only within the clearing range.
+        m.clear_open(at(0.0, 0.0), &[Vec2::new(0.0, 3.5)], 1.2, 2.0);
+        let s = |y: f64| m.state_at(Vec2::new(0.0, y), 1.2, 5.0);
+        assert_eq!((s(2.0), s(2.2)), (CellState::Free, CellState::Unknown));
+    }
+
+    #[test]
+    fn a_slow_mover_is_occupied_where_it_is_and_leaves_no_trail() {
+        let mut m = LocalMap::new(4.0);
+        m.insert_transient(at(0.0, 0.0), &[Vec2::new(1.0, 0.5)], 1.0);
+        let s = |now: f64| m.state_at(Vec2::new(1.0, 0.5), now, 30.0);
+        assert_eq!((s(1.0), s(3.0)), (CellState::Occupied, CellState::Occupied));
+        assert_eq!(s(3.1), CellState::Unknown, "forgotten after TRANSIENT_S, not memory_s");
+        // A static hit on the same cell later is remembered for memory_s.
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.5)], 4.0, 5.0);
+        assert_eq!(m.state_at(Vec2::new(1.0, 0.5), 30.0, 30.0), CellState::Occupied);
     }
 }

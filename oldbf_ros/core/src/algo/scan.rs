@@ -227,6 +227,14 @@ pub struct ScanPoints {
     directions: BeamDirections,
 }
 
+impl ScanPoints {
+    /// Beam `i`'s unit direction in the robot frame, for the last scan
+    /// geometry seen (None before any, or beyond its beams).
+    pub fn beam_direction(&self, i: usize) -> Option<Vec2> {
+        self.directions.dirs.get(i).copied()
+    }
+}
+
 /// The unit direction of every beam in the robot frame, for one scan geometry
 /// (angle_min, angle_increment, beam count, mount). A laser's geometry does not
 /// change from scan to scan, so the table is computed once and reused: the

@@ -62,7 +62,10 @@ pub struct Guidance {
     /// The point `unstuck.ahead_m` further along the reference's path (its
     /// end at most), robot frame (m): where the tracking law is heading.
     pub ahead: Vec2,
-    /// The reference's end (the goal), robot frame (m): where the route goes.
+    /// Where the route goes, robot frame (m): the farthest point of the
+    /// reference ahead that it reaches nearly straight (within
+    /// [`CHORD_DEVIATION_M`] of the chord, at most [`ROUTE_GOAL_MAX_M`] along):
+    /// the goal at the end of a line, a point a little ahead on a curve.
     pub end: Vec2,
     /// The reference has run to its end: `target` is the goal.
     pub at_end: bool,
@@ -84,7 +87,7 @@ impl Guidance {
             target: robot.inverse_transform_point(reference.pose_at(progress.t_s).position()),
             along_m: progress.t_s.min(reference.duration_s) * reference.v_mps.abs(),
             ahead: robot.inverse_transform_point(ahead),
-            end: robot.inverse_transform_point(reference.pose_at(reference.duration_s).position()),
+            end: robot.inverse_transform_point(straight_ahead(reference, progress.t_s)),
             at_end: progress.finished(reference),
         }
     }
@@ -96,6 +99,44 @@ impl Guidance {
             .all(|v| v.x.is_finite() && v.y.is_finite())
             && self.along_m.is_finite()
     }
+}
+
+/// The route's goal is at most this far along the reference (m): inside a
+/// local map of 12 m round the robot.
+pub const ROUTE_GOAL_MAX_M: f64 = 5.0;
+/// The reference between its point now and the route's goal stays within
+/// this of the straight line between them (m).
+pub const CHORD_DEVIATION_M: f64 = 0.3;
+/// Spacing of the reference samples checked (m).
+const CHORD_STEP_M: f64 = 0.1;
+
+/// The farthest point of `reference` from its point at `t_s` that it
+/// reaches nearly straight: within [`CHORD_DEVIATION_M`] of the chord, at
+/// most [`ROUTE_GOAL_MAX_M`] along (its end at most).
+fn straight_ahead(reference: &ReferenceTrajectory, t_s: f64) -> Vec2 {
+    let speed = reference.v_mps.abs().max(1e-9);
+    let from = reference.pose_at(t_s).position();
+    let steps = (ROUTE_GOAL_MAX_M / CHORD_STEP_M) as usize;
+    let at = |k: usize| reference.pose_at(t_s + k as f64 * CHORD_STEP_M / speed).position();
+    let mut best = from;
+    for k in 1..=steps {
+        let end = at(k);
+        let chord = end - from;
+        let len = chord.norm();
+        let straight = len < 1e-9
+            || (1..k).all(|i| {
+                let q = at(i) - from;
+                (q.x * chord.y - q.y * chord.x).abs() / len <= CHORD_DEVIATION_M
+            });
+        if !straight {
+            break;
+        }
+        best = end;
+        if t_s + k as f64 * CHORD_STEP_M / speed >= reference.duration_s {
+            break;
+        }
+    }
+    best
 }
 
 /// What the robot sees at one step.
@@ -379,6 +420,8 @@ mod tests {
             stamp_s: now_s,
             pose: Pose2::default(),
             points,
+            open_ends: vec![],
+            transient: vec![],
         });
         let ask = RouteAsk {
             now_s,
@@ -564,5 +607,22 @@ mod tests {
             }
         }
         assert_eq!(stuck_at, vec![30, 60]);
+    }
+
+    #[test]
+    fn the_route_goes_to_the_end_of_a_line_and_a_little_ahead_on_a_circle() {
+        use crate::algo::reference::ReferenceTrajectory;
+        // A line of 3 m: its end, wherever the reference is.
+        let line = ReferenceTrajectory::line(Pose2::default(), 0.15, 3.0);
+        assert!((straight_ahead(&line, 0.0) - Vec2::new(3.0, 0.0)).norm() < 1e-9);
+        // A line of 20 m: 5 m ahead.
+        let long = ReferenceTrajectory::line(Pose2::default(), 0.15, 20.0);
+        assert!((straight_ahead(&long, 10.0) - Vec2::new(6.5, 0.0)).norm() < 1e-6);
+        // A circle of radius 1.5 m: the farthest sample whose arc stays within 0.3 m of its
+        // chord. The sagitta of an arc of angle φ is r (1 − cos(φ / 2)) ≤ 0.3 for φ ≤ 73.7°,
+        // an arc of 1.93 m: the goal is 1.9 m along (a chord of 1.5 · 2 sin(36.3°) = 1.78 m).
+        let circle = ReferenceTrajectory::circle(Pose2::default(), 0.15, 0.1, 1.0);
+        let g = straight_ahead(&circle, 0.0);
+        assert!((g.norm() - 2.0 * 1.5 * (1.9f64 / 3.0).sin()).abs() < 1e-6, "{g:?}");
     }
 }

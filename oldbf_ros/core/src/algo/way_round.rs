@@ -6,7 +6,7 @@
 //! latest [`RouteUpdate`]; a scan's command never waits for a plan.
 
 use super::geometry::{Pose2, Vec2};
-use super::local_map::{cell_coords, LocalMap, MAP_CELL_M};
+use super::local_map::{cell_coords, LocalMap, MAP_CELL_M, TRANSIENT_S};
 use super::params::Params;
 /// The robot steers at most this far along the route (m).
 pub const WAYPOINT_REACH_M: f64 = 1.0;
@@ -23,6 +23,12 @@ pub struct MapScan {
     pub pose: Pose2,
     /// The points (robot frame at `pose`, m).
     pub points: Vec<Vec2>,
+    /// The points of slowly moving tracks (robot frame at `pose`, m): planned
+    /// round where they are, forgotten after [`TRANSIENT_S`] unless seen again.
+    pub transient: Vec<Vec2>,
+    /// The ends of the beams that saw nothing within their range (robot
+    /// frame at `pose`, m): their rays clear what they cross, nothing is hit.
+    pub open_ends: Vec<Vec2>,
 }
 
 /// What to plan for (tracking frame, m).
@@ -119,10 +125,14 @@ impl WayRound {
         }
     }
 
-    /// Takes a scan into the map (rays cleared within the map's half width).
+    /// Takes a scan into the map: the rays of beams that saw nothing clear
+    /// what they cross, then the points' rays clear theirs and their ends
+    /// are occupied (within the map's half width).
     pub fn insert(&mut self, scan: &MapScan) {
-        self.map
-            .insert(scan.pose, &scan.points, scan.stamp_s, 0.5 * self.window_m);
+        let clear_m = 0.5 * self.window_m;
+        self.map.clear_open(scan.pose, &scan.open_ends, scan.stamp_s, clear_m);
+        self.map.insert(scan.pose, &scan.points, scan.stamp_s, clear_m);
+        self.map.insert_transient(scan.pose, &scan.transient, scan.stamp_s);
     }
 
     /// Whether a plan for `ask` is due (`unstuck.plan_period_s` since the
@@ -236,6 +246,8 @@ mod tests {
             stamp_s: 0.0,
             pose: Pose2::default(),
             points: wall,
+            open_ends: vec![],
+            transient: vec![],
         });
         let ask = RouteAsk {
             now_s: 0.0,

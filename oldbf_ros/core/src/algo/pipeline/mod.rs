@@ -129,7 +129,10 @@ pub struct SafetyPipeline {
     /// tracks (a person is not a wall to plan round, §4b), and a per-point
     /// mark of the moving ones; scratch, reused every step.
     plan_points: Vec<Vec2>,
-    on_mover: Vec<bool>,
+    /// The points of moving tracks slower than [`PLAN_THROUGH_SPEED_MPS`]:
+    /// planned round where they are now, forgotten soon (§4c).
+    slow_points: Vec<Vec2>,
+    on_mover: Vec<u8>,
     /// The way-round planner, when it runs in step with the scans (§4c).
     way_round: WayRound,
     /// The planner runs beside the safety path (the node): the pipeline only
@@ -213,11 +216,14 @@ impl SafetyPipeline {
             surprise_next: 0,
             last_h_next: f64::NAN,
             plan_points: Vec::with_capacity(cap),
+            slow_points: Vec::with_capacity(cap),
             on_mover: Vec::with_capacity(cap),
             way_round,
             route_beside: false,
             map_scan: MapScan {
                 points: Vec::with_capacity(cap),
+                transient: Vec::with_capacity(cap),
+                open_ends: Vec::with_capacity(cap),
                 ..MapScan::default()
             },
             map_scan_new: false,
@@ -681,10 +687,13 @@ mod tests {
         let planned = |c: Vec2| pipe.plan_points.iter().filter(near(c)).count();
         let (w, sh, po) = (seen(walker), seen(shuffler), seen(post));
         assert!(w >= 3 && sh >= 3 && po >= 3, "{w} {sh} {po}");
-        // The planner sees the post and the shuffler, not the walker; nothing else is dropped.
-        assert_eq!(planned(walker), 0);
-        assert_eq!((planned(shuffler), planned(post)), (sh, po));
-        assert_eq!(pipe.plan_points.len(), pipe.points.points.len() - w);
+        // The map takes the post for good and the shuffler for a moment (transient), the
+        // walker not at all; nothing else is dropped.
+        let slow = |c: Vec2| pipe.slow_points.iter().filter(near(c)).count();
+        assert_eq!((planned(walker), slow(walker)), (0, 0));
+        assert_eq!((planned(shuffler), slow(shuffler)), (0, sh));
+        assert_eq!((planned(post), slow(post)), (po, 0));
+        assert_eq!(pipe.plan_points.len(), pipe.points.points.len() - w - sh);
     }
 
     #[test]

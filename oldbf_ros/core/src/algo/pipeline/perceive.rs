@@ -99,6 +99,19 @@ impl SafetyPipeline {
             self.map_scan.pose = pose;
             self.map_scan.points.clear();
             self.map_scan.points.extend_from_slice(&self.plan_points);
+            self.map_scan.transient.clear();
+            self.map_scan.transient.extend_from_slice(&self.slow_points);
+            // Beams that saw nothing in range clear what they cross (REP 117: +inf).
+            self.map_scan.open_ends.clear();
+            let origin = self.derived.mount.pose.position();
+            let range_m = scan.header.range_max_m as f64;
+            for (i, st) in self.points.status.iter().enumerate() {
+                if *st == BeamStatus::Free {
+                    if let Some(d) = self.points.beam_direction(i) {
+                        self.map_scan.open_ends.push(origin + d * range_m);
+                    }
+                }
+            }
             if self.route_beside {
                 self.map_scan_new = true;
             } else {

@@ -171,18 +171,29 @@ impl SafetyPipeline {
     pub(super) fn fill_plan_points(&mut self) {
         let n = self.points.points.len();
         self.on_mover.clear();
-        self.on_mover.resize(n, false);
+        self.on_mover.resize(n, 0);
         let (tracks, o) = (self.tracker.tracks(), &self.params.obstacles);
-        let walks_off = |t: usize| tracks[t].is_moving(o) && tracks[t].velocity().norm() >= PLAN_THROUGH_SPEED_MPS;
+        // 2: walks off (left out); 1: a moving track slower than that (kept, transient).
+        let kind = |t: usize| match tracks[t].is_moving(o) {
+            true if tracks[t].velocity().norm() >= PLAN_THROUGH_SPEED_MPS => 2,
+            true => 1,
+            false => 0,
+        };
         for (cluster, track) in self.clusters.as_slice().iter().zip(self.tracker.cluster_track()) {
-            if track.is_some_and(walks_off) {
+            if let Some(k) = track.map(kind).filter(|&k| k > 0) {
                 for i in cluster.indices(n) {
-                    self.on_mover[i] = true;
+                    self.on_mover[i] = k;
                 }
             }
         }
         self.plan_points.clear();
-        let kept = self.points.points.iter().zip(&self.on_mover).filter(|(_, m)| !**m);
-        self.plan_points.extend(kept.map(|(q, _)| *q));
+        self.slow_points.clear();
+        for (q, m) in self.points.points.iter().zip(&self.on_mover) {
+            match m {
+                0 => self.plan_points.push(*q),
+                1 => self.slow_points.push(*q),
+                _ => {}
+            }
+        }
     }
 }
