@@ -6,7 +6,7 @@
 //! latest [`RouteUpdate`]; a scan's command never waits for a plan.
 
 use super::geometry::{Pose2, Vec2};
-use super::local_map::{cell_coords, LocalMap, MAP_CELL_M, TRANSIENT_S};
+use super::local_map::{cell_coords, LocalMap, MAP_CELL_M};
 use super::params::Params;
 /// The robot steers at most this far along the route (m).
 pub const WAYPOINT_REACH_M: f64 = 1.0;
@@ -24,7 +24,7 @@ pub struct MapScan {
     /// The points (robot frame at `pose`, m).
     pub points: Vec<Vec2>,
     /// The points of slowly moving tracks (robot frame at `pose`, m): planned
-    /// round where they are, forgotten after [`TRANSIENT_S`] unless seen again.
+    /// round where they are, forgotten after [`super::local_map::TRANSIENT_S`] unless seen again.
     pub transient: Vec<Vec2>,
     /// The ends of the beams that saw nothing within their range (robot
     /// frame at `pose`, m): their rays clear what they cross, nothing is hit.
