@@ -12,12 +12,14 @@
 //!   the (governed) reference point, in m: it grows while the reference runs
 //!   and while the robot closes in on it; a robot held up by an obstacle,
 //!   with the governor holding the reference, makes none.
-//! * **Follow** when the straight way from the robot to the point
-//!   `unstuck.ahead_m` further along the reference (where the tracking law
-//!   is heading) runs through the map's blocked band (cells nearer than
-//!   r + d_safe + `unstuck.margin_m` to something seen, walking people left
-//!   out), or when progress has stalled: less than `unstuck.progress_m` for
-//!   `unstuck.stall_s` while the nominal asks to move. The nominal becomes a
+//! * **Follow** once progress has stalled: less than `unstuck.progress_m`
+//!   for `unstuck.stall_s` while the nominal asks to move (the reactive
+//!   steering gets round a single obstacle on its own, more smoothly than a
+//!   route would). The follow is *blocked* when the straight way from the
+//!   robot to the point `unstuck.ahead_m` further along the reference
+//!   (where the tracking law is heading) runs through the map's blocked band
+//!   (cells nearer than r + d_safe + `unstuck.margin_m` to something seen,
+//!   walking people left out), else *stalled*. The nominal becomes a
 //!   turn towards the route's farthest point within 1 m along that the
 //!   robot sees in a straight line clear of the blocked band; the route itself is kept until
 //!   blocked, beaten by a margin or its goal moves ([`super::route`]).
@@ -159,9 +161,9 @@ pub struct Situation<'a> {
 /// Why a way round began or ended (steps.csv's `route_event`, `~state`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RouteEvent {
-    /// Began: the straight way ahead is blocked on the map.
+    /// Began: no progress for the stall time, the straight way ahead blocked on the map.
     FollowBlocked,
-    /// Began: no progress for the stall time.
+    /// Began: no progress for the stall time, the straight way ahead clear.
     FollowStalled,
     /// Ended: the straight way ahead is clear again.
     ReleaseClear,
@@ -330,7 +332,8 @@ impl Unstuck {
                 if !wants_to_move {
                     return UnstuckDecision::NONE;
                 }
-                if route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0) {
+                let blocked = route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0);
+                if blocked && self.stalled(now_s, p) {
                     self.following = Some(Cause::Blocked);
                     event = Some(RouteEvent::FollowBlocked);
                 } else if self.stalled(now_s, p) {
@@ -455,24 +458,34 @@ mod tests {
     }
 
     #[test]
-    fn a_wall_across_the_way_ahead_is_gone_round_at_once_and_released_once_clear() {
+    fn a_wall_across_the_way_ahead_is_gone_round_after_the_stall_and_released_once_clear() {
         let p = params();
         let mut u = Unstuck::default();
         let nominal = Twist::new(0.15, 0.0);
         // A wall 1.5 m ahead from y = −0.6 to 2.5: the way round is to the right.
         let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
         assert!(blocked.direct_margin_m < 0.0);
-        let d = u.step(Some(guidance(3.0)), &at(0.0, nominal, Some(&blocked), false), &p);
-        assert_eq!(d.event, Some(RouteEvent::FollowBlocked), "no stall needed: {d:?}");
+        // No progress: the reactive steering has its stall time first.
+        for k in 0..60 {
+            let r = RouteUpdate {
+                made_s: 0.1 * k as f64,
+                ..blocked.clone()
+            };
+            let d = u.step(Some(guidance(3.0)), &at(0.1 * k as f64, nominal, Some(&r), false), &p);
+            assert_eq!(d.event, None, "no follow before 6 s");
+        }
+        let blocked = RouteUpdate { made_s: 6.0, ..blocked };
+        let d = u.step(Some(guidance(3.0)), &at(6.0, nominal, Some(&blocked), false), &p);
+        assert_eq!(d.event, Some(RouteEvent::FollowBlocked), "{d:?}");
         let w = d.waypoint.unwrap();
         assert!(w.y < -0.2 && w.x > 0.5, "towards the wall's right end: {w:?}");
         assert_eq!(u.aim(), Some(w), "robot at the origin: tracking frame = robot frame");
         // Kept while blocked…
-        let d = u.step(Some(guidance(3.0)), &at(0.1, nominal, Some(&blocked), false), &p);
+        let d = u.step(Some(guidance(3.0)), &at(6.1, nominal, Some(&blocked), false), &p);
         assert_eq!((d.event, d.waypoint.is_some()), (None, true));
         // …released once the straight way is clear.
-        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.2);
-        let d = u.step(Some(guidance(3.0)), &at(0.2, nominal, Some(&clear), false), &p);
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 6.2);
+        let d = u.step(Some(guidance(3.0)), &at(6.2, nominal, Some(&clear), false), &p);
         assert_eq!(
             (d.event, d.waypoint, u.following()),
             (Some(RouteEvent::ReleaseClear), None, false)
@@ -562,14 +575,31 @@ mod tests {
         let p = params();
         let nominal = Twist::new(0.15, 0.0);
         let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        let blocked_at = |t: f64| RouteUpdate {
+            made_s: t,
+            ..blocked.clone()
+        };
         let mut u = Unstuck::default();
-        u.step(Some(guidance(3.0)), &at(0.0, nominal, Some(&blocked), false), &p);
+        u.step(
+            Some(guidance(3.0)),
+            &at(0.0, nominal, Some(&blocked_at(0.0)), false),
+            &p,
+        );
+        u.step(
+            Some(guidance(3.0)),
+            &at(6.0, nominal, Some(&blocked_at(6.0)), false),
+            &p,
+        );
         assert!(u.following());
-        let d = u.step(Some(guidance(3.0)), &at(0.1, nominal, Some(&blocked), true), &p);
+        let d = u.step(Some(guidance(3.0)), &at(6.1, nominal, Some(&blocked_at(6.1)), true), &p);
         assert_eq!((d.event, d.waypoint), (Some(RouteEvent::ReleaseMover), None));
-        u.step(Some(guidance(3.0)), &at(0.2, nominal, Some(&blocked), false), &p);
+        u.step(
+            Some(guidance(3.0)),
+            &at(6.2, nominal, Some(&blocked_at(6.2)), false),
+            &p,
+        );
         assert!(u.following());
-        let d = u.step(None, &at(0.3, nominal, Some(&blocked), false), &p);
+        let d = u.step(None, &at(6.3, nominal, Some(&blocked_at(6.3)), false), &p);
         assert_eq!((d.waypoint, u.following(), u.aim()), (None, false, None));
     }
 
@@ -589,24 +619,25 @@ mod tests {
             };
             u.step(Some(guidance(3.0)), &now, &p).event
         };
-        // Turning in place at 0.3 rad/s: 0.5 rad every 1.7 s, never stuck.
+        // Following from 6 s (the stall). Turning in place at 0.3 rad/s: 0.5 rad every
+        // 1.7 s, never stuck.
         let mut u = Unstuck::default();
-        for k in 0..100 {
+        for k in 0..160 {
             let t = 0.1 * k as f64;
             let e = step(&mut u, t, Pose2::new(0.0, 0.0, -0.03 * k as f64));
             assert_ne!(e, Some(RouteEvent::Stuck), "at {t} s");
         }
-        // Held still: stuck at 3 s, told once to the planner, and again 3 s later.
+        // Held still: stuck 3 s into the follow, told once to the planner, and again 3 s later.
         let mut u = Unstuck::default();
         let mut stuck_at = vec![];
-        for k in 0..70 {
+        for k in 0..130 {
             let t = 0.1 * k as f64;
             if step(&mut u, t, Pose2::default()) == Some(RouteEvent::Stuck) {
                 stuck_at.push(k);
                 assert!(u.take_stuck() && !u.take_stuck());
             }
         }
-        assert_eq!(stuck_at, vec![30, 60]);
+        assert_eq!(stuck_at, vec![90, 120]);
     }
 
     #[test]
