@@ -59,9 +59,15 @@ pub struct LocalMap {
     placed: bool,
 }
 
-/// The integer cell of a point (tracking frame).
+/// Cell coordinates are kept within ± this (50 000 km): a pose or a point
+/// far beyond any map (garbage odometry) cannot overflow the arithmetic on
+/// them; it lands outside the window.
+const CELL_LIMIT: f64 = 1e9;
+
+/// The integer cell of a point (tracking frame); NaN gives cell 0.
 pub fn cell_coords(p: Vec2) -> (i64, i64) {
-    ((p.x / MAP_CELL_M).round() as i64, (p.y / MAP_CELL_M).round() as i64)
+    let c = |v: f64| (v / MAP_CELL_M).round().clamp(-CELL_LIMIT, CELL_LIMIT) as i64;
+    (c(p.x), c(p.y))
 }
 
 impl LocalMap {
@@ -374,5 +380,20 @@ mod tests {
         // A static hit on the same cell later is remembered for memory_s.
         m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.5)], 4.0, 5.0);
         assert_eq!(m.state_at(Vec2::new(1.0, 0.5), 30.0, 30.0), CellState::Occupied);
+    }
+
+    #[test]
+    fn a_pose_or_point_far_beyond_any_map_is_no_panic() {
+        // Finite garbage (odometry gone wild, a fuzzer's pose): no overflow, nothing marked
+        // inside the window, and the map goes on working where the robot really is.
+        let mut m = LocalMap::new(4.0);
+        for p in [Pose2::new(1e300, -1e300, 0.0), Pose2::new(-4e18, 4e18, 1.0)] {
+            m.insert(p, &[Vec2::new(1.0, 0.0), Vec2::new(-1e308, 1e308)], 1.0, 5.0);
+            m.clear_open(p, &[Vec2::new(3.5, 0.0)], 1.0, 5.0);
+            m.insert_transient(p, &[Vec2::new(1e308, 0.0)], 1.0);
+        }
+        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, 0.0), Vec2::new(1e308, 0.0)], 2.0, 5.0);
+        assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 2.0, 5.0), CellState::Occupied);
+        assert_eq!(m.state_at(Vec2::new(0.5, 0.0), 2.0, 5.0), CellState::Free);
     }
 }

@@ -217,7 +217,10 @@ impl WayRound {
     fn segment_margin(&self, a: Vec2, b: Vec2, own_m: f64, req: &RouteRequest) -> f64 {
         let seg = b - a;
         let len = seg.norm();
-        let steps = (len / (0.5 * MAP_CELL_M)).ceil() as usize;
+        // Samples every half cell; a segment longer than the window (garbage) is
+        // sampled more coarsely, the samples outside the window being skipped anyway.
+        let max_steps = 4 * self.map.side();
+        let steps = ((len / (0.5 * MAP_CELL_M)).ceil() as usize).min(max_steps);
         let mut least = f64::INFINITY;
         for s in 0..=steps {
             let q = a + seg * (s as f64 / steps.max(1) as f64);
