@@ -262,6 +262,11 @@ impl LocalMap {
     /// hit in this same scan.
     fn clear_ray(&mut self, a: (i64, i64), b: (i64, i64), end: (i64, i64), stamp_s: f64) {
         let (dx, dy) = ((b.0 - a.0).abs(), -(b.1 - a.1).abs());
+        // No ray is longer than the window: a longer one comes of garbage (a point at
+        // infinity seen from a pose far away) and clears nothing.
+        if dx.max(-dy) > 2 * self.side as i64 {
+            return;
+        }
         let (sx, sy) = ((b.0 - a.0).signum(), (b.1 - a.1).signum());
         let (mut x, mut y, mut err) = (a.0, a.1, dx + dy);
         loop {
@@ -388,7 +393,12 @@ mod tests {
         // inside the window, and the map goes on working where the robot really is.
         let mut m = LocalMap::new(4.0);
         for p in [Pose2::new(1e300, -1e300, 0.0), Pose2::new(-4e18, 4e18, 1.0)] {
-            m.insert(p, &[Vec2::new(1.0, 0.0), Vec2::new(-1e308, 1e308)], 1.0, 5.0);
+            m.insert(
+                p,
+                &[Vec2::new(1.0, 0.0), Vec2::new(-1e308, 1e308), Vec2::new(1e308, 1e308)],
+                1.0,
+                5.0,
+            );
             m.clear_open(p, &[Vec2::new(3.5, 0.0)], 1.0, 5.0);
             m.insert_transient(p, &[Vec2::new(1e308, 0.0)], 1.0);
         }
