@@ -34,4 +34,4 @@ pub use geometry::{Pose2, Twist, Vec2};
 pub use params::Params;
 pub use pipeline::SafetyPipeline;
 pub use record::{StepRecord, StopCause};
-pub use scan::{LaserScan, ScanHeader, ScanRejection};
+pub use scan::{LaserMount, LaserScan, MountError, ScanHeader, ScanRejection};

@@ -172,18 +172,99 @@ impl ScanRejection {
 /// n·increment slightly above 2π.
 const SPAN_TOLERANCE_RAD: f64 = 0.05;
 
-/// The laser's mount pose in the robot frame, with its trigonometry cached.
-#[derive(Debug, Clone, Copy)]
+/// The most a scan plane may tilt from the floor's and still be taken as
+/// horizontal (deg): the filter reasons in the plane of the floor, and a
+/// plane tilted further meets the floor (or passes over low obstacles) within
+/// a few metres, so its ranges are not distances in that plane.
+pub const MAX_MOUNT_TILT_DEG: f64 = 5.0;
+
+/// The laser's mount in the robot frame: where it sits and which way its
+/// beam angles turn.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LaserMount {
-    /// The laser frame in the robot frame (m, rad).
+    /// The laser frame in the robot frame (m, rad): its origin, and the
+    /// heading of its x axis (the beam at angle 0).
     pub pose: Pose2,
+    /// The laser is upside down (its z axis points at the floor: a roll or
+    /// pitch of π, a scanner under a deck): its beam angles turn clockwise
+    /// in the robot frame, so the beam at laser angle `a` points at
+    /// `pose.theta − a` instead of `pose.theta + a`. Without this a mirrored
+    /// scan would swap the left and right barriers.
+    pub mirrored: bool,
+}
+
+/// Why a 3-D mount cannot place a planar scan (see [`LaserMount::from_transform`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum MountError {
+    /// A translation or rotation component is NaN or infinite.
+    #[error("the transform has a non-finite translation or rotation")]
+    NotFinite,
+    /// The quaternion is not a rotation (its norm is off 1 by more than 0.01).
+    #[error("the rotation quaternion has norm {norm:.3}, not 1")]
+    NotUnit {
+        /// Its norm.
+        norm: f64,
+    },
+    /// The scan plane is not level (upright or upside down).
+    #[error("the scan plane is tilted {tilt_deg:.1}° from the floor's (at most {MAX_MOUNT_TILT_DEG}°)")]
+    Tilted {
+        /// The angle between the laser's z axis and the vertical (deg, 0-90).
+        tilt_deg: f64,
+    },
 }
 
 impl LaserMount {
-    /// The mount of `laser.mount_x_m`, `mount_y_m`, `mount_yaw_deg`.
+    /// An upright mount at `pose`.
+    pub const fn upright(pose: Pose2) -> Self {
+        Self { pose, mirrored: false }
+    }
+
+    /// The mount of `laser.mount_x_m`, `mount_y_m`, `mount_yaw_deg` (upright).
     pub fn from_params(p: &LaserParams) -> Self {
-        Self {
-            pose: Pose2::new(p.mount_x_m, p.mount_y_m, p.mount_yaw_deg.to_radians()),
+        Self::upright(Pose2::new(p.mount_x_m, p.mount_y_m, p.mount_yaw_deg.to_radians()))
+    }
+
+    /// The mount of a 3-D transform of the laser frame in the robot frame
+    /// (tf: translation in m, rotation as the quaternion x, y, z, w). The
+    /// scan plane is the laser's x-y plane; it must be level within
+    /// [`MAX_MOUNT_TILT_DEG`], upright or upside down. The height is dropped
+    /// (the filter works in the floor's plane), the heading is the laser x
+    /// axis projected on the floor, and a laser z axis pointing down makes
+    /// the mount [`Self::mirrored`].
+    pub fn from_transform(translation_m: [f64; 3], rotation_xyzw: [f64; 4]) -> Result<Self, MountError> {
+        if !translation_m.iter().chain(&rotation_xyzw).all(|v| v.is_finite()) {
+            return Err(MountError::NotFinite);
+        }
+        let [x, y, z, w] = rotation_xyzw;
+        let norm = (x * x + y * y + z * z + w * w).sqrt();
+        // tf's own tolerance for an unnormalised quaternion is about 1e-2.
+        if (norm - 1.0).abs() > 0.01 {
+            return Err(MountError::NotUnit { norm });
+        }
+        let (x, y, z, w) = (x / norm, y / norm, z / norm, w / norm);
+        // Columns of the rotation matrix: the laser's x axis and z axis in the robot frame.
+        let x_axis = [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + w * z),
+            2.0 * (x * z - w * y),
+        ];
+        let z_up = 1.0 - 2.0 * (x * x + y * y);
+        let tilt_deg = z_up.abs().min(1.0).acos().to_degrees();
+        if tilt_deg > MAX_MOUNT_TILT_DEG {
+            return Err(MountError::Tilted { tilt_deg });
+        }
+        Ok(Self {
+            pose: Pose2::new(translation_m[0], translation_m[1], x_axis[1].atan2(x_axis[0])),
+            mirrored: z_up < 0.0,
+        })
+    }
+
+    /// The robot-frame heading of the beam at laser angle `angle_rad` (rad).
+    pub fn beam_heading(&self, angle_rad: f64) -> f64 {
+        if self.mirrored {
+            self.pose.theta - angle_rad
+        } else {
+            self.pose.theta + angle_rad
         }
     }
 }
@@ -243,7 +324,7 @@ impl ScanPoints {
 #[derive(Debug, Default, Clone)]
 struct BeamDirections {
     /// (angle_min bits, angle_increment bits, beams, mount) of `dirs`.
-    geometry: Option<(u32, u32, usize, Pose2)>,
+    geometry: Option<(u32, u32, usize, LaserMount)>,
     dirs: Vec<Vec2>,
     /// (cos_front bits, cos_rear bits) and the beams of `dirs` with x ≥ cos_front
     /// and with x ≤ −cos_rear: the front and rear sector counts, which depend on
@@ -260,16 +341,18 @@ impl BeamDirections {
             scan.header.angle_min_rad.to_bits(),
             scan.header.angle_increment_rad.to_bits(),
             n,
-            mount.pose,
+            *mount,
         );
         if self.geometry != Some(geometry) {
             self.dirs.clear();
             self.dirs.reserve(n);
             // Beam angles by rotating a unit vector by the increment: one sin/cos
             // per geometry instead of per beam; renormalised to stop drift.
-            let a0 = scan.header.angle_min_rad as f64 + mount.pose.theta;
+            // A mirrored mount turns the other way: the increment changes sign.
+            let a0 = mount.beam_heading(scan.header.angle_min_rad as f64);
             let (s0, c0) = a0.sin_cos();
-            let (si, ci) = (scan.header.angle_increment_rad as f64).sin_cos();
+            let increment = scan.header.angle_increment_rad as f64;
+            let (si, ci) = if mount.mirrored { -increment } else { increment }.sin_cos();
             let (mut dx, mut dy) = (c0, s0);
             for i in 0..n {
                 self.dirs.push(Vec2::new(dx, dy));
@@ -847,11 +930,91 @@ mod tests {
         }
     }
 
+    /// The quaternion (x, y, z, w) of a rotation by `angle` about `axis` (a unit vector).
+    fn quat(axis: [f64; 3], angle: f64) -> [f64; 4] {
+        let (s, c) = (angle / 2.0).sin_cos();
+        [axis[0] * s, axis[1] * s, axis[2] * s, c]
+    }
+
+    /// q1 · q2 (x, y, z, w): rotate by q2, then by q1.
+    fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+        let [ax, ay, az, aw] = a;
+        let [bx, by, bz, bw] = b;
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    }
+
+    #[test]
+    fn mount_from_transform_upright_and_upside_down() {
+        const X: [f64; 3] = [1.0, 0.0, 0.0];
+        const Y: [f64; 3] = [0.0, 1.0, 0.0];
+        const Z: [f64; 3] = [0.0, 0.0, 1.0];
+        let t = [0.2, -0.1, 0.35];
+        let close = |m: LaserMount, theta: f64, mirrored: bool| {
+            let d = (m.pose.theta - theta + PI).rem_euclid(2.0 * PI) - PI;
+            m.mirrored == mirrored && d.abs() < 1e-9 && (m.pose.x, m.pose.y) == (0.2, -0.1)
+        };
+        // Upright, turned 30° left: the height is dropped.
+        let m = LaserMount::from_transform(t, quat(Z, PI / 6.0)).unwrap();
+        assert!(close(m, PI / 6.0, false), "{m:?}");
+        // Roll π (under a deck, facing forward): heading 0, mirrored.
+        let m = LaserMount::from_transform(t, quat(X, PI)).unwrap();
+        assert!(close(m, 0.0, true), "{m:?}");
+        // Pitch π: the laser's x axis points backwards, mirrored.
+        let m = LaserMount::from_transform(t, quat(Y, PI)).unwrap();
+        assert!(close(m, PI, true), "{m:?}");
+        // Roll π, then yaw 90° (upside down facing left).
+        let m = LaserMount::from_transform(t, quat_mul(quat(Z, PI / 2.0), quat(X, PI))).unwrap();
+        assert!(close(m, PI / 2.0, true), "{m:?}");
+        // 3° of pitch is level enough; 10° is not, upright or upside down.
+        assert!(LaserMount::from_transform(t, quat(Y, 3f64.to_radians())).is_ok());
+        let tilted = LaserMount::from_transform(t, quat(Y, 10f64.to_radians()));
+        assert!(matches!(tilted, Err(MountError::Tilted { tilt_deg }) if (tilt_deg - 10.0).abs() < 1e-6));
+        let tilted = LaserMount::from_transform(t, quat_mul(quat(X, PI), quat(Y, 10f64.to_radians())));
+        assert!(matches!(tilted, Err(MountError::Tilted { tilt_deg }) if (tilt_deg - 10.0).abs() < 1e-6));
+        // Garbage.
+        assert_eq!(
+            LaserMount::from_transform(t, [0.0, 0.0, 0.0, 0.5]),
+            Err(MountError::NotUnit { norm: 0.5 })
+        );
+        assert_eq!(
+            LaserMount::from_transform([f64::NAN, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]),
+            Err(MountError::NotFinite)
+        );
+    }
+
+    #[test]
+    fn an_upside_down_laser_sees_its_left_on_the_robots_right() {
+        // One hit 1 m away at the laser's +90° (its left), nothing else in range.
+        let n = 360;
+        let inc = (2.0 * PI / n as f64) as f32;
+        let mut ranges = vec![f32::INFINITY; n];
+        ranges[270] = 1.0; // angle −π + 270·(π/180) = +π/2 (f32 angles: 1e-5 m tolerance)
+        let s = scan(&ranges, -PI as f32, inc);
+        let run = |mount: LaserMount| {
+            let mut out = ScanPoints::default();
+            let mut memory = BeamMemory::with_capacity(n);
+            memory.begin_scan(n, Pose2::default(), 10.0);
+            sanitize_scan(&s, 10.0, &LaserParams::default(), &mount, &mut out, &mut memory).unwrap();
+            assert_eq!(out.points.len(), 1);
+            out.points[0]
+        };
+        let upright = run(LaserMount::upright(Pose2::new(0.1, 0.0, 0.0)));
+        assert!((upright - Vec2::new(0.1, 1.0)).norm() < 1e-5, "{upright:?}");
+        // Rolled over: the same beam now points at the robot's right.
+        let rolled = run(LaserMount::from_transform([0.1, 0.0, 0.2], quat([1.0, 0.0, 0.0], PI)).unwrap());
+        assert!((rolled - Vec2::new(0.1, -1.0)).norm() < 1e-5, "{rolled:?}");
+    }
+
     fn run_with(s: &LaserScan<'_>, mount: Pose2, p: &LaserParams) -> Result<ScanPoints, ScanRejection> {
         let mut out = ScanPoints::default();
         let mut memory = BeamMemory::with_capacity(s.ranges_m.len());
         memory.begin_scan(s.ranges_m.len(), Pose2::default(), s.header.stamp_s);
-        sanitize_scan(s, 10.0, p, &LaserMount { pose: mount }, &mut out, &mut memory).map(|_| out)
+        sanitize_scan(s, 10.0, p, &LaserMount::upright(mount), &mut out, &mut memory).map(|_| out)
     }
 
     fn run(s: &LaserScan<'_>, mount: Pose2) -> Result<ScanPoints, ScanRejection> {
@@ -865,7 +1028,7 @@ mod tests {
         let mut out = ScanPoints::default();
         let mut memory = BeamMemory::with_capacity(8);
         let params = LaserParams::default();
-        let mount = LaserMount { pose: Pose2::default() };
+        let mount = LaserMount::upright(Pose2::default());
         memory.begin_scan(8, Pose2::default(), 10.0);
         sanitize_scan(&scan(&[1.0; 8], 0.0, inc), 10.0, &params, &mount, &mut out, &mut memory).unwrap();
         assert!(out.phantoms.is_empty());
@@ -987,7 +1150,7 @@ mod tests {
     #[test]
     fn unknown_beams_keep_their_last_reading_and_blindness_is_counted_in_front() {
         let p = LaserParams::default(); // hold 2 s, blind sector 180°
-        let mount = LaserMount { pose: Pose2::default() };
+        let mount = LaserMount::upright(Pose2::default());
         // Beam 0 ahead, beam 1 behind (increment π).
         let first = [0.5f32, 0.6];
         let mut s = scan(&first, 0.0, std::f32::consts::PI);
@@ -1212,7 +1375,7 @@ mod fast_path_properties {
             paper in prop::sample::select(vec![false, false, false, true]),
             rear_half in prop::sample::select(vec![std::f64::consts::FRAC_PI_4, 0.3, std::f64::consts::PI]),
         ) {
-            let mount = LaserMount { pose: Pose2::new(mount.0, mount.1, mount.2) };
+            let mount = LaserMount::upright(Pose2::new(mount.0, mount.1, mount.2));
             let (mut fast, mut reference) = (ScanPoints::default(), ScanPoints::default());
             let (mut mem_fast, mut mem_ref) = (BeamMemory::default(), BeamMemory::default());
             let mut stamp = 10.0;

@@ -81,6 +81,8 @@ impl Derived {
 pub struct SafetyPipeline {
     params: Params,
     derived: Derived,
+    /// The mount set by [`Self::set_laser_mount`], which new parameters keep.
+    mount_given: Option<LaserMount>,
     points: ScanPoints,
     memory: BeamMemory,
     blind: BlindDetector,
@@ -188,6 +190,7 @@ impl SafetyPipeline {
         Self {
             params,
             derived,
+            mount_given: None,
             points: ScanPoints::with_capacity(cap),
             memory: BeamMemory::with_capacity(cap),
             blind: BlindDetector::default(),
@@ -378,7 +381,24 @@ impl SafetyPipeline {
     /// `Params::validate`; buffers keep the capacity they were built with.
     pub fn set_params(&mut self, params: Params) {
         self.derived = Derived::new(&params);
+        // A mount given by [`Self::set_laser_mount`] (tf) outlives new parameters.
+        if let Some(mount) = self.mount_given {
+            self.derived.mount = mount;
+        }
         self.params = params;
+    }
+
+    /// The laser's mount for the scans from now on (the node: from tf, per
+    /// scan); [`LaserMount::from_params`] until set. Beam memory is per beam
+    /// index: a mount that moves only shifts where those beams point.
+    pub fn set_laser_mount(&mut self, mount: LaserMount) {
+        self.derived.mount = mount;
+        self.mount_given = Some(mount);
+    }
+
+    /// The laser's mount the scans are placed with.
+    pub fn laser_mount(&self) -> LaserMount {
+        self.derived.mount
     }
 
     /// A stop step with no scan processing (missing scan, e-stop…).
