@@ -43,3 +43,4 @@ pub mod resubscribe;
 pub mod ros;
 pub mod route_worker;
 pub mod sim;
+pub mod tf_tree;
