@@ -12,6 +12,11 @@
 #   scan       rostopic pub of a scan: obstacle left -> angular.z < 0; wall
 #              ahead inside d_safe -> linear.x <= 0 (rostopic echo); ~state
 #              (oldbf_ros/BarrierState) decoded by rostopic echo
+#   tf         sensor poses from tf: Debian's robot_state_publisher with a URDF
+#              (tests/ros/tf_robot.urdf) places an upright and an upside-down
+#              laser; an obstacle on the laser's left turns the robot right
+#              (upright) or left (upside down); a frame tf does not name gives
+#              only zero commands, and the log and diagnostics name the frames
 #   sim        roslaunch sim.launch (headless): paper_line reaches its goal,
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
@@ -78,7 +83,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
+ALL=(md5 scan tf sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -138,6 +143,11 @@ wait_log() { # file pattern timeout_s
 }
 json() { $ROSPY -c "import json,sys; d=json.load(sys.stdin); print($1)"; }
 
+# The checks' scans come from frame "laser" (and t_diag_laser): oldbf_node
+# places each scan by tf, so they get the transforms a robot's URDF would give.
+spawn static_tf $ROSPY tests/ros/static_tf.py base_link laser t_diag_laser > /dev/null
+wait_log "$LOG/static_tf.log" "static_tf:" 20 || { cat "$LOG/static_tf.log"; say "static_tf did not start"; exit 1; }
+
 # ------------------------------------------------------------------ tests
 t_md5() {
   # The ROS glue's own unit tests (message conversion, markers) need the feature.
@@ -178,6 +188,43 @@ t_scan() {
   x=$(awk '/linear:/{a=1} a&&/x:/{v=$2; a=0} END{print v}' <<< "$out")
   figure "scan: wall 0.3 m ahead -> linear.x = $x m/s"
   check "$(awk -v x="$x" 'BEGIN{print (x <= 0) ? "true" : "false"}')" "linear.x = $x > 0"
+}
+
+t_tf() {
+  # robot_state_publisher gives the lasers' poses from a URDF (/tf_static):
+  # an obstacle on a laser's left is on the robot's left when the laser is
+  # upright, on its right when it hangs upside down; a frame tf does not
+  # know is an unknown sensor (zero commands, diagnostics naming the frames).
+  local rsp node pub out z frame want
+  rosparam set -t tests/ros/tf_robot.urdf /t_tf/robot_description
+  rsp=$(spawn tf_rsp /usr/lib/robot_state_publisher/robot_state_publisher __ns:=/t_tf)
+  node=$(spawn tf_node "$BIN/oldbf_node" __ns:=/t_tf _node/nominal_source:=constant)
+  wait_log "$LOG/tf_node.log" "filtering at" 10 || return 1
+  for frame in deck_laser belly_laser; do
+    pub=$(spawn "tf_pub_$frame" rostopic pub -r 10 -s /t_tf/scan sensor_msgs/LaserScan \
+      "$($ROSPY tests/ros/make_scan.py left | sed "s/frame_id: laser/frame_id: $frame/")")
+    sleep 2
+    out=$(timeout 10 rostopic echo -n 3 /t_tf/cmd_vel)
+    stop_pid "$pub"
+    z=$(awk '/angular:/{a=1} a&&/z:/{v=$2; a=0} END{print v}' <<< "$out")
+    want=$([ $frame = deck_laser ] && echo "z < 0" || echo "z > 0")
+    figure "tf: obstacle on the left of $frame ($(grep -o "laser pose \"$frame\" from tf: [^:]*" "$LOG/tf_node.log" | tail -1 | sed 's/.*from tf: //')) -> angular.z = $z rad/s"
+    check "$(awk -v z="$z" "BEGIN{print ($want) ? \"true\" : \"false\"}")" "$frame: angular.z = $z, want $want" || { stop_pid "$node"; stop_pid "$rsp"; return 1; }
+  done
+  # A scan from a frame no transform names: only zero commands, and the frames named.
+  pub=$(spawn tf_pub_unknown rostopic pub -r 10 -s /t_tf/scan sensor_msgs/LaserScan \
+    "$($ROSPY tests/ros/make_scan.py open | sed 's/frame_id: laser/frame_id: nowhere_laser/')")
+  sleep 2
+  out=$(timeout 10 rostopic echo -n 10 /t_tf/cmd_vel)
+  local diag
+  diag=$(timeout 10 rostopic echo -n 2 /diagnostics | grep -A1 'key: "laser_pose"' | grep value | tail -1)
+  stop_pid "$pub"; stop_pid "$node"; stop_pid "$rsp"
+  local moving
+  moving=$(awk '/x:|z:/{ if ($2 != 0.0) n++ } END{print n+0}' <<< "$out")
+  figure "tf: frame nowhere_laser: $moving non-zero values in 10 commands; diagnostics laser_pose:${diag#*value:}"
+  check "$([ "$moving" = 0 ] && echo true)" "unknown frame: $moving non-zero command values" || return 1
+  check "$(grep -q 'nowhere_laser.*base_link' <<< "$diag" && echo true)" "diagnostics do not name the frames: $diag" || return 1
+  check "$(grep -q 'laser pose unknown: "nowhere_laser" -> "base_link"' "$LOG/tf_node.log" && echo true)" "the log does not name the frames"
 }
 
 t_sim() {

@@ -77,6 +77,23 @@ pub enum NominalSource {
     Constant,
 }
 
+/// Where a scan's laser sits on the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LaserPoseSource {
+    /// The transform from the scan's `frame_id` to `base_frame` on /tf and
+    /// /tf_static at the scan's stamp (a URDF through robot_state_publisher):
+    /// none, or a stale one, makes the scan's view unknown and the robot stops.
+    Tf,
+    /// As `tf`, but while tf has never named the scan's frame the YAML
+    /// mount (`laser.mount_*`) places it; a transform once heard always wins,
+    /// and a stale one still stops the robot.
+    TfElseYaml,
+    /// The YAML mount only; the scan's `frame_id` is not looked up (the
+    /// simulator, and a robot without tf).
+    Yaml,
+}
+
 /// Node settings beyond the algorithm parameters (`config/oldbf_node.yaml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -115,6 +132,13 @@ pub struct NodeSettings {
     /// The base's limits (`config/base_limits.yaml`) the filter's settings
     /// must not exceed; empty: none checked.
     pub base_limits_file: String,
+    /// Where each scan's laser sits: tf (the default on a robot) or the
+    /// YAML mount.
+    pub laser_pose: LaserPoseSource,
+    /// How far a moving transform's newest sample may be from the scan's
+    /// stamp (s) before the laser's pose counts as unknown; static
+    /// transforms never age.
+    pub tf_tolerance_s: f64,
 }
 
 impl Default for NodeSettings {
@@ -132,6 +156,8 @@ impl Default for NodeSettings {
             plan_beside: true,
             hardware_id: String::new(),
             base_limits_file: String::new(),
+            laser_pose: LaserPoseSource::Tf,
+            tf_tolerance_s: 0.2,
         }
     }
 }
@@ -143,6 +169,7 @@ impl NodeSettings {
         Self {
             nominal_source: NominalSource::Auto,
             plan_beside: false,
+            laser_pose: LaserPoseSource::Yaml,
             ..Self::default()
         }
     }
@@ -150,6 +177,9 @@ impl NodeSettings {
 
 /// The range of `node.*_timeout_s` (s).
 pub const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
+
+/// The range of `node.tf_tolerance_s` (s).
+pub const TF_TOLERANCE_S: Interval = Interval::closed(0.0, 5.0).unit("s");
 
 /// The range of `node.e_stop_timeout_s` (s; 0: liveness off).
 pub const E_STOP_TIMEOUT_S: Interval = Interval::closed(0.0, 60.0).unit("s");
@@ -171,6 +201,7 @@ impl Validate for NodeSettings {
         );
         c.range("node.e_stop_timeout_s", self.e_stop_timeout_s, E_STOP_TIMEOUT_S);
         c.range("node.disable_timeout_s", self.disable_timeout_s, DISABLE_TIMEOUT_S);
+        c.range("node.tf_tolerance_s", self.tf_tolerance_s, TF_TOLERANCE_S);
         // Shown on one line by rqt_robot_monitor and the aggregator.
         c.rule(
             !self.hardware_id.chars().any(char::is_control),
@@ -212,6 +243,31 @@ pub enum ScanFault {
     OutOfOrder { stamp_s: f64, newest_s: f64 },
     /// The node's clock went back by `by_s` seconds; no scan from after the jump yet.
     ClockJumpedBack { by_s: f64 },
+    /// The scan stamped `stamp_s` could not be placed on the robot: tf has
+    /// no (fresh, level) transform from its frame to the base frame. Its view
+    /// is unknown (the frames are in the node's log and diagnostics).
+    NoLaserPose { stamp_s: f64, why: PoseFault },
+}
+
+/// Why a scan's laser has no pose (`node.laser_pose: tf`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PoseFault {
+    /// tf has no transform between the two frames.
+    NoTransform,
+    /// The newest transform is `age_s` from the scan's stamp.
+    Stale { age_s: f64 },
+    /// The transform does not place a planar scan (tilted, garbage).
+    Mount(crate::algo::MountError),
+}
+
+impl fmt::Display for PoseFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoTransform => write!(f, "no transform to the base frame"),
+            Self::Stale { age_s } => write!(f, "the transform is {age_s:.3} s from the scan's stamp"),
+            Self::Mount(e) => write!(f, "{e}"),
+        }
+    }
 }
 
 impl ScanFault {
@@ -221,6 +277,7 @@ impl ScanFault {
             Self::Repeated { .. } => "frozen_stamp",
             Self::OutOfOrder { .. } => "out_of_order",
             Self::ClockJumpedBack { .. } => "clock_jumped_back",
+            Self::NoLaserPose { .. } => "no_laser_pose",
         }
     }
 }
@@ -239,6 +296,10 @@ impl fmt::Display for ScanFault {
             Self::ClockJumpedBack { by_s } => write!(
                 f,
                 "clock jumped back {by_s:.3} s: scans from before the jump dropped, waiting for a new one"
+            ),
+            Self::NoLaserPose { stamp_s, why } => write!(
+                f,
+                "scan stamped {stamp_s:.3} s has no laser pose ({why}): its view is unknown, treated as stale"
             ),
         }
     }
@@ -598,6 +659,31 @@ impl NodeCore {
         s.ranges_m.extend_from_slice(ranges_m);
         s.intensities.clear();
         s.intensities.extend_from_slice(intensities);
+    }
+
+    /// A scan that arrived but cannot be placed on the robot (tf): its view
+    /// is unknown, so the node stops as for a stale scan until a scan with a
+    /// pose arrives. The scan in hand is not replaced; its stamp counts as
+    /// taken (a later scan must still be newer).
+    pub fn on_scan_without_pose(&mut self, meta: ScanHeader, why: PoseFault) {
+        let fault = ScanFault::NoLaserPose {
+            stamp_s: meta.stamp_s,
+            why,
+        };
+        if self.scan_fault.map(|f| f.code()) != Some(fault.code()) {
+            log::warn!("{fault}");
+        }
+        self.scan_fault = Some(fault);
+        if meta.stamp_s.is_finite() && self.newest_stamp_s.is_none_or(|n| meta.stamp_s > n) {
+            self.newest_stamp_s = Some(meta.stamp_s);
+        }
+    }
+
+    /// Where the next scans' laser sits (`node.laser_pose: tf`, per scan).
+    pub fn set_laser_mount(&mut self, mount: crate::algo::LaserMount) {
+        if self.pipeline.laser_mount() != mount {
+            self.pipeline.set_laser_mount(mount);
+        }
     }
 
     /// The clock went back: nothing stamped before the jump can be aged

@@ -14,6 +14,8 @@
 //! only within the caller's tolerance, else the edge is stale: a laser
 //! pose that may have changed since is not known.
 
+use crate::algo::LaserMount;
+use crate::node_core::{LaserPoseSource, PoseFault};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use std::collections::{HashMap, VecDeque};
 use std::fmt;
@@ -243,6 +245,52 @@ impl TfTree {
     }
 }
 
+/// Where the laser of a scan from `laser_frame` sits in `base_frame` at
+/// `stamp_s`, by `source`: Ok(None) to keep the YAML mount the pipeline
+/// has (`yaml`), Ok(Some) a mount to set, or why there is none, with a line
+/// naming both frames (for the log and diagnostics).
+pub fn place_laser(
+    tree: &TfTree,
+    source: LaserPoseSource,
+    base_frame: &str,
+    laser_frame: &str,
+    stamp_s: f64,
+    tolerance_s: f64,
+) -> Result<Option<LaserMount>, (PoseFault, String)> {
+    let unknown_to_tf = !tree.knows(laser_frame) && frame(laser_frame) != frame(base_frame);
+    match source {
+        LaserPoseSource::Yaml => return Ok(None),
+        LaserPoseSource::TfElseYaml if unknown_to_tf => return Ok(None),
+        _ => {}
+    }
+    let frames = format!("\"{}\" -> \"{}\"", frame(laser_frame), frame(base_frame));
+    let iso = tree
+        .lookup(base_frame, laser_frame, stamp_s, tolerance_s)
+        .map_err(|e| {
+            let fault = match e {
+                TfError::Stale { age_s, .. } => PoseFault::Stale { age_s },
+                _ => PoseFault::NoTransform,
+            };
+            (fault, format!("{frames}: {e}"))
+        })?;
+    let t = iso.translation.vector;
+    let q = iso.rotation.quaternion().coords; // (x, y, z, w)
+    LaserMount::from_transform([t.x, t.y, t.z], [q.x, q.y, q.z, q.w])
+        .map(Some)
+        .map_err(|e| (PoseFault::Mount(e), format!("{frames}: {e}")))
+}
+
+/// One line on a laser mount: where it is and which way up.
+pub fn describe_mount(m: &LaserMount) -> String {
+    format!(
+        "x {:.3} m, y {:.3} m, yaw {:.1}°, {}",
+        m.pose.x,
+        m.pose.y,
+        m.pose.theta.to_degrees(),
+        if m.mirrored { "upside down" } else { "upright" }
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -359,6 +407,58 @@ mod tests {
             .iter()
             .zip(t.edges["b"].samples.iter().skip(1))
             .all(|(a, b)| a.0 < b.0));
+    }
+
+    #[test]
+    fn a_laser_is_placed_by_tf_or_by_yaml_as_configured() {
+        use LaserPoseSource::*;
+        let mut t = robot();
+        // Rolled over under the deck, 0.1 m behind the base's origin.
+        t.set(
+            "base_link",
+            "belly",
+            0.0,
+            [-0.1, 0.0, -0.05],
+            [1.0, 0.0, 0.0, 0.0],
+            true,
+        )
+        .unwrap();
+        let m = place_laser(&t, Tf, "base_footprint", "laser", 3.0, 0.1)
+            .unwrap()
+            .unwrap();
+        assert!((m.pose.x, m.pose.y, m.mirrored) == (0.2, 0.0, false) && (m.pose.theta - PI / 2.0).abs() < 1e-12);
+        let m = place_laser(&t, Tf, "base_link", "belly", 3.0, 0.1).unwrap().unwrap();
+        assert!((m.pose.x, m.pose.y, m.mirrored) == (-0.1, 0.0, true) && m.pose.theta.abs() < 1e-12);
+        assert_eq!(describe_mount(&m), "x -0.100 m, y 0.000 m, yaw 0.0°, upside down");
+        // A frame tf never named: unknown under tf, the YAML mount under tf_else_yaml, and yaml never asks.
+        let (fault, line) = place_laser(&t, Tf, "base_link", "front_laser", 3.0, 0.1).unwrap_err();
+        assert_eq!(fault, PoseFault::NoTransform);
+        assert!(
+            line.starts_with("\"front_laser\" -> \"base_link\": no transform names"),
+            "{line}"
+        );
+        assert_eq!(
+            place_laser(&t, TfElseYaml, "base_link", "front_laser", 3.0, 0.1),
+            Ok(None)
+        );
+        assert_eq!(place_laser(&t, Yaml, "base_link", "belly", 3.0, 0.1), Ok(None));
+        // Known to tf but stale: unknown even under tf_else_yaml.
+        t.set("base_link", "pan", 1.0, [0.0; 3], ID, false).unwrap();
+        let (fault, _) = place_laser(&t, TfElseYaml, "base_link", "pan", 3.0, 0.1).unwrap_err();
+        assert!(matches!(fault, PoseFault::Stale { age_s } if (age_s - 2.0).abs() < 1e-9));
+        // Tilted 20° down: not a planar scan.
+        let pitch = [0.0, (0.35f64 / 2.0).sin(), 0.0, (0.35f64 / 2.0).cos()];
+        t.set("base_link", "tilted", 0.0, [0.0; 3], pitch, true).unwrap();
+        let (fault, _) = place_laser(&t, Tf, "base_link", "tilted", 3.0, 0.1).unwrap_err();
+        assert!(matches!(
+            fault,
+            PoseFault::Mount(crate::algo::MountError::Tilted { .. })
+        ));
+        // A scan in the base frame itself needs no transform.
+        assert_eq!(
+            place_laser(&TfTree::default(), Tf, "base_link", "/base_link", 3.0, 0.1),
+            Ok(Some(LaserMount::upright(crate::algo::Pose2::default())))
+        );
     }
 
     #[test]

@@ -141,6 +141,8 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.plan_beside", "sometimes"),
     ("node.hardware_id", "\"two\\nlines\""),
     ("node.base_limits_file", "/no/such/base_limits.yaml"),
+    ("node.laser_pose", "urdf"),
+    ("node.tf_tolerance_s", "5.5"),
 ];
 
 /// Free-text keys: any string is valid there (a wrong type still is not).

@@ -112,6 +112,9 @@ def main():
         launch = spawn(["roslaunch", "--wait", "oldbf_ros", "bringup.launch", "interface:=vcan0",
                         "publish_tf:=false"], "launch.log")
         procs.append(launch)
+        # The laser's pose, as the robot's URDF gives it (the filter places scans by tf).
+        procs.append(spawn([sys.executable, os.path.join(ROOT, "tests", "ros", "static_tf.py"), "base_link", "laser"],
+                           "static_tf.log"))
 
         os.environ.update(env())
         import rospy

@@ -3,7 +3,8 @@
 # tools, the message definitions and Python classes rostopic needs, genpy
 # (for oldbf_ros/BarrierState), catkin (the workspace build test), the
 # dynamic_reconfigure Python client, rviz with Xvfb for the screenshot test,
-# and diagnostic_aggregator (the -tools package has aggregator_node; the -dev
+# robot_state_publisher and tf2_ros for Python (sensor poses from tf), and
+# diagnostic_aggregator (the -tools package has aggregator_node; the -dev
 # package has its package.xml and analyzer plugin description, without which
 # roslaunch and pluginlib cannot find it).
 # python3-nav-msgs is left out on purpose (it pulls ~140 MB of boost -dev
@@ -15,7 +16,8 @@ APT=(ros-core ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-vi
      python3-visualization-msgs python3-tf2-msgs python3-std-srvs python3-rosgraph-msgs python3-genpy
      catkin python3-dynamic-reconfigure
      rviz xvfb x11-apps netpbm
-     libdiagnostic-aggregator-tools libdiagnostic-aggregator-dev)
+     libdiagnostic-aggregator-tools libdiagnostic-aggregator-dev
+     ros-robot-state-publisher python3-tf2-ros)
 missing=()
 for p in "${APT[@]}"; do
   [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)" = "install ok installed" ] || missing+=("$p")

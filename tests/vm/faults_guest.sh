@@ -85,6 +85,9 @@ candump -d -r 8388608 -L vcan0 > "$OUT/candump.log" 2>&1 &
 PIDS+=($!)
 start_drive 1
 start_bridge
+# The scans' frame on the robot, as its URDF would give it (oldbf_node places scans by tf).
+$ROSPY tests/ros/static_tf.py base_link laser > "$OUT/static_tf.log" 2>&1 &
+PIDS+=($!)
 start_node
 $ROSPY tests/faults/record_diag.py "$OUT/diag.jsonl" > "$OUT/diag_recorder.log" 2>&1 &
 PIDS+=($!)

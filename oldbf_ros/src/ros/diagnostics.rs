@@ -80,6 +80,7 @@ pub fn diagnostics(
     now_s: f64,
     tick: &Tick,
     activity: &Activity,
+    laser_pose: &str,
 ) -> DiagnosticArray {
     let rec = &tick.record;
     let scan_age = now_s - tick.scan_stamp_s;
@@ -129,6 +130,14 @@ pub fn diagnostics(
                 },
             ),
             kv("doaa_state", rec.state),
+            kv(
+                "laser_pose",
+                if laser_pose.is_empty() {
+                    "no scan yet"
+                } else {
+                    laser_pose
+                },
+            ),
             kv("filter_enabled", tick.filter_enabled),
             kv("filter_active_fraction", format!("{:.2}", activity.fraction(|t| t.1))),
             kv("condition_held_fraction", format!("{:.2}", activity.fraction(|t| t.2))),
@@ -196,7 +205,7 @@ mod tests {
         n.on_cmd_in(Twist::new(0.1, 0.0), now_s);
         let tick = n.tick(now_s);
         let stamp = rosrust::Time::default();
-        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default());
+        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default(), "");
         a.status.remove(0)
     }
 

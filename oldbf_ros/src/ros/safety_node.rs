@@ -28,24 +28,26 @@
 //! rosrust cannot register again. The watchdog is paced on the monotonic
 //! clock (see [`super::pacer`]), so a wall-clock step cannot silence it.
 
-use super::convert::{odom_from_msg, scan_header, time_from_s, twist_from_msg, twist_to_msg};
+use super::convert::{odom_from_msg, scan_header, time_from_s, time_to_s, twist_from_msg, twist_to_msg};
 use super::diagnostics::{diagnostics, Activity};
 use super::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use super::markers::{markers, route_markers};
 use super::msg::{
     diagnostic_msgs::DiagnosticArray, geometry_msgs, nav_msgs, oldbf_ros::BarrierState, sensor_msgs, std_msgs,
-    std_srvs, visualization_msgs::MarkerArray,
+    std_srvs, tf2_msgs, visualization_msgs::MarkerArray,
 };
 use super::pacer::Pacer;
 use super::params::{private_namespace, RosParamError};
 use super::reconfigure as ros_reconfigure;
 use super::RosError;
 use crate::algo::select::Critic;
+use crate::algo::LaserMount;
 use crate::config::ConfigError;
 use crate::node_config::{node_config_from_params, NodeConfig};
-use crate::node_core::{NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
+use crate::node_core::{LaserPoseSource, NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
 use crate::reconfigure;
 use crate::resubscribe::Resubscribe;
+use crate::tf_tree::{describe_mount, place_laser, TfTree};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -167,6 +169,9 @@ struct Node {
     route_drawn_s: f64,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
+    /// Where the latest scan's laser was placed, or why it could not be
+    /// (`node/laser_pose`): a diagnostics value, logged when it changes.
+    laser_pose_line: String,
 }
 
 impl Node {
@@ -222,6 +227,7 @@ impl Node {
                 now,
                 &tick,
                 &self.activity,
+                &self.laser_pose_line,
             ));
             self.last_diag = now;
         }
@@ -282,17 +288,84 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         odom_frame: String::new(),
         route_drawn_s: f64::NAN,
         stopping: false,
+        laser_pose_line: String::new(),
     }));
+    // tf, on the global topics whatever the node's namespace (as tf2 does).
+    let tf = Arc::new(Mutex::new(TfTree::default()));
+    let mut tf_subs = Vec::new();
+    if settings.laser_pose != LaserPoseSource::Yaml {
+        for (topic, fixed) in [("/tf", false), ("/tf_static", true)] {
+            let tree = tf.clone();
+            let sub = rosrust::subscribe(topic, 100, move |m: tf2_msgs::TFMessage| {
+                let mut tree = tree.lock().unwrap_or_else(|p| p.into_inner());
+                for t in &m.transforms {
+                    let (v, q) = (&t.transform.translation, &t.transform.rotation);
+                    // A refused transform is left out: lookups through it then fail, naming the frames.
+                    let _ = tree.set(
+                        &t.header.frame_id,
+                        &t.child_frame_id,
+                        time_to_s(t.header.stamp),
+                        [v.x, v.y, v.z],
+                        [q.x, q.y, q.z, q.w],
+                        fixed,
+                    );
+                }
+            })
+            .map_err(RosError::doing(format!("subscribing to {topic}")))?;
+            tf_subs.push(sub);
+        }
+    }
 
     // A scan is filtered, and its command published, as it arrives.
     let subscribe_scan = || {
         let n = node.clone();
+        let tf = tf.clone();
         rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
             // The clock is read under the lock: ticks then come in time order, and the
             // node never takes a callback that waited for the lock for a clock jump.
+            let header = scan_header(&m);
             let mut node = lock(&n);
             let now = now_s();
-            node.core.on_scan(scan_header(&m), &m.ranges, &m.intensities);
+            let placed = {
+                let tree = tf.lock().unwrap_or_else(|p| p.into_inner());
+                let s = &node.settings;
+                place_laser(
+                    &tree,
+                    s.laser_pose,
+                    &s.base_frame,
+                    &m.header.frame_id,
+                    header.stamp_s,
+                    s.tf_tolerance_s,
+                )
+            };
+            let known = placed.is_ok();
+            let line = match placed {
+                Ok(Some(mount)) => {
+                    node.core.set_laser_mount(mount);
+                    node.core.on_scan(header, &m.ranges, &m.intensities);
+                    format!("\"{}\" from tf: {}", m.header.frame_id, describe_mount(&mount))
+                }
+                Ok(None) => {
+                    node.core.on_scan(header, &m.ranges, &m.intensities);
+                    format!(
+                        "\"{}\" from the YAML mount: {}",
+                        m.header.frame_id,
+                        describe_mount(&LaserMount::from_params(&node.core.params().laser))
+                    )
+                }
+                Err((why, line)) => {
+                    node.core.on_scan_without_pose(header, why);
+                    format!("unknown: {line}")
+                }
+            };
+            if line != node.laser_pose_line {
+                if known {
+                    log::info!("laser pose {line}");
+                } else {
+                    log::warn!("laser pose {line}: the scan's view is unknown, the robot stops");
+                }
+                node.laser_pose_line = line;
+            }
             // The LiDAR's frame names the hardware, unless node/hardware_id does.
             if node.settings.hardware_id.is_empty() && node.hardware_id != m.header.frame_id {
                 node.hardware_id.clone_from(&m.header.frame_id);
