@@ -23,6 +23,7 @@ pub mod record;
 pub mod reference;
 pub mod route;
 pub mod scan;
+pub mod scan_merge;
 pub mod select;
 pub mod tracking;
 pub mod unicycle;
