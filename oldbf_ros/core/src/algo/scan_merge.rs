@@ -238,10 +238,7 @@ impl ScanMerger {
     /// Paints every live scanner into the merged scan stamped `stamp_s`,
     /// unless that is not newer than the last.
     fn merge(&mut self, stamp_s: f64, now_s: f64) -> bool {
-        if !(stamp_s > self.last_stamp_s) && self.last_stamp_s.is_finite() {
-            return false;
-        }
-        if !stamp_s.is_finite() {
+        if !stamp_s.is_finite() || (self.last_stamp_s.is_finite() && stamp_s <= self.last_stamp_s) {
             return false;
         }
         let n = self.ranges.len();
