@@ -17,6 +17,10 @@
 #              laser; an obstacle on the laser's left turns the robot right
 #              (upright) or left (upside down); a frame tf does not name gives
 #              only zero commands, and the log and diagnostics name the frames
+#   scanners   node/scans: a front and a rear 270° scanner (static tf) merged
+#              into one scan: backing up while both are alive; the rear silent
+#              or without a pose forbids it (diagnostics scanner_1 say why);
+#              the front silent stops forward motion
 #   sim        roslaunch sim.launch (headless): paper_line reaches its goal,
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
@@ -83,7 +87,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan tf sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
+ALL=(md5 scan tf scanners sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -225,6 +229,49 @@ t_tf() {
   check "$([ "$moving" = 0 ] && echo true)" "unknown frame: $moving non-zero command values" || return 1
   check "$(grep -q 'nowhere_laser.*base_link' <<< "$diag" && echo true)" "diagnostics do not name the frames: $diag" || return 1
   check "$(grep -q 'laser pose unknown: "nowhere_laser" -> "base_link"' "$LOG/tf_node.log" && echo true)" "the log does not name the frames"
+}
+
+t_scanners() {
+  # Two 270° scanners (front x 0.2 m; rear x -0.2 m facing back) merged into
+  # one scan: backing up while both are alive; the rear silent, or without a
+  # pose on tf, forbids it; the front silent stops forward motion.
+  local tfp node cmd front rear out v ns=/t_mscan
+  tfp=$(spawn mscan_tf $ROSPY tests/ros/static_tf.py base_link front_laser@0.2,0,0 rear_laser@-0.2,0,180)
+  wait_log "$LOG/mscan_tf.log" "static_tf:" 20 || return 1
+  rosparam set $ns/oldbf_node/node/scans "[{topic: front/scan, timeout_s: 0.3}, {topic: rear/scan, timeout_s: 0.3}]"
+  node=$(spawn mscan_node "$BIN/oldbf_node" __ns:=$ns)
+  wait_log "$LOG/mscan_node.log" "filtering at" 10 || return 1
+  front=$(spawn mscan_front rostopic pub -r 10 -s $ns/front/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py open270 front_laser)")
+  rear=$(spawn mscan_rear rostopic pub -r 10 -s $ns/rear/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py open270 rear_laser)")
+  cmd=$(spawn mscan_cmd rostopic pub -r 20 $ns/cmd_vel_in geometry_msgs/Twist '{linear: {x: -0.1}}')
+  sleep 3
+  last_v() { timeout 10 rostopic echo -n 5 $ns/cmd_vel | awk '/linear:/{a=1} a&&/x:/{v=$2; a=0} END{print v}'; }
+  scanner_1() { timeout 10 rostopic echo -n 2 /diagnostics | grep -A1 'key: "scanner_1"' | grep value | tail -1 | sed 's/.*value: //'; }
+  v=$(last_v)
+  figure "scanners: both alive, upstream -0.1 m/s -> linear.x = $v m/s"
+  check "$(awk -v v="$v" 'BEGIN{print (v < -0.05) ? "true" : "false"}')" "both alive: linear.x = $v, want backing up" || return 1
+  stop_pid "$rear"; sleep 1.5
+  v=$(last_v); out=$(scanner_1)
+  figure "scanners: rear silent -> linear.x = $v m/s; scanner_1: $out"
+  check "$(awk -v v="$v" 'BEGIN{print (v >= 0) ? "true" : "false"}')" "rear silent: linear.x = $v, want no backing up" || return 1
+  check "$(grep -q silent <<< "$out" && echo true)" "rear silent: diagnostics say $out" || return 1
+  rear=$(spawn mscan_rear_nopose rostopic pub -r 10 -s $ns/rear/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py open270 nowhere_laser)")
+  sleep 2
+  v=$(last_v); out=$(scanner_1)
+  figure "scanners: rear without a pose -> linear.x = $v m/s; scanner_1: $out"
+  check "$(awk -v v="$v" 'BEGIN{print (v >= 0) ? "true" : "false"}')" "rear without a pose: linear.x = $v, want no backing up" || return 1
+  check "$(grep -q 'no pose' <<< "$out" && echo true)" "rear without a pose: diagnostics say $out" || return 1
+  stop_pid "$rear"; stop_pid "$cmd"
+  rear=$(spawn mscan_rear2 rostopic pub -r 10 -s $ns/rear/scan sensor_msgs/LaserScan "$($ROSPY tests/ros/make_scan.py open270 rear_laser)")
+  cmd=$(spawn mscan_cmd2 rostopic pub -r 20 $ns/cmd_vel_in geometry_msgs/Twist '{linear: {x: 0.1}}')
+  sleep 2
+  v=$(last_v)
+  check "$(awk -v v="$v" 'BEGIN{print (v > 0.05) ? "true" : "false"}')" "both alive, forward: linear.x = $v" || return 1
+  stop_pid "$front"; sleep 1.5
+  v=$(last_v)
+  figure "scanners: front silent, upstream +0.1 m/s -> linear.x = $v m/s"
+  stop_pid "$rear"; stop_pid "$cmd"; stop_pid "$node"; stop_pid "$tfp"
+  check "$(awk -v v="$v" 'BEGIN{print (v <= 0) ? "true" : "false"}')" "front silent: linear.x = $v, want no forward motion"
 }
 
 t_sim() {

@@ -52,7 +52,8 @@ use crate::algo::params::ParamError;
 use crate::algo::pipeline::SafetyPipeline;
 use crate::algo::record::{StepRecord, StopCause};
 use crate::algo::reference::{ReferenceProgress, ReferenceTrajectory};
-use crate::algo::scan::{LaserScan, ScanHeader, ScanRejection};
+use crate::algo::scan::{LaserMount, LaserScan, ScanHeader, ScanRejection};
+use crate::algo::scan_merge::{ScanMerger, ScannerSpec, ScannerState};
 use crate::algo::tracking::{towards_point, track};
 use crate::algo::unstuck::Guidance;
 use crate::algo::Params;
@@ -139,6 +140,24 @@ pub struct NodeSettings {
     /// stamp (s) before the laser's pose counts as unknown; static
     /// transforms never age.
     pub tf_tolerance_s: f64,
+    /// Several scanners (front and rear), each placed by tf, merged into one
+    /// scan around the base (`algo::scan_merge`); empty: the one `scan` topic.
+    pub scans: Vec<ScanInput>,
+    /// Beams of the merged scan over a full turn (several scanners).
+    pub merged_beams: usize,
+}
+
+/// One scanner of `node.scans`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScanInput {
+    /// Its sensor_msgs/LaserScan topic (relative names resolve in the node's namespace).
+    pub topic: String,
+    /// Its view is unknown once its newest scan is older than this (s).
+    pub timeout_s: f64,
+    /// Its driver writes 0.0 for "no return" (TurtleBot3's LDS).
+    #[serde(default)]
+    pub zero_is_no_return: bool,
 }
 
 impl Default for NodeSettings {
@@ -158,6 +177,8 @@ impl Default for NodeSettings {
             base_limits_file: String::new(),
             laser_pose: LaserPoseSource::Tf,
             tf_tolerance_s: 0.2,
+            scans: Vec::new(),
+            merged_beams: 1440,
         }
     }
 }
@@ -181,6 +202,10 @@ pub const NODE_TIMEOUT_S: Interval = Interval::open_closed(0.0, 60.0).unit("s");
 /// The range of `node.tf_tolerance_s` (s).
 pub const TF_TOLERANCE_S: Interval = Interval::closed(0.0, 5.0).unit("s");
 
+/// The range of `node.merged_beams`: a quarter degree by default, up to the
+/// filter's beam limit's order.
+pub const MERGED_BEAMS: Interval = Interval::closed(360.0, 8192.0);
+
 /// The range of `node.e_stop_timeout_s` (s; 0: liveness off).
 pub const E_STOP_TIMEOUT_S: Interval = Interval::closed(0.0, 60.0).unit("s");
 
@@ -202,6 +227,22 @@ impl Validate for NodeSettings {
         c.range("node.e_stop_timeout_s", self.e_stop_timeout_s, E_STOP_TIMEOUT_S);
         c.range("node.disable_timeout_s", self.disable_timeout_s, DISABLE_TIMEOUT_S);
         c.range("node.tf_tolerance_s", self.tf_tolerance_s, TF_TOLERANCE_S);
+        c.range("node.merged_beams", self.merged_beams as f64, MERGED_BEAMS);
+        for (i, s) in self.scans.iter().enumerate() {
+            c.range(&format!("node.scans[{i}].timeout_s"), s.timeout_s, NODE_TIMEOUT_S);
+            c.rule(
+                !s.topic.is_empty() && !s.topic.chars().any(char::is_whitespace),
+                &format!("node.scans[{i}].topic"),
+                format_args!("{:?}", s.topic),
+                "a topic name",
+            );
+        }
+        c.rule(
+            self.scans.is_empty() || self.laser_pose != LaserPoseSource::Yaml,
+            "node.laser_pose",
+            "yaml",
+            "tf or tf_else_yaml with several scanners (node.scans): each is placed by its own frame",
+        );
         // Shown on one line by rqt_robot_monitor and the aggregator.
         c.rule(
             !self.hardware_id.chars().any(char::is_control),
@@ -435,6 +476,8 @@ impl Tick {
 #[derive(Debug)]
 pub struct NodeCore {
     pipeline: SafetyPipeline,
+    /// Several scanners merged into one scan (`node.scans`), or None.
+    merger: Option<ScanMerger>,
     /// The way-round planner beside the safety path (`node.plan_beside`).
     route_worker: Option<RouteWorker>,
     settings: NodeSettings,
@@ -483,7 +526,21 @@ impl NodeCore {
                     .ok()
             });
         pipeline.plan_beside(route_worker.is_some());
+        let merger = (!settings.scans.is_empty()).then(|| {
+            // The merged scan is around the base's origin.
+            pipeline.set_laser_mount(LaserMount::upright(Pose2::default()));
+            let specs: Vec<ScannerSpec> = settings
+                .scans
+                .iter()
+                .map(|s| ScannerSpec {
+                    timeout_s: s.timeout_s,
+                    zero_is_no_return: s.zero_is_no_return,
+                })
+                .collect();
+            ScanMerger::new(&specs, settings.merged_beams)
+        });
         Self {
+            merger,
             constant: None,
             fixed_period: false,
             pipeline,
@@ -679,9 +736,45 @@ impl NodeCore {
         }
     }
 
+    /// A scan from scanner `k` of `node.scans`, placed by `mount` (Ok(None):
+    /// the YAML mount; Err: no pose, its view unknown): merged with the
+    /// others' latest, and the merged scan stored as [`Self::on_scan`] does.
+    /// Returns whether a merged scan was made (then tick).
+    pub fn on_scanner_scan(
+        &mut self,
+        k: usize,
+        scan: &LaserScan<'_>,
+        mount: Result<Option<LaserMount>, PoseFault>,
+        now_s: f64,
+    ) -> bool {
+        let Some(mut merger) = self.merger.take() else {
+            return false;
+        };
+        let yaml = LaserMount::from_params(&self.pipeline.params().laser);
+        let mount = match mount {
+            Ok(m) => Some(m.unwrap_or(yaml)),
+            Err(_) => None,
+        };
+        let made = merger.update(k, scan, mount.as_ref(), now_s, &self.pipeline.params().laser);
+        if made {
+            let s = merger.scan();
+            self.on_scan(s.header, s.ranges_m, s.intensities);
+        }
+        self.merger = Some(merger);
+        made
+    }
+
+    /// What each scanner of `node.scans` contributes at `now_s` (empty with one scan topic).
+    pub fn scanner_states(&self, now_s: f64) -> Vec<ScannerState> {
+        self.merger
+            .as_ref()
+            .map(|m| (0..m.scanners()).map(|k| m.state(k, now_s)).collect())
+            .unwrap_or_default()
+    }
+
     /// Where the next scans' laser sits (`node.laser_pose: tf`, per scan).
-    pub fn set_laser_mount(&mut self, mount: crate::algo::LaserMount) {
-        if self.pipeline.laser_mount() != mount {
+    pub fn set_laser_mount(&mut self, mount: LaserMount) {
+        if self.merger.is_none() && self.pipeline.laser_mount() != mount {
             self.pipeline.set_laser_mount(mount);
         }
     }
@@ -689,6 +782,9 @@ impl NodeCore {
     /// The clock went back: nothing stamped before the jump can be aged
     /// against the new clock, so the scan in hand and the stamp history go.
     fn clock_jumped_back(&mut self, by_s: f64) {
+        if let Some(m) = &mut self.merger {
+            m.reset();
+        }
         let fault = ScanFault::ClockJumpedBack { by_s };
         log::warn!("{fault}");
         self.scan_fault = Some(fault);
@@ -1027,6 +1123,97 @@ mod tests {
         p.passive.evasion_accel_mps2 = 100.0;
         p.passive.evasion_angular_accel_radps2 = 1000.0;
         p
+    }
+
+    /// A front (x 0.2 m) and a rear (x −0.2 m, facing back) 270° scanner of 271 beams.
+    fn two_scanners(source: NominalSource) -> NodeCore {
+        let input = |topic: &str| ScanInput {
+            topic: topic.into(),
+            timeout_s: 0.3,
+            zero_is_no_return: false,
+        };
+        let settings = NodeSettings {
+            nominal_source: source,
+            scans: vec![input("front/scan"), input("rear/scan")],
+            ..NodeSettings::default()
+        };
+        NodeCore::new(agile(), settings, None)
+    }
+
+    fn scan_270(stamp: f64, ranges: &[f32]) -> LaserScan<'_> {
+        LaserScan {
+            header: ScanHeader {
+                stamp_s: stamp,
+                angle_min_rad: -0.75 * PI,
+                angle_increment_rad: 1.5 * PI / 270.0,
+                range_min_m: 0.05,
+                range_max_m: 10.0,
+            },
+            ranges_m: ranges,
+            intensities: &[],
+        }
+    }
+
+    #[test]
+    fn a_dead_rear_scanner_forbids_backing_up_a_dead_front_one_forward_motion() {
+        let open = vec![f32::INFINITY; 271];
+        let front = Ok(Some(LaserMount::upright(Pose2::new(0.2, 0.0, 0.0))));
+        let rear = Ok(Some(LaserMount::upright(Pose2::new(-0.2, 0.0, std::f64::consts::PI))));
+        // Backing up on the upstream's word, both scanners alive.
+        let mut n = two_scanners(NominalSource::CmdVelIn);
+        let mut t = 1.0;
+        let mut cmds = Vec::new();
+        for step in 0..20 {
+            n.on_cmd_in(Twist::new(-0.1, 0.0), t);
+            assert!(n.on_scanner_scan(0, &scan_270(t, &open), front, t));
+            // The rear falls silent after 1 s.
+            if step < 10 {
+                assert!(n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01));
+            }
+            cmds.push((step, n.tick(t + 0.02).cmd));
+            t += 0.1;
+        }
+        let backing = |c: &Twist| c.v_mps < -0.05;
+        assert!(cmds[3..10].iter().all(|(_, c)| backing(c)), "{cmds:?}");
+        // 0.3 s after the last rear scan its view is unknown: no backing up.
+        assert!(cmds[14..].iter().all(|(_, c)| c.v_mps >= 0.0), "{cmds:?}");
+        assert!(matches!(n.scanner_states(t)[1], ScannerState::Silent { .. }));
+
+        // Forward with both; then the front falls silent.
+        let mut n = two_scanners(NominalSource::CmdVelIn);
+        let mut cmds = Vec::new();
+        for step in 0..20 {
+            n.on_cmd_in(Twist::new(0.15, 0.0), t);
+            if step < 10 {
+                assert!(n.on_scanner_scan(0, &scan_270(t, &open), front, t));
+            }
+            assert!(n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01));
+            cmds.push((step, n.tick(t + 0.02).cmd));
+            t += 0.1;
+        }
+        assert!(cmds[3..10].iter().all(|(_, c)| c.v_mps > 0.1), "{cmds:?}");
+        // The last front scan at step 9: its view is unknown from step 12
+        // (0.31 s > its 0.3 s timeout), and the front unknown for
+        // laser.blind_timeout_s (0.3 s) more is the blind-sensor stop.
+        assert!(cmds[15..].iter().all(|(_, c)| c.v_mps <= 0.0), "{cmds:?}");
+    }
+
+    #[test]
+    fn a_scanner_without_a_pose_is_a_dead_one() {
+        let open = vec![f32::INFINITY; 271];
+        let front = Ok(Some(LaserMount::upright(Pose2::new(0.2, 0.0, 0.0))));
+        let mut n = two_scanners(NominalSource::CmdVelIn);
+        let mut t = 1.0;
+        let mut last = Twist::ZERO;
+        for _ in 0..10 {
+            n.on_cmd_in(Twist::new(-0.1, 0.0), t);
+            n.on_scanner_scan(0, &scan_270(t, &open), front, t);
+            n.on_scanner_scan(1, &scan_270(t + 0.01, &open), Err(PoseFault::NoTransform), t + 0.01);
+            last = n.tick(t + 0.02).cmd;
+            t += 0.1;
+        }
+        assert!(last.v_mps >= 0.0, "{last:?}");
+        assert_eq!(n.scanner_states(t)[1], ScannerState::NoPose);
     }
 
     #[test]

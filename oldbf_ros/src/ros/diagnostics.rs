@@ -5,6 +5,7 @@
 //! `hardware_id` the node chose (node/hardware_id, or the scan's frame).
 
 use super::msg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use crate::algo::scan_merge::ScannerState;
 use crate::node_core::Tick;
 use std::collections::VecDeque;
 
@@ -80,7 +81,8 @@ pub fn diagnostics(
     now_s: f64,
     tick: &Tick,
     activity: &Activity,
-    laser_pose: &str,
+    laser_poses: &[String],
+    scanners: &[ScannerState],
 ) -> DiagnosticArray {
     let rec = &tick.record;
     let scan_age = now_s - tick.scan_stamp_s;
@@ -132,10 +134,10 @@ pub fn diagnostics(
             kv("doaa_state", rec.state),
             kv(
                 "laser_pose",
-                if laser_pose.is_empty() {
-                    "no scan yet"
+                if laser_poses.iter().all(String::is_empty) {
+                    "no scan yet".to_string()
                 } else {
-                    laser_pose
+                    laser_poses.join("; ")
                 },
             ),
             kv("filter_enabled", tick.filter_enabled),
@@ -177,6 +179,24 @@ pub fn diagnostics(
             kv("infeasible", rec.infeasibility.map(|i| i.code()).unwrap_or_default()),
         ],
     };
+    // Several scanners: what each contributes (live, silent, blind, no pose, …).
+    let mut status = status;
+    for (k, state) in scanners.iter().enumerate() {
+        let text = match state {
+            ScannerState::Silent { age_s } => format!("silent for {age_s:.3} s: its view unknown"),
+            ScannerState::Blind { unknown_fraction } => {
+                format!(
+                    "blind ({:.0} % unknown): its free beams do not count",
+                    100.0 * unknown_fraction
+                )
+            }
+            ScannerState::Rejected(why) => format!("rejected ({}): its view unknown", why.code()),
+            ScannerState::NoPose => "no pose on the robot (tf): its view unknown".to_string(),
+            ScannerState::NotYet => "no scan yet: its view unknown".to_string(),
+            ScannerState::Live => "live".to_string(),
+        };
+        status.values.push(kv(&format!("scanner_{k}"), text));
+    }
     let mut array = DiagnosticArray {
         status: vec![status],
         ..Default::default()
@@ -205,7 +225,7 @@ mod tests {
         n.on_cmd_in(Twist::new(0.1, 0.0), now_s);
         let tick = n.tick(now_s);
         let stamp = rosrust::Time::default();
-        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default(), "");
+        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default(), &[], &[]);
         a.status.remove(0)
     }
 

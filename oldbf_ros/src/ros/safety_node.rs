@@ -160,8 +160,8 @@ struct Node {
     /// `hardware_id` of the diagnostics: `node/hardware_id`, or when that is
     /// empty the latest scan's frame_id, or the node's name before a scan.
     hardware_id: String,
-    /// When a scan and odometry last arrived (s, [`mono_s`]).
-    scan_heard: Option<f64>,
+    /// When a scan (per scan topic) and odometry last arrived (s, [`mono_s`]).
+    scan_heard: Vec<Option<f64>>,
     odom_heard: Option<f64>,
     /// The odometry's frame_id (the frame routes are planned in), and the
     /// stamp of the last route drawn (s).
@@ -169,9 +169,9 @@ struct Node {
     route_drawn_s: f64,
     /// Set on the way out: no tick publishes after the last zero command.
     stopping: bool,
-    /// Where the latest scan's laser was placed, or why it could not be
-    /// (`node/laser_pose`): a diagnostics value, logged when it changes.
-    laser_pose_line: String,
+    /// Where each scan topic's laser was last placed, or why it could not be
+    /// (`node/laser_pose`): diagnostics values, logged when they change.
+    laser_pose_lines: Vec<String>,
 }
 
 impl Node {
@@ -227,7 +227,8 @@ impl Node {
                 now,
                 &tick,
                 &self.activity,
-                &self.laser_pose_line,
+                &self.laser_pose_lines,
+                &self.core.scanner_states(now),
             ));
             self.last_diag = now;
         }
@@ -283,12 +284,12 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         activity: Activity::default(),
         last_diag: f64::NEG_INFINITY,
         last_status: None,
-        scan_heard: None,
+        scan_heard: Vec::new(),
         odom_heard: None,
         odom_frame: String::new(),
         route_drawn_s: f64::NAN,
         stopping: false,
-        laser_pose_line: String::new(),
+        laser_pose_lines: Vec::new(),
     }));
     // tf, on the global topics whatever the node's namespace (as tf2 does).
     let tf = Arc::new(Mutex::new(TfTree::default()));
@@ -316,11 +317,22 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         }
     }
 
-    // A scan is filtered, and its command published, as it arrives.
-    let subscribe_scan = || {
+    // A scan is filtered, and its command published, as it arrives. With
+    // several scanners (node/scans) each is merged with the others' latest,
+    // and a merged scan made is filtered.
+    let topics: Vec<String> = if settings.scans.is_empty() {
+        vec!["scan".to_string()]
+    } else {
+        settings.scans.iter().map(|s| s.topic.clone()).collect()
+    };
+    let several = !settings.scans.is_empty();
+    lock(&node).laser_pose_lines = vec![String::new(); topics.len()];
+    lock(&node).scan_heard = vec![None; topics.len()];
+    let subscribe_scan = |k: usize| {
         let n = node.clone();
         let tf = tf.clone();
-        rosrust::subscribe("scan", 1, move |m: sensor_msgs::LaserScan| {
+        let topic = topics[k].clone();
+        rosrust::subscribe(&topic, 1, move |m: sensor_msgs::LaserScan| {
             // The clock is read under the lock: ticks then come in time order, and the
             // node never takes a callback that waited for the lock for a clock jump.
             let header = scan_header(&m);
@@ -338,43 +350,52 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
                     s.tf_tolerance_s,
                 )
             };
-            let known = placed.is_ok();
-            let line = match placed {
-                Ok(Some(mount)) => {
-                    node.core.set_laser_mount(mount);
-                    node.core.on_scan(header, &m.ranges, &m.intensities);
-                    format!("\"{}\" from tf: {}", m.header.frame_id, describe_mount(&mount))
-                }
-                Ok(None) => {
-                    node.core.on_scan(header, &m.ranges, &m.intensities);
-                    format!(
-                        "\"{}\" from the YAML mount: {}",
-                        m.header.frame_id,
-                        describe_mount(&LaserMount::from_params(&node.core.params().laser))
-                    )
-                }
-                Err((why, line)) => {
-                    node.core.on_scan_without_pose(header, why);
-                    format!("unknown: {line}")
-                }
+            let line = match &placed {
+                Ok(Some(mount)) => format!("\"{}\" from tf: {}", m.header.frame_id, describe_mount(mount)),
+                Ok(None) => format!(
+                    "\"{}\" from the YAML mount: {}",
+                    m.header.frame_id,
+                    describe_mount(&LaserMount::from_params(&node.core.params().laser))
+                ),
+                Err((_, line)) => format!("unknown: {line}"),
             };
-            if line != node.laser_pose_line {
-                if known {
-                    log::info!("laser pose {line}");
-                } else {
-                    log::warn!("laser pose {line}: the scan's view is unknown, the robot stops");
+            if line != node.laser_pose_lines[k] {
+                match (&placed, several) {
+                    (Ok(_), _) => log::info!("laser pose {line}"),
+                    (Err(_), false) => log::warn!("laser pose {line}: the scan's view is unknown, the robot stops"),
+                    (Err(_), true) => log::warn!("laser pose {line}: this scanner's view is unknown"),
                 }
-                node.laser_pose_line = line;
+                node.laser_pose_lines[k] = line;
             }
-            // The LiDAR's frame names the hardware, unless node/hardware_id does.
-            if node.settings.hardware_id.is_empty() && node.hardware_id != m.header.frame_id {
+            let made = if several {
+                let scan = crate::algo::LaserScan {
+                    header,
+                    ranges_m: &m.ranges,
+                    intensities: &m.intensities,
+                };
+                node.core.on_scanner_scan(k, &scan, placed.map_err(|(why, _)| why), now)
+            } else {
+                match placed {
+                    Ok(Some(mount)) => {
+                        node.core.set_laser_mount(mount);
+                        node.core.on_scan(header, &m.ranges, &m.intensities);
+                    }
+                    Ok(None) => node.core.on_scan(header, &m.ranges, &m.intensities),
+                    Err((why, _)) => node.core.on_scan_without_pose(header, why),
+                }
+                true
+            };
+            // The (first) LiDAR's frame names the hardware, unless node/hardware_id does.
+            if k == 0 && node.settings.hardware_id.is_empty() && node.hardware_id != m.header.frame_id {
                 node.hardware_id.clone_from(&m.header.frame_id);
             }
-            node.activity.scan_arrived(now);
-            node.scan_heard = Some(mono_s());
-            node.tick(now);
+            node.scan_heard[k] = Some(mono_s());
+            if made {
+                node.activity.scan_arrived(now);
+                node.tick(now);
+            }
         })
-        .map_err(RosError::doing("subscribing to scan"))
+        .map_err(RosError::doing(format!("subscribing to {topic}")))
     };
     let subscribe_odom = || {
         let n = node.clone();
@@ -390,13 +411,16 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         })
         .map_err(RosError::doing("subscribing to odom"))
     };
-    let mut scan_sub = Some(subscribe_scan()?);
+    let mut scan_subs = Vec::with_capacity(topics.len());
+    for k in 0..topics.len() {
+        scan_subs.push(Some(subscribe_scan(k)?));
+    }
     let mut odom_sub = Some(subscribe_odom()?);
     // rosrust does not retry a failed connection: quiet subscriptions are made again.
     // On the monotonic clock: simulated time stands at 0 until /clock first
     // arrives, and a jump from there must not look like a quiet topic.
     let started_s = mono_s();
-    let mut scan_retry = Resubscribe::standard(started_s);
+    let mut scan_retries: Vec<Resubscribe> = topics.iter().map(|_| Resubscribe::standard(started_s)).collect();
     let mut odom_retry = Resubscribe::standard(started_s);
     // So is a new upstream command, against the latest scan.
     let n = node.clone();
@@ -509,15 +533,18 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         if node.core.watchdog_due(now) {
             node.tick(now);
         }
-        let (last_scan_s, last_odom_s) = (node.scan_heard, node.odom_heard);
+        let (last_scan_s, last_odom_s) = (node.scan_heard.clone(), node.odom_heard);
         drop(node);
         let mono = mono_s();
         // Only with the master up: rosrust's calls fail or block while it is away, and
         // a subscription that could not be made again is tried again at the next due time.
         if watch.health() == MasterHealth::Up {
-            if scan_retry.due(mono, last_scan_s) {
-                log::warn!("{name}: no scan for a while: subscribing to scan again");
-                scan_sub = super::resubscribe(scan_sub, &subscribe_scan);
+            for (k, retry) in scan_retries.iter_mut().enumerate() {
+                if retry.due(mono, last_scan_s[k]) {
+                    log::warn!("{name}: no scan for a while: subscribing to {} again", topics[k]);
+                    let old = scan_subs[k].take();
+                    scan_subs[k] = super::resubscribe(old, &|| subscribe_scan(k));
+                }
             }
             if odom_retry.due(mono, last_odom_s) {
                 log::debug!("{name}: no odometry for a while: subscribing to odom again");
