@@ -737,31 +737,36 @@ impl NodeCore {
     }
 
     /// A scan from scanner `k` of `node.scans`, placed by `mount` (Ok(None):
-    /// the YAML mount; Err: no pose, its view unknown): merged with the
-    /// others' latest, and the merged scan stored as [`Self::on_scan`] does.
-    /// Returns whether a merged scan was made (then tick).
+    /// the YAML mount; Err: no pose, its view unknown), for the next tick's
+    /// merge with the others' latest.
     pub fn on_scanner_scan(
         &mut self,
         k: usize,
         scan: &LaserScan<'_>,
         mount: Result<Option<LaserMount>, PoseFault>,
         now_s: f64,
-    ) -> bool {
+    ) {
+        if let Some(merger) = &mut self.merger {
+            let yaml = LaserMount::from_params(&self.pipeline.params().laser);
+            let mount = match mount {
+                Ok(m) => Some(m.unwrap_or(yaml)),
+                Err(_) => None,
+            };
+            merger.update(k, scan, mount.as_ref(), now_s, &self.pipeline.params().laser);
+        }
+    }
+
+    /// Several scanners: what came since the last merge, merged and stored
+    /// as [`Self::on_scan`] does (once per tick).
+    fn merge_scanners(&mut self, now_s: f64) {
         let Some(mut merger) = self.merger.take() else {
-            return false;
+            return;
         };
-        let yaml = LaserMount::from_params(&self.pipeline.params().laser);
-        let mount = match mount {
-            Ok(m) => Some(m.unwrap_or(yaml)),
-            Err(_) => None,
-        };
-        let made = merger.update(k, scan, mount.as_ref(), now_s, &self.pipeline.params().laser);
-        if made {
+        if merger.merge(now_s) {
             let s = merger.scan();
             self.on_scan(s.header, s.ranges_m, s.intensities);
         }
         self.merger = Some(merger);
-        made
     }
 
     /// What each scanner of `node.scans` contributes at `now_s` (empty with one scan topic).
@@ -983,6 +988,8 @@ impl NodeCore {
             let hold_s = self.pipeline.params().laser.scan_timeout_s;
             self.settle_after_jump = Some((now_s + hold_s, last_s - now_s));
         }
+        // Several scanners: what came since the last tick, merged into one scan.
+        self.merge_scanners(now_s);
         let settling = self.settle_after_jump.filter(|&(until_s, _)| now_s < until_s);
         if settling.is_none() {
             self.settle_after_jump = None;
@@ -1165,10 +1172,10 @@ mod tests {
         let mut cmds = Vec::new();
         for step in 0..20 {
             n.on_cmd_in(Twist::new(-0.1, 0.0), t);
-            assert!(n.on_scanner_scan(0, &scan_270(t, &open), front, t));
+            n.on_scanner_scan(0, &scan_270(t, &open), front, t);
             // The rear falls silent after 1 s.
             if step < 10 {
-                assert!(n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01));
+                n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01);
             }
             cmds.push((step, n.tick(t + 0.02).cmd));
             t += 0.1;
@@ -1185,9 +1192,9 @@ mod tests {
         for step in 0..20 {
             n.on_cmd_in(Twist::new(0.15, 0.0), t);
             if step < 10 {
-                assert!(n.on_scanner_scan(0, &scan_270(t, &open), front, t));
+                n.on_scanner_scan(0, &scan_270(t, &open), front, t);
             }
-            assert!(n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01));
+            n.on_scanner_scan(1, &scan_270(t + 0.01, &open), rear, t + 0.01);
             cmds.push((step, n.tick(t + 0.02).cmd));
             t += 0.1;
         }

@@ -192,6 +192,9 @@ pub fn diagnostics(
             }
             ScannerState::Rejected(why) => format!("rejected ({}): its view unknown", why.code()),
             ScannerState::NoPose => "no pose on the robot (tf): its view unknown".to_string(),
+            ScannerState::Frozen { stamp_s } => {
+                format!("stamp {stamp_s:.3} s not newer than its last: frozen, its view unknown")
+            }
             ScannerState::NotYet => "no scan yet: its view unknown".to_string(),
             ScannerState::Live => "live".to_string(),
         };

@@ -367,13 +367,13 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
                 }
                 node.laser_pose_lines[k] = line;
             }
-            let made = if several {
+            if several {
                 let scan = crate::algo::LaserScan {
                     header,
                     ranges_m: &m.ranges,
                     intensities: &m.intensities,
                 };
-                node.core.on_scanner_scan(k, &scan, placed.map_err(|(why, _)| why), now)
+                node.core.on_scanner_scan(k, &scan, placed.map_err(|(why, _)| why), now);
             } else {
                 match placed {
                     Ok(Some(mount)) => {
@@ -383,17 +383,14 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
                     Ok(None) => node.core.on_scan(header, &m.ranges, &m.intensities),
                     Err((why, _)) => node.core.on_scan_without_pose(header, why),
                 }
-                true
-            };
+            }
             // The (first) LiDAR's frame names the hardware, unless node/hardware_id does.
             if k == 0 && node.settings.hardware_id.is_empty() && node.hardware_id != m.header.frame_id {
                 node.hardware_id.clone_from(&m.header.frame_id);
             }
             node.scan_heard[k] = Some(mono_s());
-            if made {
-                node.activity.scan_arrived(now);
-                node.tick(now);
-            }
+            node.activity.scan_arrived(now);
+            node.tick(now);
         })
         .map_err(RosError::doing(format!("subscribing to {topic}")))
     };

@@ -31,9 +31,12 @@
 //! - The hold and the blind-sensor stop of the filter run on the merged scan
 //!   as on any scan.
 //!
-//! The merged scan is stamped with the scan that made it. A scan not newer
-//! than the last merged one (the other scanner's arrived first) is kept for
-//! the next merge but makes none itself: merged stamps only move forward.
+//! Scans are taken as they come ([`ScanMerger::update`]) and merged once per
+//! control step ([`ScanMerger::merge`]), stamped with the newest scan taken.
+//! A scan not newer than the last merged one (the other scanner's arrived
+//! first) waits for the next merge: merged stamps only move forward, and
+//! each scanner's own stamps must too (the same stamp again is a frozen
+//! driver, its view unknown).
 //! Bearings are quantised to a bin: a point's position is off by at most
 //! half a bin along its arc (0.125° at 1440 bins: 2.2 mm at 1 m), its range
 //! from the base's origin is exact.
@@ -75,6 +78,12 @@ pub enum ScannerState {
     Rejected(ScanRejection),
     /// Its latest scan had no pose on the robot (tf): view unknown.
     NoPose,
+    /// Its latest scan was stamped no later than the one before (a frozen
+    /// or replayed driver): view unknown until a newer one.
+    Frozen {
+        /// That stamp (s).
+        stamp_s: f64,
+    },
     /// Mostly unknown for too long: its free beams do not count.
     Blind {
         /// Unknown fraction of its beams.
@@ -91,6 +100,7 @@ impl ScannerState {
             Self::Silent { .. } => "silent",
             Self::Rejected(_) => "rejected",
             Self::NoPose => "no_pose",
+            Self::Frozen { .. } => "frozen",
             Self::Blind { .. } => "blind",
         }
     }
@@ -164,9 +174,7 @@ impl ScanMerger {
     }
 
     /// Takes scanner `k`'s scan placed by `mount` (None: no pose on the
-    /// robot, its view unknown). Returns whether a new merged scan was made
-    /// ([`Self::scan`]); a scan not newer than the last merged one is kept
-    /// for the next.
+    /// robot, its view unknown), for the next [`Self::merge`].
     pub fn update(
         &mut self,
         k: usize,
@@ -174,20 +182,25 @@ impl ScanMerger {
         mount: Option<&LaserMount>,
         now_s: f64,
         params: &LaserParams,
-    ) -> bool {
+    ) {
         let Some(slot) = self.slots.get_mut(k) else {
-            return false;
+            return;
         };
         slot.beams.clear();
         if let Err(why) = check_scan(scan, now_s, params) {
             slot.out = Some(ScannerState::Rejected(why));
-            return false;
+            return;
         }
         let stamp_s = scan.header.stamp_s;
+        // A scanner's stamps must move forward: the same again is a frozen driver.
+        if slot.stamp_s.is_finite() && stamp_s <= slot.stamp_s {
+            slot.out = Some(ScannerState::Frozen { stamp_s });
+            return;
+        }
         slot.stamp_s = stamp_s;
         let Some(mount) = mount else {
             slot.out = Some(ScannerState::NoPose);
-            return self.merge(stamp_s, now_s);
+            return;
         };
         slot.out = None;
         let h = &scan.header;
@@ -232,12 +245,18 @@ impl ScanMerger {
         let verdict = slot.blind.update(unknown, scan.ranges_m.len(), stamp_s, params);
         slot.unknown_fraction = verdict.unknown_fraction;
         slot.is_blind = verdict.blind;
-        self.merge(stamp_s, now_s)
     }
 
-    /// Paints every live scanner into the merged scan stamped `stamp_s`,
-    /// unless that is not newer than the last.
-    fn merge(&mut self, stamp_s: f64, now_s: f64) -> bool {
+    /// Paints every live scanner into a merged scan stamped with the newest
+    /// scan taken; returns whether one was made (none when nothing newer
+    /// than the last merged scan came: what came is kept for the next).
+    pub fn merge(&mut self, now_s: f64) -> bool {
+        let stamp_s = self
+            .slots
+            .iter()
+            .map(|s| s.stamp_s)
+            .filter(|s| s.is_finite())
+            .fold(f64::NAN, f64::max);
         if !stamp_s.is_finite() || (self.last_stamp_s.is_finite() && stamp_s <= self.last_stamp_s) {
             return false;
         }
@@ -358,6 +377,19 @@ mod tests {
     use super::*;
     use crate::algo::geometry::Pose2;
 
+    /// Update, then merge: whether a merged scan was made.
+    fn feed(
+        m: &mut ScanMerger,
+        k: usize,
+        scan: &LaserScan<'_>,
+        mount: Option<&LaserMount>,
+        now_s: f64,
+        p: &LaserParams,
+    ) -> bool {
+        m.update(k, scan, mount, now_s, p);
+        m.merge(now_s)
+    }
+
     const SPEC: ScannerSpec = ScannerSpec {
         timeout_s: 0.3,
         zero_is_no_return: false,
@@ -403,7 +435,8 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         // Front: a wall 1.7 m ahead of the scanner (2.0 m from the base's origin).
         let f = scan_270(n, f32::INFINITY, &[(135, 1.7)]);
-        assert!(m.update(
+        assert!(feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(1.0, n),
@@ -420,7 +453,8 @@ mod tests {
         assert!(at(&m, 90.0).is_infinite());
         // Rear: a box 0.5 m behind the rear scanner (0.8 m behind the base's origin).
         let r = scan_270(n, f32::INFINITY, &[(135, 0.5)]);
-        assert!(m.update(
+        assert!(feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.04, n),
@@ -449,7 +483,8 @@ mod tests {
         let o = LaserMount::upright(Pose2::default());
         let a = scan_270(n, f32::INFINITY, &[(135, 3.0), (225, 2.0)]);
         let b = scan_270(n, f32::INFINITY, &[(135, 1.0)]);
-        m.update(
+        feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(1.0, n),
@@ -460,7 +495,8 @@ mod tests {
             1.0,
             &p,
         );
-        m.update(
+        feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.1, n),
@@ -482,7 +518,8 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         let f = scan_270(n, f32::INFINITY, &[]);
         let r = scan_270(n, f32::INFINITY, &[]);
-        m.update(
+        feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(1.0, n),
@@ -493,7 +530,8 @@ mod tests {
             1.0,
             &p,
         );
-        m.update(
+        feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.05, n),
@@ -506,7 +544,8 @@ mod tests {
         );
         assert!(at(&m, 180.0).is_infinite());
         // The rear falls silent: 0.35 s on, past its 0.3 s timeout.
-        m.update(
+        feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(1.4, n),
@@ -521,7 +560,8 @@ mod tests {
         assert!(matches!(m.state(1, 1.4), ScannerState::Silent { age_s } if (age_s - 0.35).abs() < 1e-9));
         assert_eq!(m.state(0, 1.4), ScannerState::Live);
         // The rear is back but without a pose: still unknown.
-        m.update(
+        feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.45, n),
@@ -535,7 +575,8 @@ mod tests {
         assert!(at(&m, 180.0).is_nan());
         assert_eq!(m.state(1, 1.45), ScannerState::NoPose);
         // A garbage rear scan (no beams): rejected, still unknown, and no merge made.
-        let made = m.update(
+        let made = feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.5, n),
@@ -557,7 +598,8 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         let f = scan_270(n, f32::INFINITY, &[]);
         let r = scan_270(n, f32::INFINITY, &[(135, 0.5)]);
-        assert!(m.update(
+        assert!(feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(2.0, n),
@@ -569,7 +611,8 @@ mod tests {
             &p
         ));
         // The rear's scan is older than the last merge: kept, no merge of its own…
-        assert!(!m.update(
+        assert!(!feed(
+            &mut m,
             1,
             &LaserScan {
                 header: header(1.98, n),
@@ -582,7 +625,8 @@ mod tests {
         ));
         assert!(at(&m, 180.0).is_nan());
         // …and in the next one.
-        assert!(m.update(
+        assert!(feed(
+            &mut m,
             0,
             &LaserScan {
                 header: header(2.04, n),
@@ -607,7 +651,8 @@ mod tests {
         let r = scan_270(n, f32::INFINITY, &set);
         let o = LaserMount::upright(Pose2::default());
         for (i, t) in [1.0, 1.1, 1.2, 1.3].iter().enumerate() {
-            m.update(
+            feed(
+                &mut m,
                 0,
                 &LaserScan {
                     header: header(*t, n),
@@ -650,7 +695,8 @@ mod tests {
             })
             .collect();
         let mount = LaserMount::upright(Pose2::new(-0.3, 0.0, 0.0));
-        m.update(
+        feed(
+            &mut m,
             0,
             &LaserScan {
                 header: h,
@@ -691,7 +737,8 @@ mod tests {
         let mut h = header(1.0, n);
         // Scanner 0: −inf straight ahead (at its range_min 0.05 m); 12 m (beyond its 10 m) to the left.
         let a = scan_270(n, f32::NAN, &[(135, f32::NEG_INFINITY), (225, 12.0)]);
-        m.update(
+        feed(
+            &mut m,
             0,
             &LaserScan {
                 header: h,
@@ -708,7 +755,8 @@ mod tests {
         // Scanner 1 writes 0.0 for no return: free, not unknown.
         h.stamp_s = 1.1;
         let b = scan_270(n, f32::NAN, &[(45, 0.0)]);
-        m.update(
+        feed(
+            &mut m,
             1,
             &LaserScan {
                 header: h,
