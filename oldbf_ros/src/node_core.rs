@@ -1206,6 +1206,27 @@ mod tests {
     }
 
     #[test]
+    fn bad_scanner_lists_name_the_key() {
+        let keys = |s: NodeSettings| -> Vec<String> {
+            s.validate()
+                .err()
+                .map(|e| e.iter().map(|e| e.key.clone()).collect())
+                .unwrap_or_default()
+        };
+        let good = two_scanners(NominalSource::CmdVelIn).settings.clone();
+        assert_eq!(keys(good.clone()), Vec::<String>::new());
+        let mut bad = good.clone();
+        bad.scans[1].timeout_s = 0.0;
+        bad.scans[0].topic = "front scan".into();
+        assert_eq!(keys(bad), ["node.scans[0].topic", "node.scans[1].timeout_s"]);
+        let bad = NodeSettings {
+            laser_pose: LaserPoseSource::Yaml,
+            ..good
+        };
+        assert_eq!(keys(bad), ["node.laser_pose"]);
+    }
+
+    #[test]
     fn a_scanner_without_a_pose_is_a_dead_one() {
         let open = vec![f32::INFINITY; 271];
         let front = Ok(Some(LaserMount::upright(Pose2::new(0.2, 0.0, 0.0))));

@@ -143,6 +143,8 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.base_limits_file", "/no/such/base_limits.yaml"),
     ("node.laser_pose", "urdf"),
     ("node.tf_tolerance_s", "5.5"),
+    ("node.scans", "often"),
+    ("node.merged_beams", "100"),
 ];
 
 /// Free-text keys: any string is valid there (a wrong type still is not).
@@ -178,7 +180,12 @@ fn doc(text: &str) -> Value {
 /// The error must name the file and the key, as `FILE: key `KEY``.
 fn assert_names(err: &str, file: &str, key: &str, case: &str) {
     let want = format!("{file}: key `{key}`");
-    assert!(err.contains(&want), "{case}: the error does not name `{want}`:\n{err}");
+    // A list names the element: `node.scans[0]`.
+    let item = format!("{file}: key `{key}[");
+    assert!(
+        err.contains(&want) || err.contains(&item),
+        "{case}: the error does not name `{want}`:\n{err}"
+    );
 }
 
 /// The shipped file's leaf keys against a table's keys: every leaf has a row
@@ -366,6 +373,17 @@ const SCENARIO_ROWS: &[(&str, &str)] = &[
     ("lidar.dropout_prob", "1.5"),
     ("lidar.dropout", "sometimes"),
     ("lidar.rate_hz", "0"),
+    ("lidars[].mount_x_m", "5.5"),
+    ("lidars[].mount_y_m", ".nan"),
+    ("lidars[].mount_yaw_deg", "400"),
+    ("lidars[].lidar.beams", "0"),
+    ("lidars[].lidar.fov_deg", "361"),
+    ("lidars[].lidar.range_min_m", "-1"),
+    ("lidars[].lidar.range_max_m", "0"),
+    ("lidars[].lidar.noise_std_m", "-0.01"),
+    ("lidars[].lidar.dropout_prob", "1.5"),
+    ("lidars[].lidar.dropout", "sometimes"),
+    ("lidars[].lidar.rate_hz", "0"),
     ("nominal.kind", "spiral"),
     ("nominal.v_mps", ".nan"),
     ("nominal.length_m", "-1"),

@@ -51,7 +51,8 @@ pub struct SimAgent {
     /// Namespace (empty for a single robot).
     pub name: String,
     pub robot: SimRobot,
-    lidar: Lidar,
+    /// Its LiDARs: the scenario's `lidar`, or each of `lidars`.
+    lidars: Vec<Lidar>,
     /// The command being executed (m/s, rad/s).
     pub cmd: Twist,
     /// Distinct contacts so far.
@@ -79,8 +80,8 @@ pub enum FleetError {
 pub struct Fleet {
     world: World,
     agents: Vec<SimAgent>,
-    /// The laser's mount pose on every robot (robot frame).
-    laser_mount: Pose2,
+    /// Each LiDAR's mount pose on every robot (robot frame).
+    mounts: Vec<Pose2>,
 }
 
 impl Fleet {
@@ -88,13 +89,36 @@ impl Fleet {
     /// from `seed` and i, so runs are reproducible.
     pub fn new(scenario: &Scenario, seed: u64) -> Result<Fleet, FleetError> {
         let world = World::new(&scenario.spec.world)?;
+        let l = &scenario.params.laser;
+        let (specs, mounts): (Vec<LidarSpec>, Vec<Pose2>) = if scenario.spec.lidars.is_empty() {
+            (
+                vec![scenario.spec.lidar.clone()],
+                vec![Pose2::new(l.mount_x_m, l.mount_y_m, l.mount_yaw_deg.to_radians())],
+            )
+        } else {
+            scenario
+                .spec
+                .lidars
+                .iter()
+                .map(|m| {
+                    (
+                        m.lidar.clone(),
+                        Pose2::new(m.mount_x_m, m.mount_y_m, m.mount_yaw_deg.to_radians()),
+                    )
+                })
+                .unzip()
+        };
         let mut agents = Vec::with_capacity(scenario.agents.len());
         for (i, plan) in scenario.agents.iter().enumerate() {
             let lidar_seed = seed.wrapping_add((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             agents.push(SimAgent {
                 name: plan.name.clone(),
                 robot: SimRobot::new(plan.start, scenario.robot),
-                lidar: Lidar::new(scenario.spec.lidar.clone(), lidar_seed)?,
+                lidars: specs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, spec)| Lidar::new(spec.clone(), lidar_seed.wrapping_add(k as u64 * 0x5851_F42D)))
+                    .collect::<Result<_, _>>()?,
                 cmd: Twist::ZERO,
                 collisions: 0,
                 in_collision: false,
@@ -103,12 +127,7 @@ impl Fleet {
                 contacts: Vec::new(),
             });
         }
-        let l = &scenario.params.laser;
-        let mut fleet = Fleet {
-            world,
-            agents,
-            laser_mount: Pose2::new(l.mount_x_m, l.mount_y_m, l.mount_yaw_deg.to_radians()),
-        };
+        let mut fleet = Fleet { world, agents, mounts };
         fleet.check_contacts();
         Ok(fleet)
     }
@@ -125,8 +144,19 @@ impl Fleet {
         self.world.time_s()
     }
 
+    /// The (first) LiDAR's spec.
     pub fn lidar_spec(&self) -> &LidarSpec {
-        self.agents[0].lidar.spec()
+        self.agents[0].lidars[0].spec()
+    }
+
+    /// LiDAR `k`'s spec and mount (robot frame).
+    pub fn lidar(&self, k: usize) -> (&LidarSpec, Pose2) {
+        (self.agents[0].lidars[k].spec(), self.mounts[k])
+    }
+
+    /// LiDARs on each robot.
+    pub fn lidars(&self) -> usize {
+        self.mounts.len()
     }
 
     /// Sets the command robot `i` executes from now on.
@@ -191,23 +221,34 @@ impl Fleet {
         }
     }
 
-    /// The laser's pose in the world for robot `i`.
+    /// The (first) laser's pose in the world for robot `i`.
     pub fn laser_pose(&self, i: usize) -> Pose2 {
+        self.lidar_pose(i, 0)
+    }
+
+    /// LiDAR `k`'s pose in the world for robot `i`.
+    pub fn lidar_pose(&self, i: usize, k: usize) -> Pose2 {
         let pose = self.agents[i].robot.pose;
-        let origin = pose.transform_point(self.laser_mount.position());
-        Pose2::new(origin.x, origin.y, pose.theta + self.laser_mount.theta)
+        let mount = self.mounts[k];
+        let origin = pose.transform_point(mount.position());
+        Pose2::new(origin.x, origin.y, pose.theta + mount.theta)
     }
 
-    /// Robot `i`'s LiDAR scan now (one range per beam, m).
+    /// Robot `i`'s (first) LiDAR scan now (one range per beam, m).
     pub fn scan(&mut self, i: usize, ranges: &mut Vec<f32>) {
-        let laser = self.laser_pose(i);
-        self.show_others_to(i);
-        self.agents[i].lidar.scan_into(&self.world, laser, ranges);
+        self.scan_with(i, 0, ranges);
     }
 
-    /// The true ranges of robot `i`'s last scan (m; +inf: no hit).
+    /// Robot `i`'s LiDAR `k` scan now (one range per beam, m).
+    pub fn scan_with(&mut self, i: usize, k: usize, ranges: &mut Vec<f32>) {
+        let laser = self.lidar_pose(i, k);
+        self.show_others_to(i);
+        self.agents[i].lidars[k].scan_into(&self.world, laser, ranges);
+    }
+
+    /// The true ranges of robot `i`'s last (first LiDAR) scan (m; +inf: no hit).
     pub fn scan_truth(&self, i: usize) -> &[f32] {
-        self.agents[i].lidar.truth()
+        self.agents[i].lidars[0].truth()
     }
 
     /// Exact distance from robot `i`'s centre to the nearest obstacle surface,

@@ -26,12 +26,12 @@ use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 use crate::algo::record::{StepRecord, StopCause};
-use crate::algo::scan::ScanHeader;
 use crate::algo::scan::{classify_range, BeamStatus, RangeKind};
+use crate::algo::scan::{LaserMount, LaserScan, ScanHeader};
 use crate::algo::select::CriticCosts;
 use crate::algo::tracking::TrackingError;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
-use crate::node_core::{NodeCore, NodeSettings};
+use crate::node_core::{NodeCore, NodeSettings, ScanInput};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -274,6 +274,33 @@ pub fn run_scenario_with(
     let gamma = params.dtcbf.gamma;
     let input_box = InputBox::from_params(params);
     let steps_max = (spec.duration_s / dt).ceil() as usize;
+    // Several LiDARs (`lidars:`): each scan goes to the node's merge, as
+    // `node.scans` does on a robot; each is placed by its own mount.
+    let merged = !spec.lidars.is_empty();
+    let lidars: Vec<(ScanHeader, LaserMount)> = (0..fleet.lidars())
+        .map(|k| {
+            let (l, mount) = fleet.lidar(k);
+            let header = ScanHeader {
+                stamp_s: 0.0,
+                angle_min_rad: l.angle_min_rad(),
+                angle_increment_rad: l.angle_increment_rad(),
+                range_min_m: l.range_min_m as f32,
+                range_max_m: l.range_max_m as f32,
+            };
+            (header, LaserMount::upright(mount))
+        })
+        .collect();
+    let scan_inputs: Vec<ScanInput> = if merged {
+        (0..lidars.len())
+            .map(|k| ScanInput {
+                topic: format!("lidar{k}"),
+                timeout_s: 2.5 * scan_period,
+                zero_is_no_return: params.laser.zero_is_no_return,
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
 
     let mut agents: Vec<AgentLoop> = scenario
         .agents
@@ -285,6 +312,7 @@ pub fn run_scenario_with(
                 params.clone(),
                 NodeSettings {
                     plan_beside: options.plan_beside,
+                    scans: scan_inputs.clone(),
                     ..NodeSettings::for_scenario()
                 },
                 plan.reference,
@@ -340,7 +368,17 @@ pub fn run_scenario_with(
                 fleet.set_cmd(i, Twist::ZERO);
                 continue;
             }
-            if scan_due {
+            if scan_due && merged {
+                for (k, (header, mount)) in lidars.iter().enumerate() {
+                    fleet.scan_with(i, k, &mut a.ranges);
+                    let scan = LaserScan {
+                        header: ScanHeader { stamp_s: t, ..*header },
+                        ranges_m: &a.ranges,
+                        intensities: &[],
+                    };
+                    a.node.on_scanner_scan(k, &scan, Ok(Some(*mount)), t);
+                }
+            } else if scan_due {
                 fleet.scan(i, &mut a.ranges);
                 a.truth.clear();
                 a.truth.extend_from_slice(fleet.scan_truth(i));
@@ -431,7 +469,9 @@ pub fn run_scenario_with(
             if rec.stop_cause == Some(StopCause::SensorBlind) {
                 a.blind_steps += 1;
             }
-            let driven_blind = rec.measured()
+            // Per beam of the one LiDAR (the merged scan's bins are not its beams).
+            let driven_blind = !merged
+                && rec.measured()
                 && cmd.v_mps.abs() > CLOSING_SPEED_MPS
                 && driven_blind(
                     &a.ranges,

@@ -86,6 +86,21 @@ fn default_goal_tolerance() -> f64 {
     0.15
 }
 
+/// One of several LiDARs on the robot: where it sits and what it is.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountedLidar {
+    /// Its origin in the robot frame (m, forward; m, left).
+    pub mount_x_m: f64,
+    pub mount_y_m: f64,
+    /// Its heading in the robot frame (deg, CCW).
+    pub mount_yaw_deg: f64,
+    pub lidar: LidarSpec,
+}
+
+/// Most LiDARs one robot may carry.
+pub const MAX_LIDARS: usize = 8;
+
 /// The scenario file as written.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -111,6 +126,11 @@ pub struct ScenarioSpec {
     pub reference_start: Option<StartSpec>,
     #[serde(default)]
     pub lidar: LidarSpec,
+    /// Several LiDARs on every robot (a front and a rear scanner), merged
+    /// into one scan as the node merges `node.scans`; when given, they
+    /// replace `lidar` and `oldbf.laser.mount_*`. All scan at the first's rate.
+    #[serde(default)]
+    pub lidars: Vec<MountedLidar>,
     /// The nominal command (single-robot scenarios).
     #[serde(default)]
     pub nominal: Option<NominalSpec>,
@@ -199,6 +219,36 @@ impl Scenario {
             Interval::open_closed(0.0, 10.0).unit("m"),
         );
         spec.lidar.check(&mut c);
+        c.range(
+            "lidars",
+            spec.lidars.len() as f64,
+            Interval::closed(0.0, MAX_LIDARS as f64),
+        );
+        for (k, m) in spec.lidars.iter().enumerate() {
+            let mut own = Checker::new();
+            m.lidar.check(&mut own);
+            for mut e in own.errors().iter().cloned() {
+                e.key = format!("lidars[{k}].{}", e.key);
+                c.push(e);
+            }
+            for (key, v) in [("mount_x_m", m.mount_x_m), ("mount_y_m", m.mount_y_m)] {
+                c.range(&format!("lidars[{k}].{key}"), v, Interval::closed(-5.0, 5.0).unit("m"));
+            }
+            c.range(
+                &format!("lidars[{k}].mount_yaw_deg"),
+                m.mount_yaw_deg,
+                Interval::closed(-360.0, 360.0).unit("deg"),
+            );
+            c.rule(
+                m.lidar.rate_hz == spec.lidars[0].lidar.rate_hz,
+                &format!("lidars[{k}].lidar.rate_hz"),
+                m.lidar.rate_hz,
+                format!(
+                    "the first LiDAR's, {} Hz (they scan together)",
+                    spec.lidars[0].lidar.rate_hz
+                ),
+            );
+        }
         let robot = spec.robot.limits();
         robot.check(&mut c);
         finish(c, file)?;

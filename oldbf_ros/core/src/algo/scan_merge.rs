@@ -13,11 +13,14 @@
 //!   range_max is free along that beam; NaN or below range_min is unknown.
 //! - **A bin takes the most cautious word**: a point beats free, and the
 //!   nearest point wins; free beats unknown; a bin no live scanner speaks for
-//!   stays unknown (NaN), so **unknown is not free**. Between two adjacent
+//!   stays unknown (NaN), so **unknown is not free**. Between two known
 //!   beams of one scanner (less than [`GAP_FILL_MAX_RAD`] apart seen from the
-//!   base) the bins in between take the nearer point, or free when both
-//!   are free: a scanner off the base's origin spreads its near beams over
-//!   more bins than it has beams, and holes there would read as unknown.
+//!   base, with fewer than [`MIN_UNKNOWN_RUN`] unknown beams between them)
+//!   the bins in between take the nearer point, or free when both are free:
+//!   a scanner off the base's origin spreads its near beams over more bins
+//!   than it has beams, and a dropout spread over several bins would read as
+//!   a run of unknown beams that may hide something, which the filter only
+//!   takes from [`MIN_UNKNOWN_RUN`] sensor beams in a row (§1).
 //! - **A silent scanner's view is unknown**: its beams are dropped once its
 //!   newest scan is older than its own `timeout_s`, and so are those of a
 //!   rejected scan or one without a pose; the filter's own hold then keeps
@@ -44,7 +47,9 @@
 use super::blind::BlindDetector;
 use super::geometry::Vec2;
 use super::params::{LaserParams, RangeSemantics};
-use super::scan::{check_scan, classify_range, LaserMount, LaserScan, RangeKind, ScanHeader, ScanRejection};
+use super::scan::{
+    check_scan, classify_range, LaserMount, LaserScan, RangeKind, ScanHeader, ScanRejection, MIN_UNKNOWN_RUN,
+};
 use std::f64::consts::PI;
 
 /// range_min of the merged scan (m): any point the scanners give is valid.
@@ -278,18 +283,25 @@ impl ScanMerger {
                     b.range
                 }
             };
-            let mut prev: Option<(Beam, f32)> = None;
-            for b in &slot.beams {
+            // The last known beam: (beam, value, index).
+            let mut prev: Option<(Beam, f32, usize)> = None;
+            for (j, b) in slot.beams.iter().enumerate() {
                 let v = value(b);
+                if v.is_nan() {
+                    continue;
+                }
                 paint(&mut self.ranges[bin(b.bearing)], v);
-                if let Some((a, va)) = prev {
-                    // The bins strictly between two known adjacent beams.
+                if let Some((a, va, i)) = prev {
+                    // The bins strictly between two known beams of this scanner
+                    // with fewer than MIN_UNKNOWN_RUN unknown beams between them
+                    // (a dropout is not a hole: the filter takes no fewer
+                    // unknown beams in a row for one, §1).
                     let gap = (b.bearing - a.bearing + PI).rem_euclid(2.0 * PI) - PI;
-                    if !va.is_nan() && !v.is_nan() && gap.abs() <= GAP_FILL_MAX_RAD {
+                    if j - i <= MIN_UNKNOWN_RUN && gap.abs() <= GAP_FILL_MAX_RAD {
                         let fill = if va.is_infinite() && v.is_infinite() {
                             v
                         } else {
-                            finite_min(va, v)
+                            va.min(v)
                         };
                         let (from, to) = if gap >= 0.0 {
                             (a.bearing, b.bearing)
@@ -297,15 +309,15 @@ impl ScanMerger {
                             (b.bearing, a.bearing)
                         };
                         let (first, last) = (bin(from), bin(to));
-                        let mut i = (first + 1) % n;
+                        let mut k = (first + 1) % n;
                         // Same bin, or neighbours: nothing between.
-                        while first != last && i != last {
-                            paint(&mut self.ranges[i], fill);
-                            i = (i + 1) % n;
+                        while first != last && k != last {
+                            paint(&mut self.ranges[k], fill);
+                            k = (k + 1) % n;
                         }
                     }
                 }
-                prev = Some((*b, v));
+                prev = Some((*b, v, j));
             }
         }
         self.header.stamp_s = stamp_s;
@@ -364,12 +376,6 @@ fn paint(bin: &mut f32, v: f32) {
     if bin.is_nan() || v < *bin {
         *bin = v;
     }
-}
-
-/// The smaller of two ranges that are not NaN, +inf counting as far.
-#[inline]
-fn finite_min(a: f32, b: f32) -> f32 {
-    a.min(b)
 }
 
 #[cfg(test)]
