@@ -20,7 +20,8 @@
 #   scanners   node/scans: a front and a rear 270° scanner (static tf) merged
 #              into one scan: backing up while both are alive; the rear silent
 #              or without a pose forbids it (diagnostics scanner_1 say why);
-#              the front silent stops forward motion
+#              the front silent stops forward motion; sim.launch with
+#              front_rear.yaml (two 270° LiDARs) reaches its goal over ROS
 #   sim        roslaunch sim.launch (headless): paper_line reaches its goal,
 #              0 collisions (the sim node's ~summary); recorded with rosbag
 #   stale      scans stop -> cmd_vel zero within scan_timeout + one control
@@ -271,7 +272,16 @@ t_scanners() {
   v=$(last_v)
   figure "scanners: front silent, upstream +0.1 m/s -> linear.x = $v m/s"
   stop_pid "$rear"; stop_pid "$cmd"; stop_pid "$node"; stop_pid "$tfp"
-  check "$(awk -v v="$v" 'BEGIN{print (v <= 0) ? "true" : "false"}')" "front silent: linear.x = $v, want no forward motion"
+  check "$(awk -v v="$v" 'BEGIN{print (v <= 0) ? "true" : "false"}')" "front silent: linear.x = $v, want no forward motion" || return 1
+  # The simulator with a front and a rear 270° LiDAR (front_rear.yaml): scan_0
+  # and scan_1 from laser_0 and laser_1 on /tf, merged by the node.
+  local launch s
+  launch=$(spawn mscan_sim roslaunch --wait oldbf_ros sim.launch scenario:="$ROOT/config/scenarios/front_rear.yaml")
+  s=$($ROSPY tests/ros/wait_summary.py /oldbf_sim_node/summary 230) || { stop_pid "$launch"; say "  no summary: $s"; return 1; }
+  stop_pid "$launch"
+  figure "scanners: front_rear over ROS: $(json "'goal reached at %.1f s, %d collisions, least clearance %.3f m' % (d['robots'][0]['time_to_goal_s'] or -1, d['collisions'], d['robots'][0]['min_clearance_m'])" <<< "$s")"
+  check "$(grep -c 'laser pose "laser_[01]" from tf' "$LOG/mscan_sim.log" | awk '{print ($1 >= 2) ? "true" : "false"}')" "front_rear: the node did not place both LiDARs by tf" || return 1
+  check "$(json "str(d['reached_goal'] and d['collisions'] == 0).lower()" <<< "$s")" "front_rear over ROS: $s"
 }
 
 t_sim() {

@@ -15,7 +15,7 @@ use crate::algo::geometry::Twist;
 use crate::algo::reference::ReferenceTrajectory;
 use crate::algo::Params;
 use crate::config::{self, ConfigError};
-use crate::node_core::NodeSettings;
+use crate::node_core::{NodeSettings, ScanInput};
 use crate::sim::scenario::Scenario;
 use oldbf::config::{load_base_limits_file, BaseLimitsConflict, Validate};
 use serde_yaml::Value;
@@ -96,7 +96,7 @@ fn check_base_limits(c: &NodeConfig, source: &str) -> Result<(), ConfigError> {
 }
 
 /// The parameters with a scenario's overrides, and its nominal command.
-fn with_scenario(params_value: Value, settings: NodeSettings, source: &str) -> Result<NodeConfig, ConfigError> {
+fn with_scenario(params_value: Value, mut settings: NodeSettings, source: &str) -> Result<NodeConfig, ConfigError> {
     // Check the parameters on their own first, so their errors name the server.
     config::params_from_value(params_value.clone(), source, "")?;
     let scenario = Scenario::load_over(Path::new(&settings.scenario), params_value)?;
@@ -116,6 +116,21 @@ fn with_scenario(params_value: Value, settings: NodeSettings, source: &str) -> R
                 ),
             )
         })?;
+    // A scenario with several LiDARs: the simulator node publishes them as
+    // `scan_0`, `scan_1`, …; merged like `node.scans` unless that is set.
+    if settings.scans.is_empty() {
+        settings.scans = scenario
+            .spec
+            .lidars
+            .iter()
+            .enumerate()
+            .map(|(k, l)| ScanInput {
+                topic: format!("scan_{k}"),
+                timeout_s: 2.5 / l.lidar.rate_hz,
+                zero_is_no_return: scenario.params.laser.zero_is_no_return,
+            })
+            .collect();
+    }
     Ok(NodeConfig {
         params: scenario.params.clone(),
         reference: agent.reference,
@@ -168,6 +183,27 @@ mod tests {
         );
         let e = node_config_from_params(yaml("node: {nominal_source: sometimes}"), "P").unwrap_err();
         assert_eq!(e.keys(), ["node.nominal_source"], "{e}");
+    }
+
+    #[test]
+    fn a_scenario_with_several_lidars_gives_their_scan_topics() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let f = root.join("config/scenarios/front_rear.yaml");
+        let c = node_config_from_params(yaml(&format!("node: {{scenario: '{}'}}", f.display())), "P").unwrap();
+        let topics: Vec<(&str, f64)> = c
+            .settings
+            .scans
+            .iter()
+            .map(|s| (s.topic.as_str(), s.timeout_s))
+            .collect();
+        // Two LiDARs at 10 Hz: 2.5 periods each.
+        assert_eq!(topics, [("scan_0", 0.25), ("scan_1", 0.25)]);
+        // One given in node.scans wins.
+        let ns = yaml(&format!(
+            "node: {{scenario: '{}', scans: [{{topic: front, timeout_s: 0.3}}]}}",
+            f.display()
+        ));
+        assert_eq!(node_config_from_params(ns, "P").unwrap().settings.scans.len(), 1);
     }
 
     #[test]

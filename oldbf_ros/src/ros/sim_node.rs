@@ -67,7 +67,8 @@ struct Summary {
 
 struct RobotIo {
     frame_prefix: String,
-    scan: rosrust::Publisher<sensor_msgs::LaserScan>,
+    /// One per LiDAR: `scan`, or `scan_0`, `scan_1`, … with a scenario's `lidars`.
+    scans: Vec<rosrust::Publisher<sensor_msgs::LaserScan>>,
     /// None when the odometry comes from elsewhere (motion_source odom).
     odom: Option<rosrust::Publisher<nav_msgs::Odometry>>,
     /// `cmd_vel`, or `odom` with motion_source odom.
@@ -257,6 +258,16 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
     let world_frame = if multi { "map" } else { "odom" };
 
     let cmds: Arc<Mutex<Vec<(Twist, f64)>>> = Arc::new(Mutex::new(vec![(Twist::ZERO, f64::NEG_INFINITY); n]));
+    // (topic, frame) of each LiDAR: one as `scan` from `laser`, several as
+    // `scan_k` from `laser_k` (the node merges them: node_config reads the
+    // scenario's `lidars` into node.scans).
+    let lidar_names: Vec<(String, String)> = if scenario.spec.lidars.is_empty() {
+        vec![("scan".into(), "laser".into())]
+    } else {
+        (0..fleet.lidars())
+            .map(|k| (format!("scan_{k}"), format!("laser_{k}")))
+            .collect()
+    };
     let mut io = Vec::with_capacity(n);
     let started_s = now_s();
     for (i, agent) in fleet.agents().iter().enumerate() {
@@ -275,7 +286,11 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
         };
         io.push(RobotIo {
             frame_prefix: agent.name.clone(),
-            scan: rosrust::publish(&topic("scan"), 5).map_err(RosError::doing("advertising scan"))?,
+            scans: (0..lidar_names.len())
+                .map(|k| {
+                    rosrust::publish(&topic(&lidar_names[k].0), 5).map_err(RosError::doing("advertising a scan topic"))
+                })
+                .collect::<Result<_, _>>()?,
             odom,
             _motion_sub: Some(subscribe_motion(&motion_topic, from_odom, i, &cmds)?),
             motion_retry: Resubscribe::standard(started_s),
@@ -361,22 +376,25 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
         if t + 1e-9 >= next_scan {
             next_scan += scan_period;
             for (i, robot) in io.iter().enumerate() {
-                fleet.scan(i, &mut ranges);
-                let mut m = sensor_msgs::LaserScan {
-                    angle_min: lidar.angle_min_rad(),
-                    angle_increment: lidar.angle_increment_rad(),
-                    angle_max: lidar.angle_min_rad()
-                        + lidar.angle_increment_rad() * (lidar.beams.saturating_sub(1)) as f32,
-                    time_increment: 0.0,
-                    scan_time: scan_period as f32,
-                    range_min: lidar.range_min_m as f32,
-                    range_max: lidar.range_max_m as f32,
-                    ranges: ranges.clone(),
-                    ..Default::default()
-                };
-                m.header.stamp = stamp;
-                m.header.frame_id = prefixed(&robot.frame_prefix, "laser");
-                let _ = robot.scan.send(m);
+                for (k, (_, frame)) in lidar_names.iter().enumerate() {
+                    fleet.scan_with(i, k, &mut ranges);
+                    let (lidar, _) = fleet.lidar(k);
+                    let mut m = sensor_msgs::LaserScan {
+                        angle_min: lidar.angle_min_rad(),
+                        angle_increment: lidar.angle_increment_rad(),
+                        angle_max: lidar.angle_min_rad()
+                            + lidar.angle_increment_rad() * (lidar.beams.saturating_sub(1)) as f32,
+                        time_increment: 0.0,
+                        scan_time: scan_period as f32,
+                        range_min: lidar.range_min_m as f32,
+                        range_max: lidar.range_max_m as f32,
+                        ranges: ranges.clone(),
+                        ..Default::default()
+                    };
+                    m.header.stamp = stamp;
+                    m.header.frame_id = prefixed(&robot.frame_prefix, frame);
+                    let _ = robot.scans[k].send(m);
+                }
             }
         }
         if t + 1e-9 >= next_odom {
@@ -401,9 +419,10 @@ fn run_connected(stop: &lifecycle::StopFlag) -> Result<(), SimNodeError> {
                     let _ = publisher.send(m);
                     tfs.push(transform(&odom_frame, &base, stamp, a.robot.pose));
                 }
-                let l = &scenario.params.laser;
-                let mount = Pose2::new(l.mount_x_m, l.mount_y_m, l.mount_yaw_deg.to_radians());
-                tfs.push(transform(&base, &prefixed(&robot.frame_prefix, "laser"), stamp, mount));
+                for (k, (_, frame)) in lidar_names.iter().enumerate() {
+                    let (_, mount) = fleet.lidar(k);
+                    tfs.push(transform(&base, &prefixed(&robot.frame_prefix, frame), stamp, mount));
+                }
                 if multi {
                     tfs.push(transform(world_frame, &odom_frame, stamp, Pose2::default()));
                 }
