@@ -775,4 +775,47 @@ mod tests {
         );
         assert!(at(&m, -90.0).is_infinite());
     }
+
+    proptest::proptest! {
+        /// Safety of the merge: every point any live scanner saw is no
+        /// farther in the merged scan than it is (its bin holds it or a
+        /// nearer one, never free or unknown), against a plain reference
+        /// (each point's own bin).
+        #[test]
+        fn no_point_is_lost_or_pushed_back(
+            front in proptest::collection::vec(proptest::prop_oneof![0.0f32..12.0, proptest::strategy::Just(f32::NAN), proptest::strategy::Just(f32::INFINITY), proptest::strategy::Just(f32::NEG_INFINITY)], 91),
+            rear in proptest::collection::vec(proptest::prop_oneof![0.0f32..12.0, proptest::strategy::Just(f32::NAN), proptest::strategy::Just(f32::INFINITY)], 91),
+            fx in -0.5f64..0.5, ry in -0.3f64..0.3, yaw in -3.2f64..3.2,
+        ) {
+            let p = LaserParams::default();
+            let n = 91;
+            let mut m = ScanMerger::new(&[SPEC, SPEC], 720);
+            let mounts = [
+                LaserMount::upright(Pose2::new(fx, 0.0, 0.0)),
+                LaserMount::upright(Pose2::new(-0.2, ry, yaw)),
+            ];
+            let h = header(1.0, n);
+            m.update(0, &LaserScan { header: h, ranges_m: &front, intensities: &[] }, Some(&mounts[0]), 1.0, &p);
+            m.update(1, &LaserScan { header: ScanHeader { stamp_s: 1.01, ..h }, ranges_m: &rear, intensities: &[] }, Some(&mounts[1]), 1.01, &p);
+            proptest::prop_assert!(m.merge(1.01));
+            let step = 2.0 * PI / 720.0;
+            for (ranges, mount) in [(&front, mounts[0]), (&rear, mounts[1])] {
+                for (i, &r) in ranges.iter().enumerate() {
+                    let d = match classify_range(r, h.range_min_m, h.range_max_m, false) {
+                        RangeKind::Valid => r,
+                        RangeKind::TooClose => h.range_min_m,
+                        _ => continue,
+                    };
+                    let a = mount.beam_heading(h.angle_min_rad as f64 + i as f64 * h.angle_increment_rad as f64);
+                    let q = mount.pose.position() + Vec2::new(a.cos(), a.sin()) * d as f64;
+                    let b = (((q.y.atan2(q.x) + PI) / step).round() as usize) % 720;
+                    let merged = m.ranges[b];
+                    proptest::prop_assert!(
+                        merged.is_finite() && merged <= q.norm() as f32 + 1e-4,
+                        "point at {:?} ({} m) in bin {} reads {}", q, q.norm(), b, merged
+                    );
+                }
+            }
+        }
+    }
 }
