@@ -73,6 +73,16 @@ fn disable_text(now_s: f64, tick: &Tick) -> String {
     }
 }
 
+/// Where each scan topic's laser is ([`crate::tf_tree`]) and, with several
+/// scanners, what each contributes.
+#[derive(Debug, Clone, Copy)]
+pub struct Sensors<'a> {
+    /// One line per scan topic: its pose from tf (or YAML), or why it has none.
+    pub laser_poses: &'a [String],
+    /// Several scanners: each one's state (empty with one scan topic).
+    pub scanners: &'a [ScannerState],
+}
+
 /// One DiagnosticArray for the node `name` at `now_s`.
 pub fn diagnostics(
     name: &str,
@@ -81,9 +91,9 @@ pub fn diagnostics(
     now_s: f64,
     tick: &Tick,
     activity: &Activity,
-    laser_poses: &[String],
-    scanners: &[ScannerState],
+    sensors: &Sensors<'_>,
 ) -> DiagnosticArray {
+    let Sensors { laser_poses, scanners } = *sensors;
     let rec = &tick.record;
     let scan_age = now_s - tick.scan_stamp_s;
     // A silent lock is a fault (ERROR); a latch someone pressed is a state (WARN).
@@ -228,7 +238,18 @@ mod tests {
         n.on_cmd_in(Twist::new(0.1, 0.0), now_s);
         let tick = n.tick(now_s);
         let stamp = rosrust::Time::default();
-        let mut a = diagnostics("/n", "front_laser", stamp, now_s, &tick, &Activity::default(), &[], &[]);
+        let mut a = diagnostics(
+            "/n",
+            "front_laser",
+            stamp,
+            now_s,
+            &tick,
+            &Activity::default(),
+            &Sensors {
+                laser_poses: &[],
+                scanners: &[],
+            },
+        );
         a.status.remove(0)
     }
 

@@ -29,7 +29,7 @@
 //! clock (see [`super::pacer`]), so a wall-clock step cannot silence it.
 
 use super::convert::{odom_from_msg, scan_header, time_from_s, time_to_s, twist_from_msg, twist_to_msg};
-use super::diagnostics::{diagnostics, Activity};
+use super::diagnostics::{diagnostics, Activity, Sensors};
 use super::lifecycle::{self, now_s, MasterHealth, MasterWatch};
 use super::markers::{markers, route_markers};
 use super::msg::{
@@ -227,8 +227,10 @@ impl Node {
                 now,
                 &tick,
                 &self.activity,
-                &self.laser_pose_lines,
-                &self.core.scanner_states(now),
+                &Sensors {
+                    laser_poses: &self.laser_pose_lines,
+                    scanners: &self.core.scanner_states(now),
+                },
             ));
             self.last_diag = now;
         }
