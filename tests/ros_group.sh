@@ -104,8 +104,7 @@ source "$PREFIX/setup.bash"
 BIN=$PREFIX/oldbf_ros/bin
 
 # ------------------------------------------------------------------ roscore
-PORT=$(( 11400 + $$ % 500 ))
-export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:$PORT/ ROS_HOME=$LOG/ros_home
+export ROS_HOSTNAME=localhost ROS_HOME=$LOG/ros_home
 unset ROS_NAMESPACE ROS_IP
 mkdir -p "$ROS_HOME"
 # Background processes are registered in a file (tests run in subshells), so
@@ -129,9 +128,39 @@ cleanup() {
   if [ -s "$LOG/catkin_ws" ]; then rm -rf "$(cat "$LOG/catkin_ws")"; fi
 }
 trap cleanup EXIT
-spawn roscore roscore -p "$PORT" > /dev/null
-for _ in $(seq 100); do rostopic list > /dev/null 2>&1 && break; sleep 0.2; done
-rostopic list > /dev/null 2>&1 || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
+# A private port: the first one in 11400-11899 that nothing listens on, from
+# an offset of our pid, so two checkouts (or CI beside a developer) running
+# this group at once never share a master. If another master takes the port
+# between the probe and roscore's start, ours exits and the next port is tried.
+free_port() { # start: prints the first free port from start on, wrapping within 11400-11899
+  $ROSPY -c '
+import socket, sys
+start = int(sys.argv[1])
+for i in range(500):
+    port = 11400 + (start - 11400 + i) % 500
+    with socket.socket() as s:
+        try:
+            s.bind(("", port))
+        except OSError:
+            continue
+    print(port)
+    sys.exit(0)
+sys.exit(1)' "$1"
+}
+PORT=
+for attempt in 1 2 3; do
+  PORT=$(free_port $(( 11400 + ($$ + 97 * attempt) % 500 ))) || { say "no free port in 11400-11899"; exit 1; }
+  export ROS_MASTER_URI=http://localhost:$PORT/
+  core=$(spawn roscore roscore -p "$PORT")
+  for _ in $(seq 100); do
+    kill -0 "$core" 2>/dev/null || break
+    rostopic list > /dev/null 2>&1 && break
+    sleep 0.2
+  done
+  kill -0 "$core" 2>/dev/null && rostopic list > /dev/null 2>&1 && break
+  stop_pid "$core"; PORT=
+done
+[ -n "$PORT" ] || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
 say "roscore up on port $PORT"
 
 RESULTS=()
@@ -590,17 +619,23 @@ SH
 
 t_rviz() {
   local xvfb l poser x1 x2 s1 s2 rc1=0 rc2=0
-  xvfb=$(spawn xvfb Xvfb :97 -screen 0 1024x768x24 -nolisten tcp)
+  # A free display, chosen by Xvfb (-displayfd 1 prints its number in the
+  # log): another checkout may run this test at the same time.
+  local display=
+  xvfb=$(spawn xvfb Xvfb -displayfd 1 -screen 0 1024x768x24 -nolisten tcp)
+  for _ in $(seq 100); do display=$(grep -m1 -x '[0-9]\+' "$LOG/xvfb.log") && break; sleep 0.1; done
+  [ -n "$display" ] || { cat "$LOG/xvfb.log"; say "  Xvfb did not start"; stop_pid "$xvfb"; return 1; }
+  display=:$display
   # The robot's x, from /tf, subscribed before the simulator starts.
   rm -f "$LOG/base_x"
   poser=$(spawn base_x "$ROSPY" tests/ros/base_x.py "$LOG/base_x")
   sleep 1
-  l=$(DISPLAY=:97 spawn rviz_launch roslaunch --wait oldbf_ros sim.launch rviz:=true)
+  l=$(DISPLAY=$display spawn rviz_launch roslaunch --wait oldbf_ros sim.launch rviz:=true)
   # rviz under software GL takes a while; the sim must be under way too.
   wait_log "$LOG/rviz_launch.log" "filtering (" 30 || true
   # Two screenshots metres apart along the robot's way: the view must follow it.
   shoot() { # name: screenshot; prints the robot's x in odom when it was taken
-    xwd -root -display :97 -silent | xwdtopnm > "$LOG/$1.ppm" 2>/dev/null
+    xwd -root -display "$display" -silent | xwdtopnm > "$LOG/$1.ppm" 2>/dev/null
     pnmtopng "$LOG/$1.ppm" > "$LOG/$1.png" 2>/dev/null
     cat "$LOG/base_x" 2>/dev/null || echo none
   }
