@@ -6,7 +6,9 @@
 # group; the catkin test reuses it), starts a roscore on a private port, runs
 # every test below, and tears everything down even on failure. Prints
 # PASS/FAIL per test and the measured figures; exits non-zero if any test
-# failed.
+# failed. md5 runs first; then sim, bag and multi (minutes of real time at
+# about a tenth of a core) run in a second lane, on a roscore of their own,
+# beside the other tests; catkin and rviz run last, alone ("run" below).
 #
 #   md5        the ROS glue's unit tests (oldbf_ros ros::, can_bridge ros_node::,
 #              built with the feature); every vendored message md5 equals
@@ -149,23 +151,29 @@ for i in range(500):
     sys.exit(0)
 sys.exit(1)' "$1"
 }
-PORT=
-for attempt in 1 2 3; do
-  PORT=$(free_port $(( 11400 + ($$ + 97 * attempt) % 500 ))) || { say "no free port in 11400-11899"; exit 1; }
-  export ROS_MASTER_URI=http://localhost:$PORT/
-  core=$(spawn roscore roscore -p "$PORT")
-  for _ in $(seq 100); do
-    kill -0 "$core" 2>/dev/null || break
-    rostopic list > /dev/null 2>&1 && break
-    sleep 0.2
+start_master() { # name home: roscore (log $LOG/name.log, ROS_HOME=home) on a free port; prints the port
+  local name=$1 home=$2 port core attempt
+  mkdir -p "$home"
+  for attempt in 1 2 3; do
+    port=$(free_port $(( 11400 + ($$ + 97 * attempt + 31 * ${#name}) % 500 ))) || return 1
+    core=$(ROS_HOME=$home spawn "$name" roscore -p "$port")
+    for _ in $(seq 100); do
+      kill -0 "$core" 2>/dev/null || break
+      ROS_MASTER_URI=http://localhost:$port/ rostopic list > /dev/null 2>&1 && break
+      sleep 0.2
+    done
+    if kill -0 "$core" 2>/dev/null && ROS_MASTER_URI=http://localhost:$port/ rostopic list > /dev/null 2>&1; then
+      echo "$port"
+      return 0
+    fi
+    stop_pid "$core"
   done
-  kill -0 "$core" 2>/dev/null && rostopic list > /dev/null 2>&1 && break
-  stop_pid "$core"; PORT=
-done
-[ -n "$PORT" ] || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
+  return 1
+}
+PORT=$(start_master roscore "$ROS_HOME") || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
+export ROS_MASTER_URI=http://localhost:$PORT/
 say "roscore up on port $PORT"
 
-RESULTS=()
 figure() { echo "$*" >> "$LOG/figures.txt"; }
 check() { [ "$1" = true ] || { say "  check failed: $2"; return 1; }; }
 wait_log() { # file pattern timeout_s
@@ -176,8 +184,11 @@ json() { $ROSPY -c "import json,sys; d=json.load(sys.stdin); print($1)"; }
 
 # The checks' scans come from frame "laser" (and t_diag_laser): oldbf_node
 # places each scan by tf, so they get the transforms a robot's URDF would give.
-spawn static_tf $ROSPY tests/ros/static_tf.py base_link laser t_diag_laser > /dev/null
-wait_log "$LOG/static_tf.log" "static_tf:" 20 || { cat "$LOG/static_tf.log"; say "static_tf did not start"; exit 1; }
+start_static_tf() { # name: on $ROS_MASTER_URI
+  spawn "$1" $ROSPY tests/ros/static_tf.py base_link laser t_diag_laser > /dev/null
+  wait_log "$LOG/$1.log" "static_tf:" 20 || { cat "$LOG/$1.log"; say "static_tf did not start"; return 1; }
+}
+start_static_tf static_tf || exit 1
 
 # ------------------------------------------------------------------ tests
 # Every test run with the ROS feature (here, and can_bridge's ros_msgs in the
@@ -668,17 +679,77 @@ t_rviz() {
   [ $rc1 = 0 ] && [ $rc2 = 0 ] || { say "  screenshots: blank, not following the robot, or no label: $s1 / $s2"; return 1; }
 }
 
-for t in "${SELECTED[@]}"; do
-  case " ${ALL[*]} " in *" $t "*) ;; *) say "unknown test $t (tests: ${ALL[*]})"; exit 2 ;; esac
+# ------------------------------------------------------------------ run
+# In three phases, each test as it would run alone:
+#   1. md5, alone: its build links target/release's binaries, which the
+#      other tests run.
+#   2. two lanes side by side, each on its own roscore: lane B the
+#      simulator's runs, which take minutes of real time and leave the CPU
+#      all but idle (sim, bag, which replays sim's recording, and multi's
+#      five runs: about 0.1 of a core), lane A every other test, in order.
+#      Tests that set global state (/use_sim_time: simtime, bag) each have
+#      their own master, so nothing of one lane reaches the other.
+#   3. catkin (its cargo build relinks target/release's binaries) and rviz
+#      (rviz's software GL takes a core), alone.
+# Each test's PASS/FAIL line goes to $LOG/results; lane B's output is
+# printed after lane A's.
+LANE_B=(sim bag multi)
+LAST=(catkin rviz)
+: > "$LOG/results"
+in_list() { local x=$1; shift; case " $* " in *" $x "*) return 0 ;; esac; return 1; }
+run_test() { # t: runs t_$t in a subshell; prints and records its PASS/FAIL line
+  local t=$1 t0 rc line
   t0=$(date +%s)
   set +e
   ( set -Eeuo pipefail; "t_$t" )
   rc=$?
   set -e
-  if [ $rc = 0 ]; then RESULTS+=("PASS $t ($(( $(date +%s) - t0 )) s)"); else RESULTS+=("FAIL $t ($(( $(date +%s) - t0 )) s)"); fi
-  say "${RESULTS[-1]}"
+  if [ $rc = 0 ]; then line="PASS $t ($(( $(date +%s) - t0 )) s)"; else line="FAIL $t ($(( $(date +%s) - t0 )) s)"; fi
+  echo "$line" >> "$LOG/results"
+  say "$line"
+}
+first=(); lane_a=(); lane_b=(); last=()
+for t in "${SELECTED[@]}"; do
+  case " ${ALL[*]} " in *" $t "*) ;; *) say "unknown test $t (tests: ${ALL[*]})"; exit 2 ;; esac
+  if [ "$t" = md5 ]; then first+=("$t")
+  elif in_list "$t" "${LANE_B[@]}"; then lane_b+=("$t")
+  elif in_list "$t" "${LAST[@]}"; then last+=("$t")
+  else lane_a+=("$t"); fi
 done
+for t in "${first[@]}"; do run_test "$t"; done
+if [ ${#lane_a[@]} -gt 0 ] && [ ${#lane_b[@]} -gt 0 ]; then
+  home_b=$LOG/ros_home_lane_b
+  if port_b=$(start_master roscore_lane_b "$home_b"); then
+    say "lane B (${lane_b[*]}) on its own roscore, port $port_b, beside lane A; its output follows lane A's"
+    (
+      export ROS_MASTER_URI=http://localhost:$port_b/ ROS_HOME=$home_b
+      if start_static_tf static_tf_lane_b; then
+        for t in "${lane_b[@]}"; do run_test "$t"; done
+      else
+        for t in "${lane_b[@]}"; do echo "FAIL $t (no static_tf on lane B's master)" >> "$LOG/results"; done
+      fi
+    ) > "$LOG/lane_b.log" 2>&1 &
+    lane_b_pid=$!
+    for t in "${lane_a[@]}"; do run_test "$t"; done
+    wait "$lane_b_pid" || true
+    say "lane B's output:"
+    cat "$LOG/lane_b.log"
+  else
+    cat "$LOG/roscore_lane_b.log"
+    say "lane B's roscore did not come up"
+    for t in "${lane_b[@]}"; do echo "FAIL $t (lane B's roscore did not come up)" >> "$LOG/results"; done
+    for t in "${lane_a[@]}"; do run_test "$t"; done
+  fi
+else
+  for t in "${lane_a[@]}" "${lane_b[@]}"; do run_test "$t"; done
+fi
+for t in "${last[@]}"; do run_test "$t"; done
 printf '\n'
+RESULTS=()
+for t in "${SELECTED[@]}"; do
+  r=$(grep -m1 -E "^(PASS|FAIL) $t( |\$)" "$LOG/results" || echo "FAIL $t (no result)")
+  RESULTS+=("$r")
+done
 for r in "${RESULTS[@]}"; do say "$r"; done
 [ -s "$LOG/figures.txt" ] && { say "figures:"; sed 's/^/  /' "$LOG/figures.txt"; }
 ! printf '%s\n' "${RESULTS[@]}" | grep -q '^FAIL'
