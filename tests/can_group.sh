@@ -6,7 +6,8 @@
 #   tests/can_group.sh
 #
 # 1. builds on the host: the vcan test binaries (can_bridge/tests/vcan_*.rs)
-#    and the binaries can_bridge_cli and virtual_drive, release profile;
+#    and, with them, the binaries can_bridge_cli and virtual_drive, release
+#    profile, with the rust group's feature resolution (nothing rebuilt);
 # 2. boots one guest running tests/vm/can_guest.sh: the Rust vcan groups
 #    (watchdog, e-stop, drive killed/silent/axis error, odometry, error
 #    frames / bus-off, ENOBUFS, interface down) and the candump + python
@@ -48,14 +49,18 @@ t_start=$(ms)
 # ------------------------------------------------------------------ 1. build
 args=()
 for t in "${TESTS[@]}"; do args+=(--test "$t"); done
-cargo test --release --locked -p can_bridge --no-run "${args[@]}" --message-format=json \
-  > "$OUT/build.json" 2> "$OUT/build.log" || { tail -30 "$OUT/build.log"; die "building the vcan tests failed"; }
-cargo build --release --locked -p can_bridge --bins 2>> "$OUT/build.log" \
-  || { tail -30 "$OUT/build.log"; die "building the binaries failed"; }
+# --workspace, as the rust group's `cargo test --workspace`: the same feature
+# resolution, so what that group built is reused and only the vcan test crates
+# compile (-p can_bridge alone resolves features differently and rebuilds the
+# crates under it). Building can_bridge's integration tests builds its
+# binaries too, can_bridge_cli and virtual_drive among them.
+cargo test --release --locked --workspace --no-run "${args[@]}" --message-format=json \
+  > "$OUT/build.json" 2> "$OUT/build.log" || { tail -30 "$OUT/build.log"; die "building the vcan tests and binaries failed"; }
 python3 - "$OUT/build.json" "${TESTS[@]}" > "$OUT/bins.txt" <<'PY'
 import json, sys
 want = set(sys.argv[2:])
 found = {}
+bins = set()
 for line in open(sys.argv[1]):
     try:
         m = json.loads(line)
@@ -64,9 +69,15 @@ for line in open(sys.argv[1]):
     if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["name"] in want \
             and "test" in m["target"]["kind"]:
         found[m["target"]["name"]] = m["executable"]
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and "bin" in m["target"]["kind"]:
+        bins.add(m["target"]["name"])
 missing = want - set(found)
 if missing:
     sys.exit(f"no executable for {sorted(missing)} in cargo's output")
+# The binaries the guest runs come from this same build.
+missing = {"can_bridge_cli", "virtual_drive"} - bins
+if missing:
+    sys.exit(f"cargo's output built no binary {sorted(missing)}")
 for name in sys.argv[2:]:
     print(found[name])
 PY

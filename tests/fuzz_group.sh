@@ -9,6 +9,9 @@
 #      seconds, default 15), new inputs to a scratch dir (the committed
 #      corpus is not modified). A crash fails and leaves the input under
 #      fuzz/artifacts/<target>/.
+# Steps 2 and 3 run one target per core at a time (FUZZ_JOBS, default
+# nproc): a libFuzzer run uses one core, so each target keeps a whole core
+# for its smoke seconds, and the group takes half the time on 2 cores.
 #
 # The stable toolchain builds the targets with RUSTC_BOOTSTRAP=1 (cargo-fuzz
 # passes nightly-only -Z flags). No sanitizer (-s none): the code under test
@@ -17,6 +20,7 @@
 #   tests/fuzz_group.sh                 everything
 #   FUZZ_SMOKE_S=0 tests/fuzz_group.sh  replay only
 #   FUZZ_TARGETS="config_parse" ...     some targets
+#   FUZZ_JOBS=1 tests/fuzz_group.sh     one target at a time
 set -Eeuo pipefail
 trap 'echo "fuzz_group: ERROR at line $LINENO: $BASH_COMMAND" >&2' ERR
 
@@ -56,8 +60,11 @@ stats() {
 
 SCRATCH=$(mktemp -d)
 trap 'rm -rf "$SCRATCH"' EXIT
-declare -a ROWS
-for t in "${TARGETS[@]}"; do
+# One target: replay, then smoke; its table row to $SCRATCH/$t.row. Run in a
+# subshell, so `die` ends only this target's run.
+one_target() {
+  local t=$1 corpus n_corpus log done_runs ran execs cov ft
+  local -a inputs regress
   [ -x "$BIN/$t" ] || die "target $t was not built ($BIN/$t)"
   corpus="$FUZZ/corpus/$t"
   [ -d "$corpus" ] && [ -n "$(ls -A "$corpus")" ] || die "no committed corpus for $t ($corpus)"
@@ -97,9 +104,29 @@ for t in "${TARGETS[@]}"; do
     fi
     read -r execs cov ft <<< "$(stats "$log")"
   fi
-  ROWS+=("$(printf '%-20s %8s %8s %12s %8s %8s' "$t" "$n_corpus" "${#regress[@]}" "$execs" "$cov" "$ft")")
+  printf '%-20s %8s %8s %12s %8s %8s\n' "$t" "$n_corpus" "${#regress[@]}" "$execs" "$cov" "$ft" > "$SCRATCH/$t.row"
+}
+
+# The targets run side by side, one per core (FUZZ_JOBS, default nproc):
+# libFuzzer runs one process on one core, so each target still gets its own
+# core for its whole SMOKE_S seconds, as it did one after the other. Each
+# target's output is printed after all have finished, in order; any failure
+# fails the group, naming its target.
+JOBS=${FUZZ_JOBS:-$(nproc)}
+running=0
+for t in "${TARGETS[@]}"; do
+  if [ "$running" -ge "$JOBS" ]; then wait -n || true; running=$((running - 1)); fi
+  ( set +e; ( set -e; one_target "$t" ) > "$SCRATCH/$t.out" 2>&1; echo $? > "$SCRATCH/$t.rc" ) &
+  running=$((running + 1))
 done
+wait
+failed=()
+for t in "${TARGETS[@]}"; do
+  cat "$SCRATCH/$t.out"
+  [ "$(cat "$SCRATCH/$t.rc" 2>/dev/null)" = 0 ] && [ -s "$SCRATCH/$t.row" ] || failed+=("$t")
+done
+[ ${#failed[@]} -eq 0 ] || die "failed: ${failed[*]} (each one's output above)"
 
 printf '\n%-20s %8s %8s %12s %8s %8s\n' target corpus regress smoke_execs cov ft
-printf '%s\n' "${ROWS[@]}"
-echo "fuzz_group: OK in $(($(date +%s) - t0)) s (build $((t_built - t0)) s, smoke ${SMOKE_S} s per target)"
+for t in "${TARGETS[@]}"; do cat "$SCRATCH/$t.row"; done
+echo "fuzz_group: OK in $(($(date +%s) - t0)) s (build $((t_built - t0)) s, smoke ${SMOKE_S} s per target, $JOBS at a time)"

@@ -6,9 +6,13 @@
 # group; the catkin test reuses it), starts a roscore on a private port, runs
 # every test below, and tears everything down even on failure. Prints
 # PASS/FAIL per test and the measured figures; exits non-zero if any test
-# failed.
+# failed. md5 runs first; then sim, bag and multi (minutes of real time at
+# about a tenth of a core) run in a second lane, on a roscore of their own,
+# beside the other tests; catkin and rviz run last, alone ("run" below).
 #
-#   md5        every vendored message md5 equals `rosmsg md5` / `rossrv md5`
+#   md5        the ROS glue's unit tests (oldbf_ros ros::, can_bridge ros_node::,
+#              built with the feature); every vendored message md5 equals
+#              `rosmsg md5` / `rossrv md5`
 #   scan       rostopic pub of a scan: obstacle left -> angular.z < 0; wall
 #              ahead inside d_safe -> linear.x <= 0 (rostopic echo); ~state
 #              (oldbf_ros/BarrierState) decoded by rostopic echo
@@ -111,8 +115,7 @@ source "$PREFIX/setup.bash"
 BIN=$PREFIX/oldbf_ros/bin
 
 # ------------------------------------------------------------------ roscore
-PORT=$(( 11400 + $$ % 500 ))
-export ROS_HOSTNAME=localhost ROS_MASTER_URI=http://localhost:$PORT/ ROS_HOME=$LOG/ros_home
+export ROS_HOSTNAME=localhost ROS_HOME=$LOG/ros_home
 unset ROS_NAMESPACE ROS_IP
 mkdir -p "$ROS_HOME"
 # Background processes are registered in a file (tests run in subshells), so
@@ -136,12 +139,48 @@ cleanup() {
   if [ -s "$LOG/catkin_ws" ]; then rm -rf "$(cat "$LOG/catkin_ws")"; fi
 }
 trap cleanup EXIT
-spawn roscore roscore -p "$PORT" > /dev/null
-for _ in $(seq 100); do rostopic list > /dev/null 2>&1 && break; sleep 0.2; done
-rostopic list > /dev/null 2>&1 || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
+# A private port: the first one in 11400-11899 that nothing listens on, from
+# an offset of our pid, so two checkouts (or CI beside a developer) running
+# this group at once never share a master. If another master takes the port
+# between the probe and roscore's start, ours exits and the next port is tried.
+free_port() { # start: prints the first free port from start on, wrapping within 11400-11899
+  $ROSPY -c '
+import socket, sys
+start = int(sys.argv[1])
+for i in range(500):
+    port = 11400 + (start - 11400 + i) % 500
+    with socket.socket() as s:
+        try:
+            s.bind(("", port))
+        except OSError:
+            continue
+    print(port)
+    sys.exit(0)
+sys.exit(1)' "$1"
+}
+start_master() { # name home: roscore (log $LOG/name.log, ROS_HOME=home) on a free port; prints the port
+  local name=$1 home=$2 port core attempt
+  mkdir -p "$home"
+  for attempt in 1 2 3; do
+    port=$(free_port $(( 11400 + ($$ + 97 * attempt + 31 * ${#name}) % 500 ))) || return 1
+    core=$(ROS_HOME=$home spawn "$name" roscore -p "$port")
+    for _ in $(seq 100); do
+      kill -0 "$core" 2>/dev/null || break
+      ROS_MASTER_URI=http://localhost:$port/ rostopic list > /dev/null 2>&1 && break
+      sleep 0.2
+    done
+    if kill -0 "$core" 2>/dev/null && ROS_MASTER_URI=http://localhost:$port/ rostopic list > /dev/null 2>&1; then
+      echo "$port"
+      return 0
+    fi
+    stop_pid "$core"
+  done
+  return 1
+}
+PORT=$(start_master roscore "$ROS_HOME") || { cat "$LOG/roscore.log"; say "roscore did not come up"; exit 1; }
+export ROS_MASTER_URI=http://localhost:$PORT/
 say "roscore up on port $PORT"
 
-RESULTS=()
 figure() { echo "$*" >> "$LOG/figures.txt"; }
 check() { [ "$1" = true ] || { say "  check failed: $2"; return 1; }; }
 wait_log() { # file pattern timeout_s
@@ -152,16 +191,33 @@ json() { $ROSPY -c "import json,sys; d=json.load(sys.stdin); print($1)"; }
 
 # The checks' scans come from frame "laser" (and t_diag_laser): oldbf_node
 # places each scan by tf, so they get the transforms a robot's URDF would give.
-spawn static_tf $ROSPY tests/ros/static_tf.py base_link laser t_diag_laser > /dev/null
-wait_log "$LOG/static_tf.log" "static_tf:" 20 || { cat "$LOG/static_tf.log"; say "static_tf did not start"; exit 1; }
+start_static_tf() { # name: on $ROS_MASTER_URI
+  spawn "$1" $ROSPY tests/ros/static_tf.py base_link laser t_diag_laser > /dev/null
+  wait_log "$LOG/$1.log" "static_tf:" 20 || { cat "$LOG/$1.log"; say "static_tf did not start"; return 1; }
+}
+start_static_tf static_tf || exit 1
 
 # ------------------------------------------------------------------ tests
+# Every test run with the ROS feature (here, and can_bridge's ros_msgs in the
+# e2e group) is built by this one command line: the same packages, features
+# and profile each time, so cargo resolves the dependencies once, builds once,
+# and e2e's run compiles nothing. (Each different -p or --features set is a
+# different feature resolution, and rebuilds the workspace.)
+ROS_TESTS=(cargo test --release --locked -p oldbf_ros -p can_bridge --features oldbf_ros/ros --features can_bridge/ros)
+
 t_md5() {
-  # The ROS glue's own unit tests (message conversion, markers) need the feature.
-  cargo test --release --locked -p oldbf_ros --features oldbf_ros/ros --lib ros:: > "$LOG/ros_unit.log" 2>&1 \
+  # The ROS glue's own unit tests (message conversion, markers; the CAN
+  # bridge node's odometry, parameters and SDO timing) need the feature.
+  "${ROS_TESTS[@]}" --no-run --lib --test ros_msgs > "$LOG/ros_tests_build.log" 2>&1 \
+    || { tail -30 "$LOG/ros_tests_build.log"; return 1; }
+  "${ROS_TESTS[@]}" --lib -- ros:: ros_node:: > "$LOG/ros_unit.log" 2>&1 \
     || { tail -30 "$LOG/ros_unit.log"; return 1; }
-  figure "ros glue unit tests: $(grep -o '[0-9]* passed' "$LOG/ros_unit.log" | head -1)"
-  cargo test --release --locked -p oldbf_ros --features oldbf_ros/ros --test ros_msgs -- --nocapture > "$LOG/md5.log" 2>&1 \
+  figure "ros glue unit tests: $(grep -o '[0-9]* passed' "$LOG/ros_unit.log" | awk '{n += $1} END {print n+0}') passed (oldbf_ros ros::, can_bridge ros_node::)"
+  # A filter that matched nothing would pass: each crate's harness must have run some.
+  check "$([ "$(grep -cE '^test result: ok\. [1-9][0-9]* passed' "$LOG/ros_unit.log")" = 2 ] && echo true)" \
+    "the ROS glue unit tests of oldbf_ros and can_bridge did not both run: $(grep '^test result' "$LOG/ros_unit.log" | tr '\n' ' ')" || return 1
+  # oldbf_ros's vendored types (can_bridge's own are checked by the e2e group).
+  "${ROS_TESTS[@]}" --test ros_msgs -- --nocapture --exact vendored_messages_match_ros > "$LOG/md5.log" 2>&1 \
     || { tail -30 "$LOG/md5.log"; return 1; }
   local n
   n=$(grep -c " ours " "$LOG/md5.log")
@@ -666,17 +722,23 @@ SH
 
 t_rviz() {
   local xvfb l poser x1 x2 s1 s2 rc1=0 rc2=0
-  xvfb=$(spawn xvfb Xvfb :97 -screen 0 1024x768x24 -nolisten tcp)
+  # A free display, chosen by Xvfb (-displayfd 1 prints its number in the
+  # log): another checkout may run this test at the same time.
+  local display=
+  xvfb=$(spawn xvfb Xvfb -displayfd 1 -screen 0 1024x768x24 -nolisten tcp)
+  for _ in $(seq 100); do display=$(grep -m1 -x '[0-9]\+' "$LOG/xvfb.log") && break; sleep 0.1; done
+  [ -n "$display" ] || { cat "$LOG/xvfb.log"; say "  Xvfb did not start"; stop_pid "$xvfb"; return 1; }
+  display=:$display
   # The robot's x, from /tf, subscribed before the simulator starts.
   rm -f "$LOG/base_x"
   poser=$(spawn base_x "$ROSPY" tests/ros/base_x.py "$LOG/base_x")
   sleep 1
-  l=$(DISPLAY=:97 spawn rviz_launch roslaunch --wait oldbf_ros sim.launch rviz:=true)
+  l=$(DISPLAY=$display spawn rviz_launch roslaunch --wait oldbf_ros sim.launch rviz:=true)
   # rviz under software GL takes a while; the sim must be under way too.
   wait_log "$LOG/rviz_launch.log" "filtering (" 30 || true
   # Two screenshots metres apart along the robot's way: the view must follow it.
   shoot() { # name: screenshot; prints the robot's x in odom when it was taken
-    xwd -root -display :97 -silent | xwdtopnm > "$LOG/$1.ppm" 2>/dev/null
+    xwd -root -display "$display" -silent | xwdtopnm > "$LOG/$1.ppm" 2>/dev/null
     pnmtopng "$LOG/$1.ppm" > "$LOG/$1.png" 2>/dev/null
     cat "$LOG/base_x" 2>/dev/null || echo none
   }
@@ -693,17 +755,77 @@ t_rviz() {
   [ $rc1 = 0 ] && [ $rc2 = 0 ] || { say "  screenshots: blank, not following the robot, or no label: $s1 / $s2"; return 1; }
 }
 
-for t in "${SELECTED[@]}"; do
-  case " ${ALL[*]} " in *" $t "*) ;; *) say "unknown test $t (tests: ${ALL[*]})"; exit 2 ;; esac
+# ------------------------------------------------------------------ run
+# In three phases, each test as it would run alone:
+#   1. md5, alone: its build links target/release's binaries, which the
+#      other tests run.
+#   2. two lanes side by side, each on its own roscore: lane B the
+#      simulator's runs, which take minutes of real time and leave the CPU
+#      all but idle (sim, bag, which replays sim's recording, and multi's
+#      five runs: about 0.1 of a core), lane A every other test, in order.
+#      Tests that set global state (/use_sim_time: simtime, bag) each have
+#      their own master, so nothing of one lane reaches the other.
+#   3. catkin (its cargo build relinks target/release's binaries) and rviz
+#      (rviz's software GL takes a core), alone.
+# Each test's PASS/FAIL line goes to $LOG/results; lane B's output is
+# printed after lane A's.
+LANE_B=(sim bag multi)
+LAST=(catkin rviz)
+: > "$LOG/results"
+in_list() { local x=$1; shift; case " $* " in *" $x "*) return 0 ;; esac; return 1; }
+run_test() { # t: runs t_$t in a subshell; prints and records its PASS/FAIL line
+  local t=$1 t0 rc line
   t0=$(date +%s)
   set +e
   ( set -Eeuo pipefail; "t_$t" )
   rc=$?
   set -e
-  if [ $rc = 0 ]; then RESULTS+=("PASS $t ($(( $(date +%s) - t0 )) s)"); else RESULTS+=("FAIL $t ($(( $(date +%s) - t0 )) s)"); fi
-  say "${RESULTS[-1]}"
+  if [ $rc = 0 ]; then line="PASS $t ($(( $(date +%s) - t0 )) s)"; else line="FAIL $t ($(( $(date +%s) - t0 )) s)"; fi
+  echo "$line" >> "$LOG/results"
+  say "$line"
+}
+first=(); lane_a=(); lane_b=(); last=()
+for t in "${SELECTED[@]}"; do
+  case " ${ALL[*]} " in *" $t "*) ;; *) say "unknown test $t (tests: ${ALL[*]})"; exit 2 ;; esac
+  if [ "$t" = md5 ]; then first+=("$t")
+  elif in_list "$t" "${LANE_B[@]}"; then lane_b+=("$t")
+  elif in_list "$t" "${LAST[@]}"; then last+=("$t")
+  else lane_a+=("$t"); fi
 done
+for t in "${first[@]}"; do run_test "$t"; done
+if [ ${#lane_a[@]} -gt 0 ] && [ ${#lane_b[@]} -gt 0 ]; then
+  home_b=$LOG/ros_home_lane_b
+  if port_b=$(start_master roscore_lane_b "$home_b"); then
+    say "lane B (${lane_b[*]}) on its own roscore, port $port_b, beside lane A; its output follows lane A's"
+    (
+      export ROS_MASTER_URI=http://localhost:$port_b/ ROS_HOME=$home_b
+      if start_static_tf static_tf_lane_b; then
+        for t in "${lane_b[@]}"; do run_test "$t"; done
+      else
+        for t in "${lane_b[@]}"; do echo "FAIL $t (no static_tf on lane B's master)" >> "$LOG/results"; done
+      fi
+    ) > "$LOG/lane_b.log" 2>&1 &
+    lane_b_pid=$!
+    for t in "${lane_a[@]}"; do run_test "$t"; done
+    wait "$lane_b_pid" || true
+    say "lane B's output:"
+    cat "$LOG/lane_b.log"
+  else
+    cat "$LOG/roscore_lane_b.log"
+    say "lane B's roscore did not come up"
+    for t in "${lane_b[@]}"; do echo "FAIL $t (lane B's roscore did not come up)" >> "$LOG/results"; done
+    for t in "${lane_a[@]}"; do run_test "$t"; done
+  fi
+else
+  for t in "${lane_a[@]}" "${lane_b[@]}"; do run_test "$t"; done
+fi
+for t in "${last[@]}"; do run_test "$t"; done
 printf '\n'
+RESULTS=()
+for t in "${SELECTED[@]}"; do
+  r=$(grep -m1 -E "^(PASS|FAIL) $t( |\$)" "$LOG/results" || echo "FAIL $t (no result)")
+  RESULTS+=("$r")
+done
 for r in "${RESULTS[@]}"; do say "$r"; done
 [ -s "$LOG/figures.txt" ] && { say "figures:"; sed 's/^/  /' "$LOG/figures.txt"; }
 ! printf '%s\n' "${RESULTS[@]}" | grep -q '^FAIL'

@@ -31,9 +31,13 @@
 #         simulated time; no panic, no NaN, resident memory flat
 #         (tests/soak_group.sh; the full hour is `oldbf soak`, see docs/SAFETY.md)
 #   fuzz  every fuzz target's committed corpus replayed, then a time-boxed
-#         coverage-guided run of each (tests/fuzz_group.sh; installs cargo-fuzz)
+#         coverage-guided run of each, one per core at a time
+#         (tests/fuzz_group.sh; installs cargo-fuzz)
 #   faults  one guest boot: faults injected into the running ROS + CAN system,
 #         each timed from fault to zero setpoints on vcan0 (tests/faults_group.sh)
+#
+# With ros in the run, lint and soak run beside it, in the background at idle
+# priority (see "Groups beside ros" below; OLDBF_BESIDE_ROS=0: in turn).
 #
 # Needs: a Rust toolchain >= 1.85 (rustup) and, for `vcan`, root for apt.
 set -Eeuo pipefail
@@ -136,8 +140,74 @@ declare -A TOOK
 FAILED=()
 GROUP_LOGS=$ROOT/target/test-logs
 mkdir -p "$GROUP_LOGS"
+selected() { case " ${GROUPS_TO_RUN[*]} " in *" $1 "*) return 0 ;; esac; return 1; }
+
+# Groups beside ros. lint and soak are pure computation: clippy's verdict and
+# the soak's figures (which depend only on template, seed and hours) do not
+# depend on how fast they run. The ros group spends most of its time waiting
+# on real-time ROS runs, with the CPU nearly idle (0.1-0.4 of a core). So
+# when ros runs, lint and soak (those of them selected) run one after the
+# other in the background while it does, under SCHED_IDLE: they get only CPU
+# time that nothing else wants, and a ROS process that wakes up preempts them
+# at once, so the ros group runs as if alone. lint uses its own target dir
+# (target/lint: clippy shares no build with the tests), so its cargo lock
+# never holds up the ros group's builds; the soak runs a copy of its binary
+# made before ros starts. Each keeps its own log, shown after ros's, and
+# passes or fails on its own, as when run alone. If they have not finished
+# when ros does, the run waits for them before the next group.
+# OLDBF_BESIDE_ROS=0 runs them in their turn instead.
+BESIDE_ROS=()
+if selected ros && [ "${OLDBF_BESIDE_ROS:-1}" = 1 ]; then
+  for g in lint soak; do selected "$g" && BESIDE_ROS+=("$g"); done
+fi
+BG_PID=
+start_beside() { # the groups of BESIDE_ROS, one after the other, in the background at idle priority
+  local g
+  say "groups ${BESIDE_ROS[*]}: started beside ros, at idle priority (SCHED_IDLE); their output follows ros's"
+  for g in "${BESIDE_ROS[@]}"; do : > "$GROUP_LOGS/$g.log"; rm -f "$GROUP_LOGS/$g.status"; done
+  if selected soak; then
+    # The soak's binary is built now and copied: the ros group's builds link
+    # target/release/oldbf to its ROS build (carmen-play needs it), which a
+    # cargo build in the soak group would undo under the ros group's feet.
+    # (If this fails, the soak group builds, and fails, on its own.)
+    if ( need_cargo && cargo build --release --locked --bin oldbf && mkdir -p "$ROOT/target/soak" \
+         && cp "${CARGO_TARGET_DIR:-$ROOT/target}/release/oldbf" "$ROOT/target/soak/oldbf" ) > "$GROUP_LOGS/soak.log" 2>&1; then
+      export OLDBF_SOAK_BIN=$ROOT/target/soak/oldbf
+    fi
+  fi
+  (
+    set +e
+    chrt --idle -p 0 "$BASHPID" > /dev/null 2>&1 || renice -n 19 -p "$BASHPID" > /dev/null
+    for g in "${BESIDE_ROS[@]}"; do
+      t0=$(now)
+      if [ "$g" = lint ]; then
+        ( set -e; export CARGO_TARGET_DIR=$ROOT/target/lint; "group_$g" ) >> "$GROUP_LOGS/$g.log" 2>&1
+      else
+        ( set -e; "group_$g" ) >> "$GROUP_LOGS/$g.log" 2>&1
+      fi
+      echo "$? $(( $(now) - t0 ))" > "$GROUP_LOGS/$g.status"
+    done
+  ) &
+  BG_PID=$!
+}
+finish_beside() { # waits for the groups beside ros; shows their output, records their status
+  local g rc took t0
+  t0=$(now)
+  wait "$BG_PID" || true
+  [ "$(( $(now) - t0 ))" -lt 2 ] || say "waited $(( $(now) - t0 )) s after ros for: ${BESIDE_ROS[*]}"
+  for g in "${BESIDE_ROS[@]}"; do
+    say "group $g (ran beside ros)"
+    cat "$GROUP_LOGS/$g.log"
+    read -r rc took < "$GROUP_LOGS/$g.status" || { rc=1; took=0; }
+    if [ "$rc" -eq 0 ]; then status=ok; else status="FAILED (exit $rc)"; FAILED+=("$g"); fi
+    TOOK[$g]="$status $took s (beside ros)"
+  done
+}
+
 for g in "${GROUPS_TO_RUN[@]}"; do
   case " ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]} " in *" $g "*) ;; *) die "unknown group '$g' (groups: ${ALL_GROUPS[*]} ${EXTRA_GROUPS[*]})" ;; esac
+  if [ ${#BESIDE_ROS[@]} -gt 0 ] && [[ " ${BESIDE_ROS[*]} " == *" $g "* ]]; then say "group $g: runs beside ros (below)"; continue; fi
+  [ "$g" != ros ] || [ ${#BESIDE_ROS[@]} -eq 0 ] || start_beside
   say "group $g"
   t0=$(now)
   # Not `if ( … )`: errexit is ignored in a condition, even inside the function.
@@ -149,6 +219,7 @@ for g in "${GROUPS_TO_RUN[@]}"; do
   set -e
   if [ "$rc" -eq 0 ]; then status=ok; else status="FAILED (exit $rc)"; FAILED+=("$g"); fi
   TOOK[$g]="$status $(( $(now) - t0 )) s"
+  [ "$g" != ros ] || [ ${#BESIDE_ROS[@]} -eq 0 ] || finish_beside
 done
 
 say "summary"

@@ -30,9 +30,16 @@ export CARGO_TERM_COLOR=${CARGO_TERM_COLOR:-never}
 die() { echo "soak_group: $*" >&2; exit 1; }
 
 command -v cargo >/dev/null || die "cargo not found (install Rust >= 1.85 with rustup)"
-cargo build --release --locked --bin oldbf
-TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
-OLDBF="$TARGET/release/oldbf"
+if [ -n "${OLDBF_SOAK_BIN:-}" ]; then
+  # A copy of the release `oldbf` made by tests/run_all.sh when the soak runs
+  # beside the ros group: a cargo build here would link target/release/oldbf
+  # back to the build without the ros feature while ros uses it.
+  OLDBF=$OLDBF_SOAK_BIN
+else
+  cargo build --release --locked --bin oldbf
+  TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
+  OLDBF="$TARGET/release/oldbf"
+fi
 [ -x "$OLDBF" ] || die "$OLDBF was not built"
 export RUST_LOG=${RUST_LOG:-warn}
 
