@@ -396,6 +396,15 @@ mod tests {
         m.merge(now_s)
     }
 
+    /// A scan of `ranges` with `header`.
+    fn ls<'a>(header: ScanHeader, ranges: &'a [f32]) -> LaserScan<'a> {
+        LaserScan {
+            header,
+            ranges_m: ranges,
+            intensities: &[],
+        }
+    }
+
     const SPEC: ScannerSpec = ScannerSpec {
         timeout_s: 0.3,
         zero_is_no_return: false,
@@ -441,36 +450,14 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         // Front: a wall 1.7 m ahead of the scanner (2.0 m from the base's origin).
         let f = scan_270(n, f32::INFINITY, &[(135, 1.7)]);
-        assert!(feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(1.0, n),
-                ranges_m: &f,
-                intensities: &[]
-            },
-            Some(&front()),
-            1.0,
-            &p
-        ));
+        assert!(feed(&mut m, 0, &ls(header(1.0, n), &f), Some(&front()), 1.0, &p));
         // Only the front so far: dead ahead 2.0 m, behind unknown.
         assert!((at(&m, 0.0) - 2.0).abs() < 1e-6);
         assert!(at(&m, 180.0).is_nan());
         assert!(at(&m, 90.0).is_infinite());
         // Rear: a box 0.5 m behind the rear scanner (0.8 m behind the base's origin).
         let r = scan_270(n, f32::INFINITY, &[(135, 0.5)]);
-        assert!(feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.04, n),
-                ranges_m: &r,
-                intensities: &[]
-            },
-            Some(&rear()),
-            1.04,
-            &p
-        ));
+        assert!(feed(&mut m, 1, &ls(header(1.04, n), &r), Some(&rear()), 1.04, &p));
         assert!((at(&m, 180.0) - 0.8).abs() < 1e-6, "{}", at(&m, 180.0));
         assert!((at(&m, 0.0) - 2.0).abs() < 1e-6);
         let s = m.scan();
@@ -489,30 +476,8 @@ mod tests {
         let o = LaserMount::upright(Pose2::default());
         let a = scan_270(n, f32::INFINITY, &[(135, 3.0), (225, 2.0)]);
         let b = scan_270(n, f32::INFINITY, &[(135, 1.0)]);
-        feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(1.0, n),
-                ranges_m: &a,
-                intensities: &[],
-            },
-            Some(&o),
-            1.0,
-            &p,
-        );
-        feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.1, n),
-                ranges_m: &b,
-                intensities: &[],
-            },
-            Some(&o),
-            1.1,
-            &p,
-        );
+        feed(&mut m, 0, &ls(header(1.0, n), &a), Some(&o), 1.0, &p);
+        feed(&mut m, 1, &ls(header(1.1, n), &b), Some(&o), 1.1, &p);
         assert_eq!(at(&m, 0.0), 1.0);
         assert_eq!(at(&m, 90.0), 2.0); // a's point, b free there
     }
@@ -524,75 +489,20 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         let f = scan_270(n, f32::INFINITY, &[]);
         let r = scan_270(n, f32::INFINITY, &[]);
-        feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(1.0, n),
-                ranges_m: &f,
-                intensities: &[],
-            },
-            Some(&front()),
-            1.0,
-            &p,
-        );
-        feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.05, n),
-                ranges_m: &r,
-                intensities: &[],
-            },
-            Some(&rear()),
-            1.05,
-            &p,
-        );
+        feed(&mut m, 0, &ls(header(1.0, n), &f), Some(&front()), 1.0, &p);
+        feed(&mut m, 1, &ls(header(1.05, n), &r), Some(&rear()), 1.05, &p);
         assert!(at(&m, 180.0).is_infinite());
         // The rear falls silent: 0.35 s on, past its 0.3 s timeout.
-        feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(1.4, n),
-                ranges_m: &f,
-                intensities: &[],
-            },
-            Some(&front()),
-            1.4,
-            &p,
-        );
+        feed(&mut m, 0, &ls(header(1.4, n), &f), Some(&front()), 1.4, &p);
         assert!(at(&m, 180.0).is_nan());
         assert!(matches!(m.state(1, 1.4), ScannerState::Silent { age_s } if (age_s - 0.35).abs() < 1e-9));
         assert_eq!(m.state(0, 1.4), ScannerState::Live);
         // The rear is back but without a pose: still unknown.
-        feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.45, n),
-                ranges_m: &r,
-                intensities: &[],
-            },
-            None,
-            1.45,
-            &p,
-        );
+        feed(&mut m, 1, &ls(header(1.45, n), &r), None, 1.45, &p);
         assert!(at(&m, 180.0).is_nan());
         assert_eq!(m.state(1, 1.45), ScannerState::NoPose);
         // A garbage rear scan (no beams): rejected, still unknown, and no merge made.
-        let made = feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.5, n),
-                ranges_m: &[],
-                intensities: &[],
-            },
-            Some(&rear()),
-            1.5,
-            &p,
-        );
+        let made = feed(&mut m, 1, &ls(header(1.5, n), &[]), Some(&rear()), 1.5, &p);
         assert!(!made);
         assert!(matches!(m.state(1, 1.5), ScannerState::Rejected(ScanRejection::Empty)));
     }
@@ -604,45 +514,12 @@ mod tests {
         let mut m = ScanMerger::new(&[SPEC, SPEC], 360);
         let f = scan_270(n, f32::INFINITY, &[]);
         let r = scan_270(n, f32::INFINITY, &[(135, 0.5)]);
-        assert!(feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(2.0, n),
-                ranges_m: &f,
-                intensities: &[]
-            },
-            Some(&front()),
-            2.0,
-            &p
-        ));
+        assert!(feed(&mut m, 0, &ls(header(2.0, n), &f), Some(&front()), 2.0, &p));
         // The rear's scan is older than the last merge: kept, no merge of its own…
-        assert!(!feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: header(1.98, n),
-                ranges_m: &r,
-                intensities: &[]
-            },
-            Some(&rear()),
-            2.0,
-            &p
-        ));
+        assert!(!feed(&mut m, 1, &ls(header(1.98, n), &r), Some(&rear()), 2.0, &p));
         assert!(at(&m, 180.0).is_nan());
         // …and in the next one.
-        assert!(feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: header(2.04, n),
-                ranges_m: &f,
-                intensities: &[]
-            },
-            Some(&front()),
-            2.04,
-            &p
-        ));
+        assert!(feed(&mut m, 0, &ls(header(2.04, n), &f), Some(&front()), 2.04, &p));
         assert!((at(&m, 180.0) - 0.8).abs() < 1e-6);
     }
 
@@ -657,18 +534,7 @@ mod tests {
         let r = scan_270(n, f32::INFINITY, &set);
         let o = LaserMount::upright(Pose2::default());
         for (i, t) in [1.0, 1.1, 1.2, 1.3].iter().enumerate() {
-            feed(
-                &mut m,
-                0,
-                &LaserScan {
-                    header: header(*t, n),
-                    ranges_m: &r,
-                    intensities: &[],
-                },
-                Some(&o),
-                *t,
-                &p,
-            );
+            feed(&mut m, 0, &ls(header(*t, n), &r), Some(&o), *t, &p);
             let free = m.ranges.iter().filter(|v| v.is_infinite()).count();
             if i < 3 {
                 assert!(free > 0, "not blind yet at {t}");
@@ -701,18 +567,7 @@ mod tests {
             })
             .collect();
         let mount = LaserMount::upright(Pose2::new(-0.3, 0.0, 0.0));
-        feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: h,
-                ranges_m: &r,
-                intensities: &[],
-            },
-            Some(&mount),
-            1.0,
-            &p,
-        );
+        feed(&mut m, 0, &ls(h, &r), Some(&mount), 1.0, &p);
         for tenth_deg in -400..=400 {
             let deg = f64::from(tenth_deg) / 10.0;
             let v = at(&m, deg);
@@ -743,36 +598,14 @@ mod tests {
         let mut h = header(1.0, n);
         // Scanner 0: −inf straight ahead (at its range_min 0.05 m); 12 m (beyond its 10 m) to the left.
         let a = scan_270(n, f32::NAN, &[(135, f32::NEG_INFINITY), (225, 12.0)]);
-        feed(
-            &mut m,
-            0,
-            &LaserScan {
-                header: h,
-                ranges_m: &a,
-                intensities: &[],
-            },
-            Some(&o),
-            1.0,
-            &p,
-        );
+        feed(&mut m, 0, &ls(h, &a), Some(&o), 1.0, &p);
         assert!((at(&m, 0.0) - 0.05).abs() < 1e-6);
         assert!(at(&m, 90.0).is_infinite());
         assert!(at(&m, -90.0).is_nan());
         // Scanner 1 writes 0.0 for no return: free, not unknown.
         h.stamp_s = 1.1;
         let b = scan_270(n, f32::NAN, &[(45, 0.0)]);
-        feed(
-            &mut m,
-            1,
-            &LaserScan {
-                header: h,
-                ranges_m: &b,
-                intensities: &[],
-            },
-            Some(&o),
-            1.1,
-            &p,
-        );
+        feed(&mut m, 1, &ls(h, &b), Some(&o), 1.1, &p);
         assert!(at(&m, -90.0).is_infinite());
     }
 
@@ -795,8 +628,8 @@ mod tests {
                 LaserMount::upright(Pose2::new(-0.2, ry, yaw)),
             ];
             let h = header(1.0, n);
-            m.update(0, &LaserScan { header: h, ranges_m: &front, intensities: &[] }, Some(&mounts[0]), 1.0, &p);
-            m.update(1, &LaserScan { header: ScanHeader { stamp_s: 1.01, ..h }, ranges_m: &rear, intensities: &[] }, Some(&mounts[1]), 1.01, &p);
+            m.update(0, &ls(h, &front), Some(&mounts[0]), 1.0, &p);
+            m.update(1, &ls(ScanHeader { stamp_s: 1.01, ..h }, &rear), Some(&mounts[1]), 1.01, &p);
             proptest::prop_assert!(m.merge(1.01));
             let step = 2.0 * PI / 720.0;
             for (ranges, mount) in [(&front, mounts[0]), (&rear, mounts[1])] {
