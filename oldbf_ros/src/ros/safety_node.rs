@@ -172,6 +172,8 @@ struct Node {
     /// Where each scan topic's laser was last placed, or why it could not be
     /// (`node/laser_pose`): diagnostics values, logged when they change.
     laser_pose_lines: Vec<String>,
+    /// Per scan topic: the frame and mount its last scan was placed with.
+    placed_last: Vec<Option<(String, LaserMount)>>,
 }
 
 impl Node {
@@ -292,6 +294,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         route_drawn_s: f64::NAN,
         stopping: false,
         laser_pose_lines: Vec::new(),
+        placed_last: Vec::new(),
     }));
     // tf, on the global topics whatever the node's namespace (as tf2 does).
     let tf = Arc::new(Mutex::new(TfTree::default()));
@@ -330,6 +333,7 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
     let several = !settings.scans.is_empty();
     lock(&node).laser_pose_lines = vec![String::new(); topics.len()];
     lock(&node).scan_heard = vec![None; topics.len()];
+    lock(&node).placed_last = vec![None; topics.len()];
     let subscribe_scan = |k: usize| {
         let n = node.clone();
         let tf = tf.clone();
@@ -352,16 +356,31 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
                     s.tf_tolerance_s,
                 )
             };
-            let line = match &placed {
-                Ok(Some(mount)) => format!("\"{}\" from tf: {}", m.header.frame_id, describe_mount(mount)),
-                Ok(None) => format!(
-                    "\"{}\" from the YAML mount: {}",
-                    m.header.frame_id,
-                    describe_mount(&LaserMount::from_params(&node.core.params().laser))
-                ),
-                Err((_, line)) => format!("unknown: {line}"),
+            // The line is made only when the placement changes: the scan's path does not allocate.
+            let resolved = match &placed {
+                Ok(Some(mount)) => Some(*mount),
+                Ok(None) => Some(LaserMount::from_params(&node.core.params().laser)),
+                Err(_) => None,
             };
-            if line != node.laser_pose_lines[k] {
+            let same = match (&node.placed_last[k], resolved) {
+                (Some((frame, was)), Some(now)) => *was == now && *frame == m.header.frame_id,
+                _ => false,
+            };
+            let line = if same {
+                None
+            } else {
+                node.placed_last[k] = resolved.map(|r| (m.header.frame_id.clone(), r));
+                Some(match &placed {
+                    Ok(Some(mount)) => format!("\"{}\" from tf: {}", m.header.frame_id, describe_mount(mount)),
+                    Ok(None) => format!(
+                        "\"{}\" from the YAML mount: {}",
+                        m.header.frame_id,
+                        describe_mount(&LaserMount::from_params(&node.core.params().laser))
+                    ),
+                    Err((_, line)) => format!("unknown: {line}"),
+                })
+            };
+            if let Some(line) = line.filter(|l| *l != node.laser_pose_lines[k]) {
                 match (&placed, several) {
                     (Ok(_), _) => log::info!("laser pose {line}"),
                     (Err(_), false) => log::warn!("laser pose {line}: the scan's view is unknown, the robot stops"),
