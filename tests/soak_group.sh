@@ -9,7 +9,7 @@
 # 1. config/batch/soak_static.yaml: static obstacles, ideal LiDAR, the case
 #    OLDBF's guarantee covers in full. Every gate strict: 0 panics, 0
 #    non-finite commands, 0 collisions, 0 CBF violations (logged and exact
-#    geometry), resident memory growth from warm to the end <= 4 MiB.
+#    geometry), live heap growth from warm to the end <= 256 KiB.
 # 2. config/batch/soak.yaml: blind moving obstacles at 0.1-0.3 of the
 #    robot's speed, noisy LiDAR with dropouts. 0 panics, 0 non-finite
 #    commands, 0 closing contacts (the robot driving into anything) and flat
@@ -45,11 +45,11 @@ export RUST_LOG=${RUST_LOG:-warn}
 
 echo "--- soak 1/2: static obstacles, ideal LiDAR, every gate strict"
 "$OLDBF" soak --sim-hours 10 --seed 1 --template config/batch/soak_static.yaml \
-  --max-rss-growth-mib 4 --max-collisions 0 --max-cbf-violations 0 \
+  --max-heap-growth-kib 256 --max-collisions 0 --max-cbf-violations 0 \
   || die "the static soak failed a gate (see above)"
 
 echo "--- soak 2/2: moving obstacles, noisy LiDAR"
 "$OLDBF" soak --sim-hours 10 --seed 1 --template config/batch/soak.yaml \
-  --max-rss-growth-mib 4 --max-collisions 2 --max-cbf-violations 2600 \
+  --max-heap-growth-kib 256 --max-collisions 2 --max-cbf-violations 2600 \
   || die "the moving-obstacle soak failed a gate (see above)"
 echo "soak_group: both soaks passed"
