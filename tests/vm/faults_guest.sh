@@ -169,11 +169,13 @@ say "bus-off done"
 # -- CiA 402: the ODrive drive and bridge make way for a bridge with
 # protocol cia402 (/can_bridge_co) and then a CANopen drive (two virtual
 # CiA 402 nodes, config/can_bridge.yaml's cia402 section), with its faults
-# scheduled from its start: a drive fault (0x603F 0x2310) on the left node
-# at 8 s, heartbeat silence at 24 s for 2 s, a reboot of both nodes at 40 s
-# with the SDO server silent for 2.5 s (the restart's SDO times out). The
-# resets and the bus-off follow what the bridge reports (under emulation
-# process start-up times vary by seconds). Onsets are taken from the bus.
+# scheduled from the moment both its axes first reach Operation Enabled
+# (--faults-from running: under emulation the bridge's start-up varies by
+# seconds, and a schedule from the drive's power-up once left the robot no
+# time to move again between two faults): a drive fault (0x603F 0x2310) on
+# the left node at 8 s, heartbeat silence at 24 s for 2 s, a reboot of both
+# nodes at 40 s with the SDO server silent for 2.5 s (the restart's SDO
+# times out). The resets and the bus-off follow what the bridge reports. Onsets are taken from the bus.
 bridge_count() { count "$1" "$OUT/bridge.log"; }
 wait_bridge() { # pattern count_before timeout_s
   for _ in $(seq $(( $3 * 10 ))); do [ "$(bridge_count "$1")" -gt "$2" ] && return 0; sleep 0.1; done
@@ -189,7 +191,7 @@ r=$(ready_count); n_fault=$(bridge_count "DriveFaultLatched {"); n_hb=$(bridge_c
 n_boot=$(bridge_count "booted (boot-up message)")
 event co_start
 "$BIN/virtual_drive" --interface vcan0 --protocol cia402 --config config/can_bridge.yaml --watchdog-s "$WATCHDOG_S" \
-  --fault axis_error@8:0x2310:left --fault heartbeat_silence@24+2 --fault reboot@40 --fault sdo_silence@40+2.5 \
+  --faults-from running --fault axis_error@8:0x2310:left --fault heartbeat_silence@24+2 --fault reboot@40 --fault sdo_silence@40+2.5 \
   > "$OUT/drive_co.log" 2>&1 &
 drive=$!; PIDS+=("$drive")
 wait_ready_after "$r" 20

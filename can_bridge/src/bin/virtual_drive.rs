@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use can_bridge::config::{load_config_file, ConfigError, Validate};
 use can_bridge::socketcan_bus::SocketCanBus;
 use can_bridge::time::{Clock, MonotonicClock};
-use can_bridge::virtual_drive::{run_virtual_drive, FaultSpec, VirtualDrive, VirtualDriveConfig};
+use can_bridge::virtual_drive::{run_virtual_drive, FaultClock, FaultSpec, VirtualDrive, VirtualDriveConfig};
 use can_bridge::{ProtocolKind, Wheel};
 use clap::Parser;
 use serde_json::json;
@@ -23,7 +23,8 @@ use std::time::Duration;
 /// heartbeats/status and encoder feedback, and goes idle with a watchdog error when no valid
 /// setpoint arrives for --watchdog-s. Speeds and positions are at the motor shaft.
 ///
-/// Faults (--fault, repeatable), times in s from the drive's start:
+/// Faults (--fault, repeatable), times in s from the drive's start (--faults-from start) or from
+/// the first moment both wheels run (--faults-from running: no fault fires before it):
 ///
 ///   axis_error@T[:CODE[:left|right|both]]   latch error bits (default 0x1) until cleared
 ///   heartbeat_silence@T[+D]                 no heartbeat/status frames (for D s, or for good)
@@ -87,6 +88,9 @@ struct Args {
     /// Inject a fault (see above); repeatable.
     #[arg(long = "fault", value_name = "SPEC")]
     faults: Vec<FaultSpec>,
+    /// Where the --fault times are counted from.
+    #[arg(long, value_enum, value_name = "WHEN", default_value_t = FaultClock::Start)]
+    faults_from: FaultClock,
     /// Exit after this long (s).
     #[arg(long, value_name = "S", value_parser = can_bridge::time::parse_cli_seconds)]
     duration_s: Option<f64>,
@@ -148,6 +152,7 @@ fn run(args: Args) -> Result<i32> {
         heartbeat_rate_hz: args.heartbeat_rate_hz,
         feedback_rate_hz: args.feedback_rate_hz,
         faults: args.faults.clone(),
+        faults_from: args.faults_from,
         ..Default::default()
     };
     if let Some(p) = &args.config {

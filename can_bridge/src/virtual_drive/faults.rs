@@ -204,9 +204,16 @@ impl FromStr for FaultSpec {
 }
 
 impl VirtualDrive {
-    /// Injects a fault now (the schedule's times are relative to the drive's start).
+    /// The fault schedule's time at `now` (s); −∞ while its clock has not
+    /// started, so no scheduled fault is active.
+    pub(super) fn fault_time_s(&self, now: Timestamp) -> f64 {
+        self.fault_epoch.map_or(f64::NEG_INFINITY, |e| (now - e).as_secs_f64())
+    }
+
+    /// Injects a fault now (starting the schedule's clock if it has not started).
     pub fn inject(&mut self, kind: FaultKind, duration_s: Option<f64>, now: Timestamp) {
-        let start_s = (now - self.start).as_secs_f64();
+        let epoch = *self.fault_epoch.get_or_insert(now);
+        let start_s = (now - epoch).as_secs_f64();
         self.cfg.faults.push(FaultSpec {
             kind,
             start_s,

@@ -47,7 +47,7 @@ mod settings;
 
 pub use faults::{FaultKind, FaultProblem, FaultSpec, FaultSpecError};
 pub use runner::run_virtual_drive;
-pub use settings::VirtualDriveConfig;
+pub use settings::{FaultClock, VirtualDriveConfig};
 
 use crate::bus::{CanFrame, RxFilter};
 use crate::kinematics::Wheel;
@@ -116,7 +116,9 @@ struct Axis {
 pub struct VirtualDrive {
     cfg: VirtualDriveConfig,
     axes: [Axis; 2],
-    start: Timestamp,
+    /// Where the fault schedule's clock started (None: `FaultClock::Running`
+    /// and the wheels have not both run yet).
+    fault_epoch: Option<Timestamp>,
     last_advance: Timestamp,
     next_heartbeat: Timestamp,
     next_feedback: Timestamp,
@@ -165,9 +167,9 @@ impl VirtualDrive {
         Self {
             co,
             co_of,
+            fault_epoch: (cfg.faults_from == FaultClock::Start).then_some(now),
             cfg,
             axes: [Axis::default(); 2],
-            start: now,
             last_advance: now,
             next_heartbeat: now,
             next_feedback: now,
@@ -334,7 +336,7 @@ impl VirtualDrive {
             ProtocolKind::Generic => self.handle_generic(f, now),
             ProtocolKind::Odrive => self.handle_odrive(f, now),
             ProtocolKind::Cia402 => {
-                let t_s = (now - self.start).as_secs_f64();
+                let t_s = self.fault_time_s(now);
                 let sdo_silent = self.fault_active(t_s, |k| *k == FaultKind::SdoSilence).is_some();
                 let bridge = self.cfg.cia402_bridge_node_id;
                 for n in &mut self.co {
@@ -412,7 +414,10 @@ impl VirtualDrive {
             return;
         }
         self.advance(now);
-        let t_s = (now - self.start).as_secs_f64();
+        if self.fault_epoch.is_none() && Wheel::BOTH.into_iter().all(|w| self.running(w)) {
+            self.fault_epoch = Some(now);
+        }
+        let t_s = self.fault_time_s(now);
         self.apply_scheduled(t_s, now);
         if self.exited {
             return;

@@ -8,6 +8,20 @@ use crate::protocol::odrive::{self, Firmware};
 use crate::protocol::ProtocolKind;
 use oldbf::config::{Checker, Interval, Validate};
 
+/// Where the scheduled faults' times are counted from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum FaultClock {
+    /// The drive's power-up.
+    #[default]
+    Start,
+    /// The first moment both wheels run (generic: enabled; ODrive: closed
+    /// loop; CiA 402: Operation Enabled), so a schedule means the same on a
+    /// machine where the bridge takes seconds to bring the drive up. No
+    /// scheduled fault fires before it.
+    Running,
+}
+
 /// How the simulated drive behaves.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VirtualDriveConfig {
@@ -31,8 +45,10 @@ pub struct VirtualDriveConfig {
     pub heartbeat_rate_hz: f64,
     /// Encoder feedback rate (Hz).
     pub feedback_rate_hz: f64,
-    /// Scheduled faults (times from the drive's start).
+    /// Scheduled faults (times from `faults_from`).
     pub faults: Vec<FaultSpec>,
+    /// Where the fault schedule's clock starts.
+    pub faults_from: FaultClock,
     /// CiA 402: the units of the drive's velocity and position objects.
     pub cia402_scaling: Scaling,
     /// CiA 402: the bridge's node id (whose heartbeat 0x1016:01 may watch).
@@ -63,6 +79,7 @@ impl Default for VirtualDriveConfig {
             heartbeat_rate_hz: 10.0,
             feedback_rate_hz: 100.0,
             faults: Vec::new(),
+            faults_from: FaultClock::Start,
             cia402_scaling: Scaling::new(VelocityUnit::Rpm, 1.0, 4096),
             cia402_bridge_node_id: 127,
             left_axis: 1,

@@ -485,3 +485,37 @@ fn config_validation_names_the_option() {
         assert_eq!(c.validate().unwrap_err().len(), 1, "{tau} {speed}");
     }
 }
+
+#[test]
+fn fault_schedule_from_running_starts_when_both_wheels_run() {
+    // Node ids 3 and 5; an axis error 1 s into the schedule. From the
+    // drive's start it fires at 1 s whatever the bridge does; counted from
+    // running it fires 1 s after the second axis enters closed loop (at 4 s
+    // here), and a node running alone does not start the clock.
+    let drive = |from: FaultClock| {
+        let mut cfg = odrive_drive().cfg.clone();
+        cfg.faults = vec!["axis_error@1:0x40:left".parse().unwrap()];
+        cfg.faults_from = from;
+        cfg.watchdog_s = 100.0;
+        VirtualDrive::new(cfg, t(0.0))
+    };
+    let error_at = |mut d: VirtualDrive| -> Option<f64> {
+        let mut out = Vec::new();
+        for ms in 0..8000 {
+            let now = ms as f64 / 1000.0;
+            if ms == 2000 {
+                odrive_start(&mut d, 3, now);
+            }
+            if ms == 4000 {
+                odrive_start(&mut d, 5, now);
+            }
+            d.step(t(now), &mut out);
+            if d.axis(Wheel::Left).error_code == 0x40 {
+                return Some(now);
+            }
+        }
+        None
+    };
+    assert_eq!(error_at(drive(FaultClock::Start)), Some(1.0));
+    assert_eq!(error_at(drive(FaultClock::Running)), Some(5.0));
+}
