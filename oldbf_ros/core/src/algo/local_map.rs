@@ -19,7 +19,7 @@
 //! The map lives in the tracking frame: odometry's drift moves the
 //! remembered obstacles with it, one more reason to forget them.
 
-use super::geometry::{Pose2, Vec2};
+use super::geometry::{FrameMap, Pose2, Vec2};
 
 /// Cell size (m).
 pub const MAP_CELL_M: f64 = 0.05;
@@ -142,6 +142,17 @@ impl LocalMap {
             .map_or(CellState::Unknown, |k| self.state(k, now_s, memory_s))
     }
 
+    /// Where a scan taken at `pose` and `stamp_s` is drawn from: the robot's
+    /// cell and the robot-to-map transform, with the window moved to follow
+    /// the robot; `None` (nothing to draw) for a non-finite pose or stamp.
+    fn scan_frame(&mut self, pose: Pose2, stamp_s: f64) -> Option<((i64, i64), FrameMap)> {
+        if !pose.is_finite() || !stamp_s.is_finite() {
+            return None;
+        }
+        self.follow(pose.position());
+        Some((cell_coords(pose.position()), pose.frame_map()))
+    }
+
     /// Moves the window so `centre` is in its middle once it is more than a
     /// quarter of the window from it (or on the first scan).
     fn follow(&mut self, centre: Vec2) {
@@ -186,12 +197,9 @@ impl LocalMap {
     /// they cross, their ends are occupied. Rays are cleared only within
     /// `clear_range_m`; non-finite points are skipped.
     pub fn insert(&mut self, pose: Pose2, points: &[Vec2], stamp_s: f64, clear_range_m: f64) {
-        if !pose.is_finite() || !stamp_s.is_finite() {
+        let Some((from, map)) = self.scan_frame(pose, stamp_s) else {
             return;
-        }
-        self.follow(pose.position());
-        let from = cell_coords(pose.position());
-        let map = pose.frame_map();
+        };
         for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
             let w = map.point(*q);
             let to = cell_coords(w);
@@ -237,12 +245,9 @@ impl LocalMap {
     /// occupied. Call before [`Self::insert`] of the same scan's points, so
     /// its hits win.
     pub fn clear_open(&mut self, pose: Pose2, ends: &[Vec2], stamp_s: f64, clear_range_m: f64) {
-        if !pose.is_finite() || !stamp_s.is_finite() {
+        let Some((from, map)) = self.scan_frame(pose, stamp_s) else {
             return;
-        }
-        self.follow(pose.position());
-        let from = cell_coords(pose.position());
-        let map = pose.frame_map();
+        };
         for q in ends.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
             let len = q.norm().max(1e-9);
             let (q, len) = if len > clear_range_m {

@@ -107,31 +107,6 @@ impl Route {
         }
         Some(at)
     }
-
-    /// The route's greatest distance from the straight segment from `p` to
-    /// its point `within_m` further along (m): how far it bends off the
-    /// direct way there.
-    pub fn bend_m(&self, p: Vec2, within_m: f64) -> f64 {
-        let Some(end) = self.carrot(p, within_m) else {
-            return 0.0;
-        };
-        let start = self.nearest(p);
-        let seg = end - p;
-        let len = seg.norm().max(1e-9);
-        let mut walked = 0.0;
-        let mut worst: f64 = 0.0;
-        let mut prev = p;
-        for q in &self.points[start..] {
-            walked += (q - prev).norm();
-            prev = *q;
-            if walked > within_m {
-                break;
-            }
-            let t = ((q - p).dot(&seg) / (len * len)).clamp(0.0, 1.0);
-            worst = worst.max((q - (p + seg * t)).norm());
-        }
-        worst
-    }
 }
 
 /// What a plan found.
@@ -689,7 +664,6 @@ mod tests {
         // 40 cells of 5 cm: 2 m, every point on y = 0.
         assert!((r.cost - 2.0).abs() < 1e-9, "{}", r.cost);
         assert!(r.points.iter().all(|q| q.y.abs() < 1e-9));
-        assert!(r.bend_m(Vec2::zeros(), 1.5) < 1e-9);
         let c = r.carrot(Vec2::zeros(), 0.8).unwrap();
         assert!((c - Vec2::new(0.8, 0.0)).norm() < 1e-9, "{c:?}");
     }
