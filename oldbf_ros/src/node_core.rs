@@ -585,7 +585,8 @@ impl NodeCore {
         self.pipeline.route()
     }
 
-    /// The planner's own time of every plan made beside the safety path (µs).
+    /// The planner's own time of the plans made beside the safety path (µs;
+    /// the newest `route_worker::PLAN_TIMES_KEPT`, in no particular order).
     pub fn plan_times_us(&self) -> &[f64] {
         self.route_worker.as_ref().map_or(&[], |w| &w.plan_us)
     }

@@ -15,6 +15,10 @@ use std::time::{Duration, Instant};
 /// The map's occupied cells are sent for display this often (s).
 const MAP_SNAPSHOT_S: f64 = 1.0;
 
+/// The planner times kept for reports: the newest this many plans (0.5 MiB;
+/// about 9 h of plans at 2 Hz), so a node that runs for weeks does not grow.
+pub const PLAN_TIMES_KEPT: usize = 65_536;
+
 /// What the node sends the planner.
 enum Job {
     Scan(MapScan),
@@ -25,6 +29,9 @@ enum Job {
 /// The planner thread and its channels. Dropping it stops the thread.
 pub struct RouteWorker {
     jobs: Option<Sender<Job>>,
+    /// Scans the planner has taken into its map, sent back so their buffers
+    /// carry the next scans (no allocation per scan once warm).
+    spares: Receiver<MapScan>,
     routes: Receiver<(RouteUpdate, Option<Vec<Vec2>>)>,
     /// The newest snapshot of the map's occupied cells (tracking frame, m),
     /// not yet taken ([`Self::take_map_cells`]).
@@ -32,8 +39,11 @@ pub struct RouteWorker {
     thread: Option<JoinHandle<()>>,
     /// The last ask sent (an unchanged one is not sent again).
     last_ask: Option<RouteAsk>,
-    /// Plans received, and the planner's own times (µs), for reports.
+    /// The planner's own times (µs) of the newest [`PLAN_TIMES_KEPT`] plans
+    /// received, in no particular order, for reports.
     pub plan_us: Vec<f64>,
+    /// Plans received in all.
+    pub plans: usize,
 }
 
 impl std::fmt::Debug for RouteWorker {
@@ -47,16 +57,19 @@ impl RouteWorker {
     pub fn start(params: &Params) -> std::io::Result<Self> {
         let (jobs, job_rx) = channel::<Job>();
         let (route_tx, routes) = channel::<(RouteUpdate, Option<Vec<Vec2>>)>();
+        let (spare_tx, spares) = channel::<MapScan>();
         let params = params.clone();
         let thread = std::thread::Builder::new()
             .name("oldbf-route".into())
-            .spawn(move || run(params, job_rx, route_tx))?;
+            .spawn(move || run(params, job_rx, route_tx, spare_tx))?;
         Ok(Self {
             jobs: Some(jobs),
+            spares,
             routes,
             thread: Some(thread),
             last_ask: None,
             plan_us: Vec::new(),
+            plans: 0,
             map_cells: None,
         })
     }
@@ -66,7 +79,9 @@ impl RouteWorker {
     pub fn feed(&mut self, pipeline: &mut SafetyPipeline) {
         let Some(jobs) = &self.jobs else { return };
         if let Some(scan) = pipeline.take_map_scan() {
-            let _ = jobs.send(Job::Scan(scan.clone()));
+            let mut copy = self.spares.try_recv().unwrap_or_default();
+            copy.clone_from(scan);
+            let _ = jobs.send(Job::Scan(copy));
         }
         if let Some(ask) = pipeline.route_ask() {
             if self.last_ask != Some(ask) {
@@ -76,7 +91,7 @@ impl RouteWorker {
         }
         let mut newest = None;
         while let Ok((u, cells)) = self.routes.try_recv() {
-            self.plan_us.push(u.plan_us);
+            self.record(u.plan_us);
             newest = Some(u);
             if cells.is_some() {
                 self.map_cells = cells;
@@ -85,6 +100,16 @@ impl RouteWorker {
         if let Some(u) = newest {
             pipeline.offer_route(u);
         }
+    }
+
+    /// Keeps a plan's time, over the oldest kept once [`PLAN_TIMES_KEPT`] are.
+    fn record(&mut self, plan_us: f64) {
+        if self.plan_us.len() < PLAN_TIMES_KEPT {
+            self.plan_us.push(plan_us);
+        } else {
+            self.plan_us[self.plans % PLAN_TIMES_KEPT] = plan_us;
+        }
+        self.plans += 1;
     }
 
     /// The newest snapshot of the map's occupied cells (tracking frame, m),
@@ -104,11 +129,11 @@ impl RouteWorker {
     /// `timeout` passes (tests); offers the newest to `pipeline`.
     pub fn wait_for_plans(&mut self, n: usize, timeout: Duration, pipeline: &mut SafetyPipeline) -> bool {
         let until = Instant::now() + timeout;
-        while self.plan_us.len() < n {
+        while self.plans < n {
             let left = until.saturating_duration_since(Instant::now());
             match self.routes.recv_timeout(left) {
                 Ok((u, cells)) => {
-                    self.plan_us.push(u.plan_us);
+                    self.record(u.plan_us);
                     pipeline.offer_route(u);
                     if cells.is_some() {
                         self.map_cells = cells;
@@ -132,7 +157,12 @@ impl Drop for RouteWorker {
 
 /// The planner thread: takes scans as they come; plans for the newest ask
 /// whenever one is due; ends when the node drops its sender.
-fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<(RouteUpdate, Option<Vec<Vec2>>)>) {
+fn run(
+    mut params: Params,
+    jobs: Receiver<Job>,
+    routes: Sender<(RouteUpdate, Option<Vec<Vec2>>)>,
+    spares: Sender<MapScan>,
+) {
     let mut way = WayRound::new(&params);
     let mut ask: Option<RouteAsk> = None;
     let mut last_snapshot_s = f64::NEG_INFINITY;
@@ -141,7 +171,10 @@ fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<(RouteUpdate, Opt
         match jobs.recv_timeout(wait) {
             Ok(job) => {
                 let mut take = |job| match job {
-                    Job::Scan(s) => way.insert(&s),
+                    Job::Scan(s) => {
+                        way.insert(&s);
+                        let _ = spares.send(s);
+                    }
                     Job::Ask(a) => {
                         // A stuck flag stays until a plan has used it.
                         let stuck = a.stuck || ask.is_some_and(|o| o.stuck);
@@ -182,6 +215,22 @@ fn run(mut params: Params, jobs: Receiver<Job>, routes: Sender<(RouteUpdate, Opt
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn plan_times_are_bounded_and_keep_the_newest() {
+        let mut w = RouteWorker::start(&Params::default()).unwrap();
+        for k in 0..PLAN_TIMES_KEPT + 10 {
+            w.record(k as f64);
+        }
+        assert_eq!((w.plan_us.len(), w.plans), (PLAN_TIMES_KEPT, PLAN_TIMES_KEPT + 10));
+        // The ten newest took the places of the ten oldest.
+        let newest = PLAN_TIMES_KEPT as f64;
+        assert_eq!(
+            w.plan_us[..10],
+            (0..10).map(|k| newest + k as f64).collect::<Vec<_>>()[..]
+        );
+        assert_eq!(w.plan_us[10], 10.0);
+    }
     use crate::algo::unstuck::Guidance;
     use crate::algo::{LaserScan, ScanHeader, Twist};
     use std::f32::consts::PI;

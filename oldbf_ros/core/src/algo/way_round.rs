@@ -15,7 +15,7 @@ use super::route::{Route, RouteChange, RoutePlanner, RouteRequest};
 
 /// A scan for the map: the points less walking people (robot frame at
 /// `pose`, tracking frame, m) and its stamp (s).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct MapScan {
     /// The scan's stamp (s).
     pub stamp_s: f64,
@@ -29,6 +29,24 @@ pub struct MapScan {
     /// The ends of the beams that saw nothing within their range (robot
     /// frame at `pose`, m): their rays clear what they cross, nothing is hit.
     pub open_ends: Vec<Vec2>,
+}
+
+impl Clone for MapScan {
+    fn clone(&self) -> Self {
+        let mut c = Self::default();
+        c.clone_from(self);
+        c
+    }
+
+    /// Reuses this scan's buffers: no allocation once they are large enough
+    /// (the node hands the planner thread a recycled scan per scan).
+    fn clone_from(&mut self, source: &Self) {
+        self.stamp_s = source.stamp_s;
+        self.pose = source.pose;
+        self.points.clone_from(&source.points);
+        self.transient.clone_from(&source.transient);
+        self.open_ends.clone_from(&source.open_ends);
+    }
 }
 
 /// What to plan for (tracking frame, m).
