@@ -579,6 +579,14 @@ impl NodeCore {
         self
     }
 
+    /// Times the way-round work done in step with `clock` (µs, any epoch;
+    /// `SafetyPipeline::time_planner`), so the simulator can time the safety
+    /// path alone, as the node runs it.
+    pub fn with_planner_clock(mut self, clock: fn() -> f64) -> Self {
+        self.pipeline.time_planner(clock);
+        self
+    }
+
     /// The way round's latest route, the waypoint followed (tracking frame)
     /// and why it last changed (§4c).
     pub fn route(&self) -> Option<&crate::algo::way_round::RouteUpdate> {

@@ -136,7 +136,7 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
          v_cmd_mps,omega_cmd_radps,\
          v_actual_mps,omega_actual_radps,b_left,b_right,d_left_m,d_right_m,h_m,h_next_pred_m,h_true_m,\
          clearance_true_m,state,filter_changed,condition_held,braking_held,infeasible,unknown_beams,held_beams,\
-         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us,tier,added_motion,route_event,no_route,{}",
+         driven_blind,in_collision,moving_tracks,threats,min_ttc_s,step_us,planner_us,tier,added_motion,route_event,no_route,{}",
         Critic::ALL.map(|c| format!("cost_{}", c.name())).join(",")
     )?;
     for r in rows {
@@ -167,7 +167,7 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
         let mut line = nums.iter().map(|v| csv_value(*v)).collect::<Vec<_>>().join(",");
         let _ = write!(
             line,
-            ",{},{},{},{},{},{},{},{},{},{},{},{},{:.2}",
+            ",{},{},{},{},{},{},{},{},{},{},{},{},{:.2},{:.2}",
             r.state.as_str(),
             r.filter_changed as u8,
             r.condition_held as u8,
@@ -180,7 +180,8 @@ pub fn write_steps_csv(path: &Path, rows: &[StepRow]) -> anyhow::Result<()> {
             r.moving_tracks,
             r.threats,
             csv_value(r.min_ttc_s),
-            r.step_us
+            r.step_us,
+            r.planner_us
         );
         let _ = write!(
             line,

@@ -216,21 +216,6 @@ fn run(
 mod tests {
     use super::*;
 
-    #[test]
-    fn plan_times_are_bounded_and_keep_the_newest() {
-        let mut w = RouteWorker::start(&Params::default()).unwrap();
-        for k in 0..PLAN_TIMES_KEPT + 10 {
-            w.record(k as f64);
-        }
-        assert_eq!((w.plan_us.len(), w.plans), (PLAN_TIMES_KEPT, PLAN_TIMES_KEPT + 10));
-        // The ten newest took the places of the ten oldest.
-        let newest = PLAN_TIMES_KEPT as f64;
-        assert_eq!(
-            w.plan_us[..10],
-            (0..10).map(|k| newest + k as f64).collect::<Vec<_>>()[..]
-        );
-        assert_eq!(w.plan_us[10], 10.0);
-    }
     use crate::algo::unstuck::Guidance;
     use crate::algo::{LaserScan, ScanHeader, Twist};
     use std::f32::consts::PI;
@@ -303,5 +288,50 @@ mod tests {
         assert!(worker.take_map_cells().is_none(), "taken once");
         // The thread ends when the worker is dropped.
         drop(worker);
+    }
+
+    #[test]
+    fn plan_times_are_bounded_and_keep_the_newest() {
+        let mut w = RouteWorker::start(&Params::default()).unwrap();
+        for k in 0..PLAN_TIMES_KEPT + 10 {
+            w.record(k as f64);
+        }
+        assert_eq!((w.plan_us.len(), w.plans), (PLAN_TIMES_KEPT, PLAN_TIMES_KEPT + 10));
+        // The ten newest took the places of the ten oldest.
+        let newest = PLAN_TIMES_KEPT as f64;
+        assert_eq!(
+            w.plan_us[..10],
+            (0..10).map(|k| newest + k as f64).collect::<Vec<_>>()[..]
+        );
+        assert_eq!(w.plan_us[10], 10.0);
+    }
+
+    /// A fake clock for the tests below: each reading is 1000 µs after the last.
+    fn ticking_clock_us() -> f64 {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static T: AtomicU64 = AtomicU64::new(0);
+        (T.fetch_add(1000, Ordering::Relaxed) + 1000) as f64
+    }
+
+    #[test]
+    fn in_step_planner_work_is_timed_by_the_callers_clock() {
+        let p = Params::default();
+        let ranges = wall_scan();
+        let mut untimed = SafetyPipeline::new(p.clone());
+        step(&mut untimed, &ranges, 1.0);
+        assert!(untimed.route().is_some(), "planned in step");
+        assert_eq!(untimed.planner_us_total(), 0.0, "no clock: nothing timed");
+        // At the first scan the map takes the scan, then a plan is made: two blocks
+        // of way-round work, each one tick (1000 µs) of the fake clock.
+        let mut timed = SafetyPipeline::new(p.clone());
+        timed.time_planner(ticking_clock_us);
+        step(&mut timed, &ranges, 1.0);
+        assert_eq!(timed.planner_us_total(), 2000.0);
+        // Beside the safety path the step does none of that work.
+        let mut beside = SafetyPipeline::new(p.clone());
+        beside.plan_beside(true);
+        beside.time_planner(ticking_clock_us);
+        step(&mut beside, &ranges, 1.0);
+        assert_eq!(beside.planner_us_total(), 0.0);
     }
 }

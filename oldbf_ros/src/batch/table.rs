@@ -127,8 +127,9 @@ pub fn text(report: &BatchReport) -> String {
         "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command (from the scan);",
         "  feasible: of those, steps the filter did not mark infeasible. braking viol.: steps whose command",
         "  could not brake to rest without a predicted closing contact (ALGORITHM.md 5b), all / feasible.",
-        "step: compute per control step over every step of every world; wall clock while worlds run in",
-        "  parallel on shared cores, so indicative only.",
+        "step: the safety path's compute per control step (scan to command, less the way-round work the",
+        "  simulator does in step and the node does in a thread of its own) over every step of every world;",
+        "  wall clock while worlds run in parallel on shared cores, so a busy machine inflates it.",
     ] {
         let _ = writeln!(out, "{line}");
     }

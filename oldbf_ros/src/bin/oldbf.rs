@@ -119,8 +119,9 @@ enum Command {
     /// the worlds reached (s); mean time stalled (s); total variation of v and
     /// ω per second and sign reversals of Δv and Δω (% of steps); DTCBF condition and braking
     /// check violations (steps, all and on steps not marked infeasible);
-    /// infeasible steps; compute per control step, mean and 99th percentile
-    /// (µs). `oldbf-paper` is OLDBF with this project's checks beyond the
+    /// infeasible steps; the safety path's compute per control step (less
+    /// the way-round work done in step, which the node does in a thread of
+    /// its own), mean and 99th percentile (µs). `oldbf-paper` is OLDBF with this project's checks beyond the
     /// paper off (every invalid range free, no braking check or evasion, no
     /// reverse): the gain of those checks on the same worlds. A progress
     /// bar goes to stderr when it is a terminal.

@@ -115,7 +115,13 @@ pub struct StepRow {
     pub moving_tracks: usize,
     pub threats: usize,
     pub min_ttc_s: f64,
+    /// The safety path's compute for the step (scan to command, µs, wall
+    /// clock): the tick less `planner_us`, the node's own share of it.
     pub step_us: f64,
+    /// The way-round work the simulator does in step (the map taking the
+    /// scan, a plan when one is due; µs), which the node does in a thread
+    /// of its own (§4c); 0 with `plan_beside`.
+    pub planner_us: f64,
 }
 
 /// One robot's figures.
@@ -209,6 +215,13 @@ struct AgentLoop {
     /// h on the exact geometry when the step's command was chosen.
     h_true_now: f64,
     row: Option<StepRow>,
+}
+
+/// Microseconds since the first call (the simulator's clock for timing
+/// the way-round work it does in step).
+fn wall_clock_us() -> f64 {
+    static EPOCH: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    EPOCH.get_or_init(Instant::now).elapsed().as_secs_f64() * 1e6
 }
 
 /// How a run is made beyond its scenario.
@@ -319,6 +332,7 @@ pub fn run_scenario_with(
             )
             .with_constant(plan.constant.unwrap_or(Twist::ZERO))
             .with_fixed_period()
+            .with_planner_clock(wall_clock_us)
             .keep_clusters(controller == Controller::Vo),
             dcbf: DcbfFilter::new(),
             ranges: Vec::with_capacity(lidar.beams),
@@ -405,6 +419,7 @@ pub fn run_scenario_with(
                 a.tracked_steps += 1;
             }
 
+            let planned_before_us = a.node.pipeline().planner_us_total();
             let t0 = Instant::now();
             let tick = a.node.tick(t);
             let (rec, nominal): (StepRecord, _) = (tick.record, tick.record.nominal);
@@ -433,7 +448,9 @@ pub fn run_scenario_with(
                 // Same input box as the filter, so the comparison is only about safety.
                 Controller::None => input_box.clamp(nominal),
             };
-            let step_us = t0.elapsed().as_secs_f64() * 1e6;
+            let tick_us = t0.elapsed().as_secs_f64() * 1e6;
+            let planner_us = a.node.pipeline().planner_us_total() - planned_before_us;
+            let step_us = (tick_us - planner_us).max(0.0);
             // The logged condition, recomputed here from the predicted points for the
             // command actually sent (not taken from the filter's own record).
             let (h_next_pred, held) = if rec.measured() {
@@ -544,6 +561,7 @@ pub fn run_scenario_with(
                 threats: rec.threats,
                 min_ttc_s: rec.min_time_to_collision_s,
                 step_us,
+                planner_us,
             });
         }
 

@@ -141,6 +141,10 @@ pub struct SafetyPipeline {
     /// hands out [`Self::take_map_scan`] and [`Self::route_ask`] and takes
     /// [`Self::offer_route`].
     route_beside: bool,
+    /// A caller's clock (µs, any epoch) timing the way-round work done in
+    /// step, and the time it has counted so far (µs).
+    planner_clock: Option<fn() -> f64>,
+    planner_us_total: f64,
     /// The last scan for the map, and whether it has not been taken yet.
     map_scan: MapScan,
     map_scan_new: bool,
@@ -223,6 +227,8 @@ impl SafetyPipeline {
             on_mover: Vec::with_capacity(cap),
             way_round,
             route_beside: false,
+            planner_clock: None,
+            planner_us_total: 0.0,
             map_scan: MapScan {
                 points: Vec::with_capacity(cap),
                 transient: Vec::with_capacity(cap),
@@ -339,6 +345,21 @@ impl SafetyPipeline {
     /// pipeline plans in step with the scans, reproducibly.
     pub fn plan_beside(&mut self, beside: bool) {
         self.route_beside = beside;
+    }
+
+    /// Times the way-round work done in step (the map taking a scan, a
+    /// plan) with `clock` (µs, any epoch), so a caller can time the safety
+    /// path alone: the node's, where that work runs in its own thread. The
+    /// pipeline never reads a clock of its own; nothing it decides depends
+    /// on this.
+    pub fn time_planner(&mut self, clock: fn() -> f64) {
+        self.planner_clock = Some(clock);
+    }
+
+    /// The way-round work done in step so far, by the clock of
+    /// [`Self::time_planner`] (µs; 0 without one).
+    pub fn planner_us_total(&self) -> f64 {
+        self.planner_us_total
     }
 
     /// The last scan for the map (the scan less walking people, robot
@@ -607,6 +628,17 @@ fn next_points<'a>(any_advanced: bool, points_next: &'a [Vec2], points: &'a [Vec
     } else {
         points
     }
+}
+
+/// Runs `work` (way-round work done in step), adding its time by `clock`
+/// (µs) to `total_us` when there is a clock.
+fn timed<R>(clock: Option<fn() -> f64>, total_us: &mut f64, work: impl FnOnce() -> R) -> R {
+    let t0 = clock.map(|c| c());
+    let r = work();
+    if let (Some(c), Some(t0)) = (clock, t0) {
+        *total_us += (c() - t0).max(0.0);
+    }
+    r
 }
 
 #[cfg(test)]

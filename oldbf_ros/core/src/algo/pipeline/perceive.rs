@@ -115,7 +115,9 @@ impl SafetyPipeline {
             if self.route_beside {
                 self.map_scan_new = true;
             } else {
-                self.way_round.insert(&self.map_scan);
+                super::timed(self.planner_clock, &mut self.planner_us_total, || {
+                    self.way_round.insert(&self.map_scan)
+                });
             }
         }
         self.perceived = Perceived::Usable(Frame {

@@ -78,7 +78,8 @@ impl SafetyPipeline {
         });
         if let Some(ask) = self.route_ask.filter(|_| !self.route_beside) {
             if self.way_round.due(&ask, p) {
-                self.route = Some(self.way_round.plan(&ask, p));
+                let (way, total) = (&mut self.way_round, &mut self.planner_us_total);
+                self.route = Some(super::timed(self.planner_clock, total, || way.plan(&ask, p)));
             }
         }
         if !p.unstuck.enabled {
