@@ -30,6 +30,7 @@ pub mod carmen;
 #[cfg(feature = "eval")]
 pub mod compare;
 pub mod config;
+pub mod cpu_clock;
 pub mod heap;
 pub mod node_config;
 pub mod node_core;

@@ -128,8 +128,8 @@ pub fn text(report: &BatchReport) -> String {
         "  feasible: of those, steps the filter did not mark infeasible. braking viol.: steps whose command",
         "  could not brake to rest without a predicted closing contact (ALGORITHM.md 5b), all / feasible.",
         "step: the safety path's compute per control step (scan to command, less the way-round work the",
-        "  simulator does in step and the node does in a thread of its own) over every step of every world;",
-        "  wall clock while worlds run in parallel on shared cores, so a busy machine inflates it.",
+        "  simulator does in step and the node does in a thread of its own) over every step of every world,",
+        "  in the thread's CPU time (time the OS ran other work is not counted).",
     ] {
         let _ = writeln!(out, "{line}");
     }

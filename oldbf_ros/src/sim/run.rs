@@ -31,9 +31,9 @@ use crate::algo::scan::{LaserMount, LaserScan, ScanHeader};
 use crate::algo::select::CriticCosts;
 use crate::algo::tracking::TrackingError;
 use crate::baselines::{vo_command, DcbfFilter, VoScene};
+use crate::cpu_clock::step_clock_us;
 use crate::node_core::{NodeCore, NodeSettings, ScanInput};
 use serde::Serialize;
-use std::time::Instant;
 
 /// Which controller closes the loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -115,8 +115,9 @@ pub struct StepRow {
     pub moving_tracks: usize,
     pub threats: usize,
     pub min_ttc_s: f64,
-    /// The safety path's compute for the step (scan to command, µs, wall
-    /// clock): the tick less `planner_us`, the node's own share of it.
+    /// The safety path's compute for the step (scan to command, µs of the
+    /// thread's CPU time, `cpu_clock`): the tick less `planner_us`, the
+    /// node's own share of it.
     pub step_us: f64,
     /// The way-round work the simulator does in step (the map taking the
     /// scan, a plan when one is due; µs), which the node does in a thread
@@ -215,13 +216,6 @@ struct AgentLoop {
     /// h on the exact geometry when the step's command was chosen.
     h_true_now: f64,
     row: Option<StepRow>,
-}
-
-/// Microseconds since the first call (the simulator's clock for timing
-/// the way-round work it does in step).
-fn wall_clock_us() -> f64 {
-    static EPOCH: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
-    EPOCH.get_or_init(Instant::now).elapsed().as_secs_f64() * 1e6
 }
 
 /// How a run is made beyond its scenario.
@@ -332,7 +326,7 @@ pub fn run_scenario_with(
             )
             .with_constant(plan.constant.unwrap_or(Twist::ZERO))
             .with_fixed_period()
-            .with_planner_clock(wall_clock_us)
+            .with_planner_clock(step_clock_us)
             .keep_clusters(controller == Controller::Vo),
             dcbf: DcbfFilter::new(),
             ranges: Vec::with_capacity(lidar.beams),
@@ -420,7 +414,7 @@ pub fn run_scenario_with(
             }
 
             let planned_before_us = a.node.pipeline().planner_us_total();
-            let t0 = Instant::now();
+            let t0_us = step_clock_us();
             let tick = a.node.tick(t);
             let (rec, nominal): (StepRecord, _) = (tick.record, tick.record.nominal);
             let ref_pos = tick
@@ -448,7 +442,7 @@ pub fn run_scenario_with(
                 // Same input box as the filter, so the comparison is only about safety.
                 Controller::None => input_box.clamp(nominal),
             };
-            let tick_us = t0.elapsed().as_secs_f64() * 1e6;
+            let tick_us = step_clock_us() - t0_us;
             let planner_us = a.node.pipeline().planner_us_total() - planned_before_us;
             let step_us = (tick_us - planner_us).max(0.0);
             // The logged condition, recomputed here from the predicted points for the
