@@ -122,7 +122,8 @@ enum Command {
     /// infeasible steps; the safety path's compute per control step (less
     /// the way-round work done in step, which the node does in a thread of
     /// its own), in the thread's CPU time, mean and 99th percentile (µs).
-    /// `oldbf-paper` is OLDBF with this project's checks beyond the paper off (every invalid range free, no braking check or evasion, no
+    /// `oldbf-paper` is OLDBF with this project's checks beyond the paper
+    /// off (every invalid range free, no braking check or evasion, no
     /// reverse): the gain of those checks on the same worlds. A progress
     /// bar goes to stderr when it is a terminal.
     /// Exits 0 when every run completed, whatever the figures; 2 on a bad
