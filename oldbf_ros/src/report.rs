@@ -95,7 +95,7 @@ pub fn summary_text(s: &RunSummary) -> String {
     );
     let _ = write!(
         out,
-        "  pipeline {:.1} µs/step mean, {:.1} µs max",
+        "  safety path {:.1} µs/step mean, {:.1} µs max (CPU time; the way round planned in step left out)",
         s.mean_step_us, s.max_step_us
     );
     if s.robots.len() > 1 {
