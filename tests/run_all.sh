@@ -28,7 +28,7 @@
 #         drive on vcan0, the loop closed through CAN, generic then cia402
 #         (tests/e2e_group.sh)
 #   soak  the short soak: random worlds with moving obstacles for a stretch of
-#         simulated time; no panic, no NaN, resident memory flat
+#         simulated time; no panic, no NaN, live heap flat
 #         (tests/soak_group.sh; the full hour is `oldbf soak`, see docs/SAFETY.md)
 #   fuzz  every fuzz target's committed corpus replayed, then a time-boxed
 #         coverage-guided run of each, one per core at a time

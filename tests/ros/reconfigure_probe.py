@@ -6,10 +6,15 @@ filter's behaviour before and after.
     reconfigure_probe.py NS
 
 Needs oldbf_node in NS with the constant nominal (0.15 m/s ahead). An
-"approach" publishes scans of a straight wall dead ahead (±60°) at a distance falling from
-1.0 m to 0.3 m in 1 cm steps, and reads for each scan the command computed
-from it (the ~state carrying its stamp): the stop distance is the wall
-distance of the first scan whose command has no forward speed.
+"approach" first runs the robot up to speed on scans of a far wall (2.5 m,
+beyond d_act), then publishes scans of a straight wall dead ahead (±60°) at
+a distance falling from 1.0 m to 0.3 m in 1 cm steps, and reads for each
+scan the command computed from it (the ~state carrying its stamp): the stop
+distance is the wall distance of the first scan whose command has no forward
+speed. The run-up matters: from rest the base may gain only accel x the time
+since the last command, and the node also ticks between scans, so a scan
+that comes just after a tick gets a command of about 0 m/s wherever the wall
+is.
 
 Steps: read the configuration and the descriptions; approach with the
 running d_safe; set barrier.d_safe_m = 0.4 and read it back (answer,
@@ -80,9 +85,22 @@ def command_for_wall(d):
     return None
 
 
+def run_up():
+    """Scans of a wall 2.5 m ahead until the command goes at least 0.1 m/s."""
+    for _ in range(50):
+        r = command_for_wall(2.5)
+        time.sleep(0.04)
+        if r is not None and r[0] >= 0.1:
+            return True
+    return False
+
+
 def approach():
-    """Wall distance (m) of the first scan whose command has no forward speed."""
+    """Wall distance (m) of the first scan whose command has no forward speed,
+    the robot coming on at speed (None if it never got going)."""
     missing = 0
+    if not run_up():
+        return None, missing
     for cm in range(100, 29, -1):
         r = command_for_wall(cm / 100.0)
         time.sleep(0.04)
@@ -122,8 +140,12 @@ time.sleep(0.5)
 cfg = client.get_configuration(timeout=5)
 out["after_refusals"] = [cfg.get("dtcbf.gamma"), d_safe(cfg)]
 out["after_refusals_param_server"] = rospy.get_param(node + "/barrier/d_safe_m")
-# Still in force: a wall at 0.5 m is inside r + d_safe = 0.578 m.
-r = command_for_wall(0.5)
+# Still in force: a wall at 0.5 m is inside r + d_safe = 0.578 m. The robot may
+# still be moving (the node ticks on between scans), so the wall is shown for
+# half a second, time for the base to brake, and the last command is taken.
+for _ in range(12):
+    r = command_for_wall(0.5)
+    time.sleep(0.04)
 out["v_at_0.5_m_after_refusals"] = None if r is None else r[0]
 out["scans_without_state"] = miss1 + miss2
 print(json.dumps(out))
