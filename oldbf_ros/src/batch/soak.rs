@@ -131,7 +131,7 @@ pub struct SoakReport {
 }
 
 /// Anonymous resident memory of this process (KiB), from `/proc/self/status`.
-pub fn resident_kib() -> Option<u64> {
+pub fn rss_anon_kib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     parse_rss_anon_kib(&status)
 }
@@ -296,7 +296,7 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
             worlds: r.worlds,
             sim_time_s: r.sim_time_s,
             heap_kib: heap_kib().unwrap_or(0),
-            rss_anon_kib: resident_kib().unwrap_or(0),
+            rss_anon_kib: rss_anon_kib().unwrap_or(0),
         };
         r.memory_samples.push(sample);
         if warm.is_none() && r.sim_time_s >= 0.1 * options.sim_time_s {
@@ -305,7 +305,7 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
     }
     r.wall_time_s = started.elapsed().as_secs_f64();
     r.heap_end_kib = heap_kib();
-    r.rss_anon_end_kib = resident_kib().unwrap_or(0);
+    r.rss_anon_end_kib = rss_anon_kib().unwrap_or(0);
     if let Some(end) = r.heap_end_kib {
         let warm_heap = warm.map_or(end, |w| w.heap_kib);
         r.heap_warm_kib = Some(warm_heap);
@@ -439,7 +439,7 @@ mod tests {
         assert_eq!(parse_rss_anon_kib(status), Some(10480), "RssAnon, not VmRSS or RssFile");
         assert_eq!(parse_rss_anon_kib("RssAnon:\t12 MB\n"), None, "unit must be kB");
         assert_eq!(parse_rss_anon_kib("Name:\tx\nVmRSS:\t 12 kB\n"), None);
-        assert!(resident_kib().is_some_and(|k| k > 0), "Linux /proc/self/status");
+        assert!(rss_anon_kib().is_some_and(|k| k > 0), "Linux /proc/self/status");
     }
 
     #[test]
