@@ -114,17 +114,31 @@ impl Profile {
 
 /// A unicycle following a [`Profile`] from the origin, walked in equal time
 /// steps of a few sub-steps each (each sub-step the exact arc of its mean
-/// v and ω).
+/// v and ω). The heading is a unit vector turned by each sub-step's small
+/// rotation ([`small_turn`]), not an angle: no sine or cosine is evaluated
+/// per sub-step (this walk is scored for most candidates while a mover
+/// threatens, a hundred sub-steps each).
 #[derive(Debug, Clone, Copy)]
 struct ProfileWalk {
     pos: Vec2,
-    theta: f64,
+    /// Unit heading.
+    heading: Vec2,
     v: f64,
     omega: f64,
     profile: Profile,
     sub_s: f64,
     subs: usize,
+    /// Once v and ω have reached the goal: the rest is one arc, walked a
+    /// whole step at a time.
+    steady: Option<ArcWalk>,
 }
+
+/// Points looked at together by [`PassiveSafety::nearest_lower_bound_m`].
+const LANES: usize = 8;
+/// Its slack for f32 rounding (m).
+const F32_SLACK_M: f64 = 1e-5;
+/// Where its padding points lie (m): beyond any reach.
+const FAR_M: f32 = 1e6;
 
 /// Sub-steps per step of a [`ProfileWalk`].
 const PROFILE_SUBSTEPS: usize = 4;
@@ -133,16 +147,22 @@ impl ProfileWalk {
     fn new(profile: Profile, step_s: f64) -> Self {
         Self {
             pos: Vec2::zeros(),
-            theta: 0.0,
+            heading: Vec2::new(1.0, 0.0),
             v: profile.cmd.v_mps,
             omega: profile.cmd.omega_radps,
             profile,
             sub_s: step_s / PROFILE_SUBSTEPS as f64,
             subs: PROFILE_SUBSTEPS,
+            steady: None,
         }
     }
 
     fn step(&mut self) {
+        if let Some(arc) = &mut self.steady {
+            arc.step();
+            (self.pos, self.heading) = (arc.pos, arc.heading);
+            return;
+        }
         let towards = |x: f64, goal: f64, max: f64| x + (goal - x).clamp(-max, max);
         let (rv, rw) = self.profile.rates;
         for _ in 0..self.subs {
@@ -150,30 +170,44 @@ impl ProfileWalk {
             let w1 = towards(self.omega, self.profile.goal.omega_radps, rw * self.sub_s);
             let (vm, wm) = (0.5 * (self.v + v1), 0.5 * (self.omega + w1));
             let half = 0.5 * wm * self.sub_s;
-            let chord = vm * self.sub_s * sinc(half);
-            let heading = self.theta + half;
-            self.pos += Vec2::new(heading.cos(), heading.sin()) * chord;
-            self.theta += wm * self.sub_s;
+            let (c, s, sinc_half) = small_turn_sinc(half);
+            // The chord of the arc, along the heading at its middle; then the whole turn,
+            // twice the half (cos 2a, sin 2a).
+            self.pos += rotate(self.heading, (c, s)) * (vm * self.sub_s * sinc_half);
+            self.heading = rotate(self.heading, (c * c - s * s, 2.0 * s * c));
             (self.v, self.omega) = (v1, w1);
+        }
+        let goal = self.profile.goal;
+        if self.v == goal.v_mps && self.omega == goal.omega_radps {
+            let mut arc = ArcWalk::new(goal, self.sub_s * self.subs as f64);
+            (arc.pos, arc.heading) = (self.pos, self.heading);
+            self.steady = Some(arc);
         }
     }
 
     fn velocity(&self) -> Vec2 {
-        Vec2::new(self.theta.cos(), self.theta.sin()) * self.v
+        self.heading * self.v
     }
 }
 
 /// (cos, sin) of a small angle (rad) by their series; exact to 1e-12 below 0.05 rad.
 #[inline]
 fn small_turn(a: f64) -> (f64, f64) {
+    let (c, s, _) = small_turn_sinc(a);
+    (c, s)
+}
+
+/// (cos a, sin a, sin a / a) by their series below 0.05 rad (exact to
+/// 1e-12 there), by the functions above.
+#[inline]
+fn small_turn_sinc(a: f64) -> (f64, f64, f64) {
     if a.abs() < 0.05 {
         let a2 = a * a;
-        (
-            1.0 - a2 / 2.0 + a2 * a2 / 24.0 - a2 * a2 * a2 / 720.0,
-            a * (1.0 - a2 / 6.0 + a2 * a2 / 120.0),
-        )
+        let sinc = 1.0 - a2 / 6.0 + a2 * a2 / 120.0;
+        (1.0 - a2 / 2.0 + a2 * a2 / 24.0 - a2 * a2 * a2 / 720.0, a * sinc, sinc)
     } else {
-        (a.cos(), a.sin())
+        let (s, c) = a.sin_cos();
+        (c, s, s / a)
     }
 }
 
@@ -241,8 +275,37 @@ pub struct EvasionScore {
     pub line_deficit_m: f64,
 }
 
+impl EvasionScore {
+    /// The worst score: contact now, no room.
+    pub fn contact_now() -> Self {
+        Self {
+            time_to_contact_s: 0.0,
+            mover_contact_s: 0.0,
+            mover_gap_m: 0.0,
+            line_deficit_m: 0.0,
+        }
+    }
+}
+
 /// Room to a mover beyond this counts no more in [`EvasionScore::mover_gap_m`] (m).
 pub const GAP_CAP_M: f64 = 0.5;
+
+/// What a walk of the evasion horizon has found after some of its samples:
+/// enough for a caller to bound the final score before the walk ends
+/// ([`PassiveSafety::evasion_score_until`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvasionSoFar {
+    /// The first contact, once found (s): final from then on.
+    pub contact_s: Option<f64>,
+    /// The sum of the capped gaps of the samples after now so far (m).
+    pub gap_sum_m: f64,
+    /// Samples after now walked so far.
+    pub samples_done: usize,
+    /// Samples after now in all.
+    pub samples: usize,
+    /// There are movers: the gap counts (else the score's gap is +inf).
+    pub movers: bool,
+}
 
 impl EvasionScore {
     /// Whether `self` beats `other` by at least `min_gain_s` of time to
@@ -280,6 +343,10 @@ pub struct PassiveSafety {
     scratch: Vec<(Vec2, f64)>,
     path: Vec<Sample>,
     reach: Vec<Vec2>,
+    /// The same points as f32 coordinates, padded to whole lanes with far
+    /// points: for [`Self::nearest_lower_bound_m`].
+    reach_x: Vec<f32>,
+    reach_y: Vec<f32>,
     /// The last few answers of [`Self::closing_contact`] and
     /// [`Self::evasion_score`] this step: the search and the step record ask
     /// about the same commands more than once. Cleared whenever an input changes.
@@ -339,6 +406,8 @@ impl PassiveSafety {
             scratch: Vec::with_capacity(points),
             path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
             reach: Vec::with_capacity(points),
+            reach_x: Vec::with_capacity(points + LANES),
+            reach_y: Vec::with_capacity(points + LANES),
             contact_memo: Memo::default(),
             evasion_memo: Memo::default(),
         }
@@ -538,6 +607,13 @@ impl PassiveSafety {
         for set in [all, &self.phantoms] {
             self.reach.extend(set.iter().filter(|q| q.norm_squared() <= reach2));
         }
+        self.reach_x.clear();
+        self.reach_y.clear();
+        self.reach_x.extend(self.reach.iter().map(|q| q.x as f32));
+        self.reach_y.extend(self.reach.iter().map(|q| q.y as f32));
+        let pad = self.reach.len().next_multiple_of(LANES) - self.reach.len();
+        self.reach_x.extend(std::iter::repeat_n(FAR_M, pad));
+        self.reach_y.extend(std::iter::repeat_n(FAR_M, pad));
         // Until a mover, closing at its speed plus the robot's from where it is, can
         // come within its radius + r + the larger of the gap cap and its grown margin,
         // `score_evasion` would skip it at every sample (`surely_beyond`): it is looked
@@ -601,11 +677,40 @@ impl PassiveSafety {
     /// [`Self::evasion_score`] of a command that changes as `profile` says
     /// (not remembered: each profile is asked about once).
     pub fn evasion_score_of(&self, profile: Profile, p: &Params) -> EvasionScore {
-        if profile.goal == profile.cmd {
-            return self.score_evasion(profile.cmd, p);
+        match self.evasion_score_until(profile, p, |_| false) {
+            Some(score) => score,
+            // Never: the walk is not given up. The worst score, should it be.
+            None => EvasionScore::contact_now(),
         }
+    }
+
+    /// [`Self::evasion_score_of`], or `None` as soon as `enough` says, after
+    /// any sample, that what the walk has found so far is enough to tell (a
+    /// caller that needs the score only while it could still be low stops
+    /// the walk when a bound on it already rules that out).
+    pub fn evasion_score_until(
+        &self,
+        profile: Profile,
+        p: &Params,
+        enough: impl FnMut(&EvasionSoFar) -> bool,
+    ) -> Option<EvasionScore> {
         let horizon = p.passive.evasion_horizon_s;
         let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
+        if profile.goal == profile.cmd {
+            let cmd = profile.cmd;
+            let mut walk = ArcWalk::new(cmd, horizon / n as f64);
+            return self.score_path(
+                |k| {
+                    if k > 0 {
+                        walk.step();
+                    }
+                    (walk.pos, walk.heading * cmd.v_mps)
+                },
+                cmd.v_mps.abs(),
+                p,
+                enough,
+            );
+        }
         let mut walk = ProfileWalk::new(profile, horizon / n as f64);
         self.score_path(
             |k| {
@@ -616,29 +721,45 @@ impl PassiveSafety {
             },
             profile.top_speed(),
             p,
+            enough,
         )
     }
 
     fn score_evasion(&self, cmd: Twist, p: &Params) -> EvasionScore {
-        let horizon = p.passive.evasion_horizon_s;
-        let n = (horizon / EVASION_SAMPLE_S).ceil().max(1.0) as usize;
-        let mut walk = ArcWalk::new(cmd, horizon / n as f64);
-        self.score_path(
-            |k| {
-                if k > 0 {
-                    walk.step();
-                }
-                (walk.pos, walk.heading * cmd.v_mps)
-            },
-            cmd.v_mps.abs(),
-            p,
-        )
+        self.evasion_score_of(Profile::held(cmd), p)
+    }
+
+    /// A lower bound of the distance from `pos` (robot frame, m) to the
+    /// nearest point within reach (m; huge with none), computed in f32 over
+    /// [`LANES`] points at a time. The f32 coordinates and arithmetic are off
+    /// by less than 1e-6 m at the few metres of reach; [`F32_SLACK_M`] more
+    /// than covers that, so the bound never exceeds the exact distance and a
+    /// sample it clears has no contact: skipping the exact look there
+    /// changes no score.
+    fn nearest_lower_bound_m(&self, pos: Vec2) -> f64 {
+        let (px, py) = (pos.x as f32, pos.y as f32);
+        let mut least = [f32::INFINITY; LANES];
+        for (xs, ys) in self.reach_x.chunks_exact(LANES).zip(self.reach_y.chunks_exact(LANES)) {
+            for l in 0..LANES {
+                let (dx, dy) = (xs[l] - px, ys[l] - py);
+                let d2 = dx * dx + dy * dy;
+                least[l] = if d2 < least[l] { d2 } else { least[l] };
+            }
+        }
+        let d2 = least.iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+        f64::from(d2).sqrt() - F32_SLACK_M
     }
 
     /// The score of the path whose position and velocity at sample k (of
     /// the horizon's samples, 0 = now) `at` gives, called for k = 0, 1, …
     /// in turn; `speed` bounds the path's speed (m/s).
-    fn score_path(&self, mut at: impl FnMut(usize) -> (Vec2, Vec2), speed: f64, p: &Params) -> EvasionScore {
+    fn score_path(
+        &self,
+        mut at: impl FnMut(usize) -> (Vec2, Vec2),
+        speed: f64,
+        p: &Params,
+        mut enough: impl FnMut(&EvasionSoFar) -> bool,
+    ) -> Option<EvasionScore> {
         let r = p.robot_radius_m();
         let horizon = p.passive.evasion_horizon_s;
         let threshold = 0.5 * p.passive.closing_speed_mps;
@@ -678,22 +799,40 @@ impl PassiveSafety {
             if k > 0 {
                 gap_sum += gap.min(GAP_CAP_M);
                 if contact.is_none() && speed > 0.0 && t >= static_clear_until {
-                    let mut nearest2 = f64::INFINITY;
-                    let static_hit = self.reach.iter().any(|q| {
-                        let d = q - pos;
-                        let d2 = d.norm_squared();
-                        nearest2 = nearest2.min(d2);
-                        d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
-                    });
-                    if static_hit {
-                        contact = Some(t);
+                    // Most samples are nowhere near a point: a bound in f32 over all of
+                    // them at once says so, and only a sample it cannot clear is
+                    // looked at exactly.
+                    let near_lb = self.nearest_lower_bound_m(pos);
+                    if near_lb >= r {
+                        static_clear_until = t + (near_lb - r) / speed;
                     } else {
-                        static_clear_until = t + (nearest2.sqrt() - r).max(0.0) / speed;
+                        let mut nearest2 = f64::INFINITY;
+                        let static_hit = self.reach.iter().any(|q| {
+                            let d = q - pos;
+                            let d2 = d.norm_squared();
+                            nearest2 = nearest2.min(d2);
+                            d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
+                        });
+                        if static_hit {
+                            contact = Some(t);
+                        } else {
+                            static_clear_until = t + (nearest2.sqrt() - r).max(0.0) / speed;
+                        }
                     }
                 }
             }
+            let so_far = EvasionSoFar {
+                contact_s: contact,
+                gap_sum_m: gap_sum,
+                samples_done: k,
+                samples: n,
+                movers: !self.movers.is_empty(),
+            };
+            if enough(&so_far) {
+                return None;
+            }
         }
-        EvasionScore {
+        Some(EvasionScore {
             line_deficit_m: self.line_deficit(end, p),
             time_to_contact_s: contact.unwrap_or(horizon),
             mover_contact_s: mover_contact.unwrap_or(horizon),
@@ -702,7 +841,7 @@ impl PassiveSafety {
             } else {
                 gap_sum / n as f64
             },
-        }
+        })
     }
 }
 
@@ -719,6 +858,53 @@ mod tests {
     fn contact(ps: &mut PassiveSafety, cmd: Twist, points: &[Vec2], p: &Params) -> Option<ClosingContact> {
         ps.prepare(points, p);
         ps.closing_contact(cmd, p)
+    }
+
+    /// The profile walk as plainly as it can be written: the heading an angle,
+    /// each sub-step's arc by cos, sin and sinc.
+    fn plain_profile_walk(profile: Profile, step_s: f64, steps: usize) -> Vec<(Vec2, Vec2)> {
+        use crate::algo::unicycle::sinc;
+        let towards = |x: f64, goal: f64, max: f64| x + (goal - x).clamp(-max, max);
+        let sub = step_s / PROFILE_SUBSTEPS as f64;
+        let (mut pos, mut theta) = (Vec2::zeros(), 0.0f64);
+        let (mut v, mut w) = (profile.cmd.v_mps, profile.cmd.omega_radps);
+        let mut out = vec![(pos, Vec2::new(theta.cos(), theta.sin()) * v)];
+        for _ in 0..steps {
+            for _ in 0..PROFILE_SUBSTEPS {
+                let v1 = towards(v, profile.goal.v_mps, profile.rates.0 * sub);
+                let w1 = towards(w, profile.goal.omega_radps, profile.rates.1 * sub);
+                let (vm, wm) = (0.5 * (v + v1), 0.5 * (w + w1));
+                let half = 0.5 * wm * sub;
+                let heading = theta + half;
+                pos += Vec2::new(heading.cos(), heading.sin()) * (vm * sub * sinc(half));
+                theta += wm * sub;
+                (v, w) = (v1, w1);
+            }
+            out.push((pos, Vec2::new(theta.cos(), theta.sin()) * v));
+        }
+        out
+    }
+
+    proptest::proptest! {
+        /// The trig-free profile walk stays on the plain one's path: within 1e-9 m
+        /// and 1e-9 m/s over a 5 s horizon, at every yaw rate and rate of change
+        /// the window allows and beyond.
+        #[test]
+        fn the_profile_walk_matches_the_plain_walk(
+            v0 in -0.3f64..0.3, w0 in -3.0f64..3.0, v1 in -0.3f64..0.3, w1 in -3.0f64..3.0,
+            rv in 0.0f64..3.0, rw in 0.0f64..4.0,
+        ) {
+            let profile = Profile { cmd: Twist::new(v0, w0), goal: Twist::new(v1, w1), rates: (rv, rw) };
+            let plain = plain_profile_walk(profile, 0.2, 25);
+            let mut walk = ProfileWalk::new(profile, 0.2);
+            for (k, (pos, vel)) in plain.iter().enumerate() {
+                if k > 0 {
+                    walk.step();
+                }
+                proptest::prop_assert!((walk.pos - pos).norm() < 1e-9, "step {}: {:?} vs {:?}", k, walk.pos, pos);
+                proptest::prop_assert!((walk.velocity() - vel).norm() < 1e-9, "step {}", k);
+            }
+        }
     }
 
     #[test]
@@ -1009,9 +1195,6 @@ impl PassiveSafety {
         let mut mover_contact: Option<f64> = None;
         let mut gap_sum = 0.0;
         let speed = cmd.v_mps.abs();
-        // No static point can be reached before this: the robot closes on any point no
-        // faster than its speed, so the nearest one, d − r away, takes (d − r)/|v|.
-        let mut static_clear_until = 0.0;
         let mut walk = ArcWalk::new(cmd, horizon / n as f64);
         for k in 0..=n {
             let t = horizon * k as f64 / n as f64;
@@ -1033,18 +1216,15 @@ impl PassiveSafety {
             }
             if k > 0 {
                 gap_sum += gap.min(GAP_CAP_M);
-                if contact.is_none() && speed > 0.0 && t >= static_clear_until {
-                    let mut nearest2 = f64::INFINITY;
+                // Every sample, every point: no skip and no bound.
+                if contact.is_none() && speed > 0.0 {
                     let static_hit = self.reach.iter().any(|q| {
                         let d = q - pos;
                         let d2 = d.norm_squared();
-                        nearest2 = nearest2.min(d2);
                         d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
                     });
                     if static_hit {
                         contact = Some(t);
-                    } else {
-                        static_clear_until = t + (nearest2.sqrt() - r).max(0.0) / speed;
                     }
                 }
             }
@@ -1149,6 +1329,32 @@ mod fast_path_properties {
             for &cmd in &commands {
                 let fast = ps.evasion_score(cmd, &p);
                 prop_assert_eq!(bits(&fast), bits(&ps.reference_evasion_score(cmd, &p)), "{:?}", cmd);
+            }
+        }
+
+        /// The f32 bound on the nearest point never exceeds the exact distance
+        /// (so a sample it clears has no contact), and is within 2 × its slack of
+        /// it (so it clears what it can).
+        #[test]
+        fn the_nearest_point_bound_is_a_tight_lower_bound(
+            points in prop::collection::vec((-1.5f64..1.5, -1.5f64..1.5), 1..40),
+            pos in (-1.2f64..1.2, -1.2f64..1.2),
+            near in prop_oneof![Just(None), (0.0f64..std::f64::consts::TAU, 0.17f64..0.19).prop_map(Some)],
+        ) {
+            let p = Params::default();
+            let pos = Vec2::new(pos.0, pos.1);
+            let mut points: Vec<Vec2> = points.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            // One point right at the contact radius from the sample, where it matters.
+            if let Some((a, d)) = near {
+                points.push(pos + Vec2::new(a.cos(), a.sin()) * d);
+            }
+            let mut ps = PassiveSafety::with_capacity(1, 64);
+            ps.select_reach(&points, &p);
+            let exact = ps.reach.iter().map(|q| (q - pos).norm()).fold(f64::INFINITY, f64::min);
+            let bound = ps.nearest_lower_bound_m(pos);
+            prop_assert!(bound <= exact, "{} > {}", bound, exact);
+            if exact.is_finite() {
+                prop_assert!(bound >= exact - 2.0 * F32_SLACK_M, "{} vs {}", bound, exact);
             }
         }
     }

@@ -16,9 +16,13 @@
 //!   the window's nearest speed (braking towards it) is the range.
 //! * **Search.** Within a level, candidates are taken in order of their
 //!   cheap critics; the clearance and mover critics (≥ 0) are added only
-//!   while a candidate could still beat the best so far, and the braking
-//!   check only for one that would: the result is the minimum over every
-//!   candidate of the level, found without weighing most of them in full.
+//!   while a candidate could still beat the best so far, the mover critic's
+//!   walk of the horizon stops once a bound on its cost rules that out, and
+//!   the braking check runs only for one that would win. While a mover
+//!   threatens, the candidate nearest the command last sent is weighed
+//!   first, so the bounds bite from the start. The result is the minimum
+//!   over every candidate of the level (equal totals: the earlier in the
+//!   cheap order), found without weighing most of them in full.
 //! * **Side kept.** When something comes within d_act ahead, the side to
 //!   pass it on is chosen once (the way the DOAA's law turns, else the
 //!   clearer side, else the right) and kept for the side critic until the
@@ -31,12 +35,16 @@ use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, predicted_displacement, DtcbfFilter, InputBox, TOL_M};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
-use crate::algo::passive::{PassiveSafety, Profile};
+use crate::algo::passive::{EvasionSoFar, PassiveSafety, Profile};
 
 /// A safe nominal whose clearance critic's (unweighted) cost exceeds this is
 /// heading into something: about half the clearance band given up over the
 /// horizon ((½)² of the band's shortfall).
 const HEADING_IN_SHORTFALL: f64 = 0.25;
+
+/// How far beyond the best total so far a bound must be before a walk is
+/// stopped: far above the rounding of sums of a few costs of order 1-100.
+const PRUNE_MARGIN: f64 = 1e-9;
 
 /// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
 const SIDE_MIN_RADPS: f64 = 0.03;
@@ -133,6 +141,10 @@ pub struct Selector {
     towards_nearest: f64,
     /// This step's rates of the window.
     limits: Limits,
+    /// Tests: weigh every candidate in full, in the cheap order (the plain
+    /// reference the bounds of [`Self::best_meeting`] are checked against).
+    #[cfg(test)]
+    plain: bool,
 }
 
 impl Selector {
@@ -148,7 +160,17 @@ impl Selector {
             last: Twist::ZERO,
             towards_nearest: 0.0,
             limits: Limits::driving(p),
+            #[cfg(test)]
+            plain: false,
         }
+    }
+
+    /// Whether the bounds that spare work are off (tests only).
+    fn plain(&self) -> bool {
+        #[cfg(test)]
+        return self.plain;
+        #[cfg(not(test))]
+        false
     }
 
     /// Forgets the side kept.
@@ -373,20 +395,61 @@ impl Selector {
         &self,
         ctx: &Context<'_>,
         look: &Look,
-        mut costs: CriticCosts,
+        costs: CriticCosts,
         threatened: bool,
         passive: &mut PassiveSafety,
     ) -> CriticCosts {
-        let p = ctx.params;
-        let w = &p.select.weights;
-        if ctx.guide {
-            costs.set(Critic::Clearance, w.clearance * self.clearance.cost(look, p));
+        let costs = self.with_clearance(ctx, look, costs);
+        match self.with_mover_below(ctx, look, costs, threatened, passive, None) {
+            Some(costs) => costs,
+            // Never without a bound; a candidate that cannot win, should it be.
+            None => {
+                let mut worst = costs;
+                worst.set(Critic::Mover, f64::INFINITY);
+                worst
+            }
         }
-        if threatened {
-            let score = passive.evasion_score_of(self.profile(look.cmd, p), p);
-            costs.set(Critic::Mover, w.mover * mover::cost(&score, p));
+    }
+
+    /// `costs` with the clearance critic's, when the steering critics count.
+    fn with_clearance(&self, ctx: &Context<'_>, look: &Look, mut costs: CriticCosts) -> CriticCosts {
+        if ctx.guide {
+            let p = ctx.params;
+            costs.set(
+                Critic::Clearance,
+                p.select.weights.clearance * self.clearance.cost(look, p),
+            );
         }
         costs
+    }
+
+    /// `costs` with the mover critic's while a mover threatens (the costliest
+    /// critic by far, a walk of the evasion horizon, so it comes last), or
+    /// `None` once the walk shows the total would
+    /// reach `bound` (the best total so far) anyway: the mover critic's cost
+    /// is bounded below as the walk goes ([`mover::cost_at_least`]), and a
+    /// candidate that cannot win needs no more of it.
+    fn with_mover_below(
+        &self,
+        ctx: &Context<'_>,
+        look: &Look,
+        mut costs: CriticCosts,
+        threatened: bool,
+        passive: &mut PassiveSafety,
+        bound: Option<f64>,
+    ) -> Option<CriticCosts> {
+        if threatened {
+            let p = ctx.params;
+            let w = p.select.weights.mover;
+            let partial = costs.total();
+            // Stopped only clear of the bound: rounding cannot make a stopped walk the best.
+            let enough = |so_far: &EvasionSoFar| {
+                bound.is_some_and(|b| partial + w * mover::cost_at_least(so_far, p) >= b + PRUNE_MARGIN)
+            };
+            let score = passive.evasion_score_until(self.profile(look.cmd, p), p, enough)?;
+            costs.set(Critic::Mover, w * mover::cost(&score, p));
+        }
+        Some(costs)
     }
 
     /// How `cmd` goes on (§5c): a candidate at the edge of the window stands
@@ -471,21 +534,59 @@ impl Selector {
         );
         self.order
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut best: Option<(usize, CriticCosts, f64)> = None;
-        for k in 0..self.order.len() {
+        // The best so far: candidate, costs, total, and its place in the cheap order,
+        // which decides between equal totals (the earlier wins).
+        let mut best: Option<(usize, CriticCosts, f64, usize)> = None;
+        // Cannot beat the best so far, whatever the critics still to come add (they
+        // only add: weights and costs are ≥ 0, and a sum of floats does not fall when
+        // a term grows).
+        let plain = self.plain();
+        let beaten = |best: &Option<(usize, CriticCosts, f64, usize)>, at_least: f64, k: usize| {
+            !plain
+                && best
+                    .as_ref()
+                    .is_some_and(|b| at_least > b.2 || (at_least == b.2 && k > b.3))
+        };
+        // While a mover threatens, each candidate's mover critic walks the evasion
+        // horizon; a good candidate weighed first lets the bounds below spare most
+        // walks: the one nearest the command last sent (commands change little from one
+        // step to the next). Its place in the order still decides ties.
+        let seed = if threatened && !plain {
+            let last = ctx.last;
+            let off = |k: usize| {
+                let c = self.candidates.items[self.order[k].1 as usize].look.cmd;
+                (c.v_mps - last.v_mps).abs() / ctx.params.control.v_max_mps
+                    + (c.omega_radps - last.omega_radps).abs() / ctx.params.control.omega_max_radps
+            };
+            (0..self.order.len()).min_by(|&a, &b| off(a).total_cmp(&off(b)))
+        } else {
+            None
+        };
+        for k in seed
+            .into_iter()
+            .chain((0..self.order.len()).filter(|&k| Some(k) != seed))
+        {
             let (cheap, i) = self.order[k];
-            if best.as_ref().is_some_and(|b| cheap >= b.2) {
-                break; // the rest cost at least this much
+            if beaten(&best, cheap, k) {
+                break; // the rest of the order costs at least this much, and comes later
             }
             let i = i as usize;
             let c: Candidate = self.candidates.items[i];
-            let costs = self.full_costs(ctx, &c.look, c.cheap, threatened, passive);
+            let costs = self.with_clearance(ctx, &c.look, c.cheap);
+            if beaten(&best, costs.total(), k) {
+                continue;
+            }
+            let bound = best.as_ref().map(|b| b.2).filter(|_| !plain);
+            let Some(costs) = self.with_mover_below(ctx, &c.look, costs, threatened, passive, bound) else {
+                continue;
+            };
             let total = costs.total();
-            if best.as_ref().is_none_or(|b| total < b.2) && self.braking(i, passive, ctx.params) {
-                best = Some((i, costs, total));
+            let better = best.as_ref().is_none_or(|b| total < b.2 || (total == b.2 && k < b.3));
+            if better && self.braking(i, passive, ctx.params) {
+                best = Some((i, costs, total, k));
             }
         }
-        best.map(|(i, costs, _)| (i, costs))
+        best.map(|(i, costs, _, _)| (i, costs))
     }
 
     /// The candidate with the highest h(k+1) that passes the braking check
@@ -651,5 +752,53 @@ mod tests {
         let s = select_on(&mut sel, &points, &person, &input, &p);
         assert_eq!(sel.side(), None);
         assert!(s.guided && s.cmd.omega_radps > 0.2 && s.cmd.v_mps.abs() < 1e-9, "{s:?}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        /// The bounds that spare the critics' work (the cheap order, the clearance
+        /// first, the walk stopped on its bound, a good candidate first) choose what
+        /// weighing every candidate in full chooses, ties included: people walking
+        /// at and past the robot among posts, any upstream command and last command.
+        #[test]
+        fn the_bounds_choose_what_weighing_everything_chooses(
+            posts in proptest::collection::vec((0.3f64..2.0, -1.5f64..1.5), 0..6),
+            people in proptest::collection::vec(((-3.0f64..3.0, -3.0f64..3.0), (-0.8f64..0.8, -0.8f64..0.8)), 1..4),
+            nominal in (0.0f64..0.22, -0.3f64..0.3),
+            last in (-0.1f64..0.22, -0.3f64..0.3),
+            following in proptest::bool::ANY,
+        ) {
+            let p = Params::default();
+            let points: Vec<Vec2> = posts
+                .iter()
+                .flat_map(|&(x, y)| (-2..=2).map(move |k| Vec2::new(x, y + 0.03 * f64::from(k))))
+                .collect();
+            let movers: Vec<Mover> = people
+                .iter()
+                .map(|&((x, y), (vx, vy))| Mover { position: Vec2::new(x, y), velocity: Vec2::new(vx, vy), radius_m: 0.25 })
+                .collect();
+            let input = SelectInput {
+                nominal: Twist::new(nominal.0, nominal.1),
+                doaa: Twist::new(nominal.0, nominal.1),
+                doaa_both_sides: false,
+                last: Twist::new(last.0, last.1),
+                last_change: Twist::ZERO,
+                since_s: 0.1,
+                bx: InputBox::from_params(&p),
+                target: Some(Vec2::new(3.0, 0.0)),
+                front_blocked: false,
+                front_clear: true,
+                following,
+                clearer_side: -1.0,
+                closing_in: false,
+                mover_closing: false,
+            };
+            let mut fast = Selector::with_capacity(points.len(), &p);
+            let mut plain = Selector::with_capacity(points.len(), &p);
+            plain.plain = true;
+            let a = select_on(&mut fast, &points, &movers, &input, &p);
+            let b = select_on(&mut plain, &points, &movers, &input, &p);
+            proptest::prop_assert_eq!(a, b);
+        }
     }
 }

@@ -18,7 +18,7 @@
 //! otherwise it is 0 and not computed.
 
 use crate::algo::params::Params;
-use crate::algo::passive::{EvasionScore, GAP_CAP_M};
+use crate::algo::passive::{EvasionScore, EvasionSoFar, GAP_CAP_M};
 
 /// A line deficit of this much (m) costs 1…
 const LINE_SCALE_M: f64 = 0.1;
@@ -40,6 +40,26 @@ pub fn cost(s: &EvasionScore, p: &Params) -> f64 {
         0.0
     };
     soon + line + gap
+}
+
+/// A lower bound of [`cost`] of the score a walk will end with, from what
+/// it has found so far: the time term once a contact is found (it is final
+/// then), the gap term with every sample still to come at the cap, none of
+/// the line term. A candidate whose other costs plus this already reach the
+/// best total so far cannot win, and its walk stops there.
+pub fn cost_at_least(s: &EvasionSoFar, p: &Params) -> f64 {
+    let horizon = p.passive.evasion_horizon_s;
+    let soon = s
+        .contact_s
+        .map_or(0.0, |t| (horizon / t.max(MIN_TIME_S) - 1.0).max(0.0));
+    let gap = if s.movers && s.samples > 0 {
+        let to_come = s.samples.saturating_sub(s.samples_done) as f64;
+        let most = (s.gap_sum_m + GAP_CAP_M * to_come) / s.samples as f64;
+        GAP_SHARE * (GAP_CAP_M - most.clamp(0.0, GAP_CAP_M)) / GAP_CAP_M
+    } else {
+        0.0
+    };
+    soon + gap
 }
 
 #[cfg(test)]
@@ -65,5 +85,54 @@ mod tests {
         assert!((cost(&score(5.0, 0.5, 2.0), &p) - 3.0).abs() < 1e-12);
         assert!(cost(&score(3.0, 0.2, 0.0), &p) < cost(&score(2.0, 0.2, 0.0), &p));
         assert!(cost(&score(2.0, 0.3, 0.0), &p) < cost(&score(2.0, 0.2, 0.0), &p));
+    }
+
+    proptest::proptest! {
+        /// The bound a walk gives as it goes never exceeds the cost it ends
+        /// with: a walk stopped on it is one whose cost would have reached it.
+        #[test]
+        fn the_bound_on_the_way_never_exceeds_the_final_cost(
+            movers in proptest::collection::vec(
+                ((-2.5f64..2.5, -2.5f64..2.5), (-0.8f64..0.8, -0.8f64..0.8), 0.1f64..0.4), 0..4),
+            points in proptest::collection::vec((-1.5f64..1.5, -1.5f64..1.5), 0..20),
+            cmd in (-0.22f64..0.22, -0.3f64..0.3),
+            goal in (-0.22f64..0.22, -0.3f64..0.3),
+            held in proptest::bool::ANY,
+        ) {
+            use crate::algo::geometry::{Twist, Vec2};
+            use crate::algo::passive::{Mover, PassiveSafety, Profile};
+            let p = Params::default();
+            let points: Vec<Vec2> = points.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
+            let mut ps = PassiveSafety::with_capacity(4, 32);
+            ps.set_movers(movers.iter().map(|&((x, y), (vx, vy), radius_m)| Mover {
+                position: Vec2::new(x, y),
+                velocity: Vec2::new(vx, vy),
+                radius_m,
+            }));
+            ps.prepare(&points, &p);
+            ps.select_reach(&points, &p);
+            let cmd = Twist::new(cmd.0, cmd.1);
+            let profile = if held {
+                Profile::held(cmd)
+            } else {
+                Profile { cmd, goal: Twist::new(goal.0, goal.1), rates: (1.0, 1.0) }
+            };
+            let mut bounds = Vec::new();
+            let score = ps.evasion_score_until(profile, &p, |so_far| {
+                bounds.push(cost_at_least(so_far, &p));
+                false
+            });
+            let Some(score) = score else {
+                return Err(proptest::test_runner::TestCaseError::fail("walk stopped unasked"));
+            };
+            let c = cost(&score, &p);
+            for (k, b) in bounds.iter().enumerate() {
+                proptest::prop_assert!(*b <= c + 1e-12, "sample {}: bound {} > cost {}", k, b, c);
+            }
+            // And at the end it is the cost, but for the line term.
+            let last = bounds.last().copied().unwrap_or(0.0);
+            let line = (score.line_deficit_m.max(0.0) / LINE_SCALE_M).min(LINE_MAX);
+            proptest::prop_assert!((last + line - c).abs() < 1e-9, "{} + {} vs {}", last, line, c);
+        }
     }
 }
