@@ -277,7 +277,7 @@ pub struct EvasionScore {
 
 impl EvasionScore {
     /// The worst score: contact now, no room.
-    pub fn contact_now() -> Self {
+    fn contact_now() -> Self {
         Self {
             time_to_contact_s: 0.0,
             mover_contact_s: 0.0,
@@ -638,7 +638,7 @@ impl PassiveSafety {
         if let Some(score) = self.evasion_memo.get(cmd) {
             return score;
         }
-        let score = self.score_evasion(cmd, p);
+        let score = self.evasion_score_of(Profile::held(cmd), p);
         self.evasion_memo.put(cmd, score)
     }
 
@@ -723,10 +723,6 @@ impl PassiveSafety {
             p,
             enough,
         )
-    }
-
-    fn score_evasion(&self, cmd: Twist, p: &Params) -> EvasionScore {
-        self.evasion_score_of(Profile::held(cmd), p)
     }
 
     /// A lower bound of the distance from `pos` (robot frame, m) to the
