@@ -78,7 +78,9 @@
 #              control.decel_mps2 and base.decel_mps2; can_bridge_node with a
 #              bridge ramp of 20 rad/s² (0.66 m/s²) exits 2 naming
 #              limits.wheel_decel_radps2 and base.decel_mps2 (the check comes
-#              before the CAN interface is opened), and with the shipped file
+#              before the CAN interface is opened), with a speed-up ramp of
+#              20 rad/s² exits 2 naming limits.wheel_accel_radps2 and
+#              base.accel_mps2, and with the shipped file
 #              passes it (then stops at the missing CAN interface); bringup.launch
 #              gives both nodes the same file (roslaunch --dump-params)
 #   multi      multi_robot.launch (two_robots, the symmetric crossing) 5 times: both robots reach
@@ -574,9 +576,16 @@ t_baselimits() {
     && grep -q 'base.decel_mps2' "$LOG/base_bridge_refused.log" && echo true)" "can_bridge_node, soft ramp: exit $rc" || return 1
   # shellcheck disable=SC2016
   figure "baselimits: can_bridge_node exit $rc: $(grep -o 'key `limits.wheel_decel_radps2`.*' "$LOG/base_bridge_refused.log" | head -1)"
+  # A speed-up ramp of 20 rad/s² (0.66 m/s², 0.404 beside a full yaw acceleration) below the base's 2.5.
+  rc=$(exit_of base_bridge_slow "$BIN/can_bridge_node" __ns:=/t_base_e _node/base_limits_file:="$shipped" \
+    _limits/wheel_accel_radps2:=20.0)
+  check "$([ "$rc" = 2 ] && grep -q 'limits.wheel_accel_radps2' "$LOG/base_bridge_slow.log" \
+    && grep -q 'base.accel_mps2' "$LOG/base_bridge_slow.log" && echo true)" "can_bridge_node, slow speed-up ramp: exit $rc" || return 1
+  # shellcheck disable=SC2016
+  figure "baselimits: can_bridge_node exit $rc: $(grep -o 'key `limits.wheel_accel_radps2`.*' "$LOG/base_bridge_slow.log" | head -1)"
   # The shipped bridge passes the check; it then stops at the CAN interface this kernel lacks.
   rc=$(exit_of base_bridge_ok "$BIN/can_bridge_node" __ns:=/t_base_d _node/base_limits_file:="$shipped" _interface:=vcan0)
-  check "$([ "$rc" != 2 ] && ! grep -q 'base.decel_mps2' "$LOG/base_bridge_ok.log" && echo true)" \
+  check "$([ "$rc" != 2 ] && ! grep -q 'base.decel_mps2\|base.accel_mps2' "$LOG/base_bridge_ok.log" && echo true)" \
     "can_bridge_node, shipped base: exit $rc: $(tail -2 "$LOG/base_bridge_ok.log")" || return 1
   # bringup.launch loads the same file into both nodes.
   roslaunch --dump-params oldbf_ros bringup.launch > "$LOG/base_bringup_params.yaml"

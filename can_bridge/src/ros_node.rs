@@ -374,12 +374,6 @@ pub fn run() -> i32 {
         Ok(c) => c,
         Err(e) => return invalid(&e),
     };
-    // Disagreements with the base that break no safety assumption: said, not refused.
-    if let Ok(Some(base)) = base_limits(&settings) {
-        for note in cfg.base_notes(&base) {
-            log::warn!("{source}: {note} ({})", settings.base_limits_file);
-        }
-    }
     match run_connected(cfg, settings, &stop) {
         Ok(true) => 0,
         Ok(false) => 1,

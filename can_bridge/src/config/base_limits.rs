@@ -5,7 +5,11 @@
 //! The filter's braking check counts on the base braking at
 //! `base.decel_mps2` (its own `control.decel_mps2` may not exceed it); the
 //! bridge ramps every commanded slow-down at `limits.wheel_decel_radps2` at
-//! the wheel, so that ramp, in body terms, may not be gentler.
+//! the wheel, so that ramp, in body terms, may not be gentler. Likewise the
+//! filter's dynamic window speeds up at the base's `accel_mps2` and
+//! `angular_accel_radps2` (evasion uses them in full), so the speed-up ramp
+//! may not be gentler either: every command the filter verified is one the
+//! base, bridge included, can follow.
 
 use super::BridgeConfig;
 use oldbf::config::{BaseKey, BaseLimits, LimitCheck, LimitConflict, Relation};
@@ -36,6 +40,29 @@ impl BridgeConfig {
             Relation::AtLeast,
             "the bridge would not brake as fast as the filter's braking check counts on",
         );
+        // Speed-ups: the filter's dynamic window may change v by up to
+        // base.accel_mps2 and ω by up to base.angular_accel_radps2 in the same
+        // second (evasion uses the base's own limits), which asks one wheel
+        // for (accel + angular_accel × L/2) / r. The ramp scales both wheels
+        // by one factor, so a gentler wheel ramp slows the whole change: the
+        // base would not follow the commands the filter verified. Compared
+        // as the linear acceleration left beside a full yaw acceleration.
+        let half_track_m = 0.5 * self.kinematics.wheel_separation_m;
+        let (body, shown) = body_rate(l.wheel_accel_radps2, self.kinematics.wheel_radius_m);
+        let yaw_share = base.angular_accel_radps2 * half_track_m;
+        c.compare(
+            "limits.wheel_accel_radps2",
+            body - yaw_share,
+            format!(
+                "{shown}, less base.angular_accel_radps2 {} rad/s² × kinematics.wheel_separation_m/2 {half_track_m} m \
+                 = {:.4} m/s²",
+                base.angular_accel_radps2,
+                body - yaw_share
+            ),
+            BaseKey::Accel,
+            Relation::AtLeast,
+            "the bridge would ramp speed-ups more gently than the filter's window (and its evasion) counts on",
+        );
         // The bridge's own clamps above the base's speeds promise what the
         // base cannot do (the filter's are checked against the same keys).
         c.at_most(
@@ -49,26 +76,6 @@ impl BridgeConfig {
             l.omega_max_radps,
             BaseKey::OmegaMax,
             "the bridge would pass yaw rates the base cannot reach",
-        );
-        c.finish()
-    }
-
-    /// Disagreements that do not stop the node, to be logged: an
-    /// acceleration ramp gentler than the base's. It breaks no braking
-    /// assumption (a robot that speeds up more slowly is slower than the
-    /// filter thinks), but an evasion planned at up to `base.accel_mps2`
-    /// (the filter's `passive.evasion_accel_mps2`) gets less than planned.
-    pub fn base_notes(&self, base: &BaseLimits) -> Vec<LimitConflict> {
-        let l = &self.limits;
-        let mut c = LimitCheck::new(base);
-        let (body, shown) = body_rate(l.wheel_accel_radps2, self.kinematics.wheel_radius_m);
-        c.compare(
-            "limits.wheel_accel_radps2",
-            body,
-            shown,
-            BaseKey::Accel,
-            Relation::AtLeast,
-            "the bridge ramps speed-ups more gently than the base can: evasion gets less acceleration than planned",
         );
         c.finish()
     }
@@ -133,14 +140,33 @@ mod tests {
     }
 
     #[test]
+    fn a_gentler_speed_up_ramp_is_refused_naming_both_keys() {
+        // By hand: r = 0.033 m, L/2 = 0.08 m. 20 rad/s² × 0.033 = 0.66 m/s²,
+        // less 3.2 × 0.08 = 0.256 for a full yaw acceleration: 0.404 m/s² of
+        // linear acceleration left, below the base's 2.5.
+        let mut cfg = default_config();
+        cfg.kinematics.wheel_radius_m = 0.033;
+        cfg.kinematics.wheel_separation_m = 0.16;
+        cfg.limits.wheel_accel_radps2 = 20.0;
+        let c = cfg.base_conflicts(&base(1.0));
+        assert_eq!(c.len(), 1, "{c:?}");
+        assert_eq!(c[0].keys(), ["limits.wheel_accel_radps2", "base.accel_mps2"]);
+        assert!((c[0].value - 0.404).abs() < 1e-12, "{}", c[0].value);
+        // (2.5 + 0.256) / 0.033 = 83.52 rad/s²: 84 agrees, 83 does not.
+        cfg.limits.wheel_accel_radps2 = 84.0;
+        assert!(cfg.base_conflicts(&base(1.0)).is_empty());
+        cfg.limits.wheel_accel_radps2 = 83.0;
+        assert_eq!(cfg.base_conflicts(&base(1.0)).len(), 1);
+        // A wider track needs more of the wheel for the same yaw acceleration.
+        cfg.limits.wheel_accel_radps2 = 84.0;
+        cfg.kinematics.wheel_separation_m = 0.2;
+        assert_eq!(cfg.base_conflicts(&base(1.0)).len(), 1);
+    }
+
+    #[test]
     fn the_shipped_bridge_agrees_with_the_shipped_base() {
         let text = include_str!("../../../config/base_limits.yaml");
         let b = oldbf::config::load_base_limits_str(text, "config/base_limits.yaml").unwrap();
         assert_eq!(default_config().base_conflicts(&b), vec![]);
-        // The shipped accel ramp (20 rad/s² × 0.033 m = 0.66 m/s²) is gentler
-        // than the burger's 2.5 m/s²: a note, not a refusal.
-        let notes = default_config().base_notes(&b);
-        assert_eq!(notes.len(), 1);
-        assert_eq!(notes[0].keys(), ["limits.wheel_accel_radps2", "base.accel_mps2"]);
     }
 }
