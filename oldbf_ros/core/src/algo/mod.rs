@@ -13,6 +13,7 @@ pub mod clusters;
 pub mod collision_cone;
 pub mod doaa;
 pub mod dtcbf;
+pub mod footprint;
 pub mod geometry;
 pub mod local_map;
 pub mod obstacle_tracker;
