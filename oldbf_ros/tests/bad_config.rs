@@ -32,6 +32,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("footprint.semi_axis_1_m", "-0.1"),
     ("footprint.semi_axis_2_m", "5.1"),
     ("footprint.overall_dimension_m", "-1"),
+    ("footprint.padding_m", "1.5"),
     ("laser.mount_x_m", "6"),
     ("laser.mount_y_m", "-6"),
     ("laser.mount_yaw_deg", "400"),
@@ -276,6 +277,26 @@ fn params_generated_cases_for_every_key() {
         "footprint.radius_override_m",
         "radius override",
     );
+    // The optional polygon (commented out in the shipped file): one that
+    // crosses itself, and one too far out, are refused naming the key.
+    for (bad, why) in [
+        (
+            "[[0.3, 0.2], [-0.3, -0.2], [0.3, -0.2], [-0.3, 0.2]]",
+            "edges 0 and 2 intersect",
+        ),
+        ("[[0.3, 0.2], [-0.3, 0.2]]", "at least 3 vertices"),
+        ("[[6.0, 0.2], [-0.3, 0.2], [-0.3, -0.2]]", "within 5 m"),
+    ] {
+        let mut d = shipped.clone();
+        let polygon: Value = serde_yaml::from_str(bad).unwrap();
+        yaml_paths::get_mut(&mut d, &path("footprint"))
+            .as_mapping_mut()
+            .unwrap()
+            .insert("polygon_m".into(), polygon);
+        let e = load(&d).unwrap_err();
+        assert_names(&e, &f, "footprint.polygon_m", bad);
+        assert!(e.contains(why), "{bad}: {e}");
+    }
 }
 
 #[test]

@@ -286,7 +286,7 @@ impl PaddedPolygon {
         let mut events = Vec::with_capacity(8 * self.polygon.vertices.len() + 2);
         // The point at angle ψ on its circle is seen after the turn α = φ_p − ψ;
         // every such α in the span (and its turns by 2π) is an event.
-        let mut push = |psi: f64, events: &mut Vec<f64>| {
+        let push = |psi: f64, events: &mut Vec<f64>| {
             let alpha = phi_p - psi;
             let k0 = ((span.lo - alpha) / (2.0 * PI)).ceil();
             let mut k = k0;

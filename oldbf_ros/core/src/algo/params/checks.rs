@@ -77,6 +77,22 @@ impl Validate for Params {
         if let Some(r) = fp.radius_override_m {
             c.range("footprint.radius_override_m", r, SEMI_AXIS);
         }
+        c.range("footprint.padding_m", fp.padding_m, MARGIN_1);
+        if let Some(Err(e)) = fp.polygon() {
+            c.rule(
+                false,
+                "footprint.polygon_m",
+                format!("{:?}", fp.polygon_m),
+                e.to_string(),
+            );
+        } else if fp.polygon_m.iter().flatten().any(|x| x.abs() > 5.0) {
+            c.rule(
+                false,
+                "footprint.polygon_m",
+                format!("{:?}", fp.polygon_m),
+                "vertices within 5 m of the robot's origin",
+            );
+        }
 
         let l = &self.laser;
         c.range("laser.mount_x_m", l.mount_x_m, MOUNT);

@@ -1,5 +1,7 @@
 //! The robot: control limits and rates, and its footprint.
 
+use crate::algo::footprint::{PaddedPolygon, Polygon, PolygonError};
+use crate::algo::geometry::Vec2;
 use serde::{Deserialize, Serialize};
 
 /// Control loop and input box.
@@ -70,6 +72,16 @@ pub struct FootprintParams {
     /// YAML: ROS parameters travel over XML-RPC, which has no null.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius_override_m: Option<f64>,
+    /// The footprint as a simple polygon in the robot frame, `[[x, y], ...]`
+    /// (m; costmap_2d's `footprint`), convex or not; empty: the circle above.
+    /// Until the filter's checks take the polygon itself (issue 26), they
+    /// use its circumscribed circle about the robot's origin: safe, but as
+    /// wide as the polygon's farthest corner in every direction.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub polygon_m: Vec<[f64; 2]>,
+    /// Grows the footprint (polygon or circle) by this much all round (m;
+    /// costmap_2d's `footprint_padding`).
+    pub padding_m: f64,
 }
 
 impl Default for FootprintParams {
@@ -80,14 +92,41 @@ impl Default for FootprintParams {
             semi_axis_2_m: 0.069,
             overall_dimension_m: 0.178,
             radius_override_m: None,
+            polygon_m: Vec::new(),
+            padding_m: 0.0,
         }
     }
 }
 
 impl FootprintParams {
-    /// Robot radius r (m).
+    /// Robot radius r (m): the circle every check keeps clear. With a
+    /// polygon, the padded polygon's circumscribed radius about the origin
+    /// (the farthest vertex); else the paper's formula or the override, plus
+    /// the padding.
     pub fn radius_m(&self) -> f64 {
-        self.radius_override_m
-            .unwrap_or_else(|| self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0)
+        if self.polygon_m.is_empty() {
+            self.radius_override_m
+                .unwrap_or_else(|| self.semi_axis_1_m.max(self.semi_axis_2_m) + self.overall_dimension_m / 2.0)
+                + self.padding_m
+        } else {
+            self.polygon_m
+                .iter()
+                .map(|&[x, y]| x * x + y * y)
+                .fold(0.0, f64::max)
+                .sqrt()
+                + self.padding_m
+        }
+    }
+
+    /// The padded polygon, if one is given and valid.
+    pub fn polygon(&self) -> Option<Result<PaddedPolygon, PolygonError>> {
+        if self.polygon_m.is_empty() {
+            return None;
+        }
+        let v: Vec<Vec2> = self.polygon_m.iter().map(|&[x, y]| Vec2::new(x, y)).collect();
+        Some(Polygon::new(&v).map(|polygon| PaddedPolygon {
+            polygon,
+            padding_m: self.padding_m,
+        }))
     }
 }
