@@ -83,6 +83,11 @@
 #              base.accel_mps2, and with the shipped file
 #              passes it (then stops at the missing CAN interface); bringup.launch
 #              gives both nodes the same file (roslaunch --dump-params)
+#   footprint  a move_base costmap YAML (footprint as a string, 0.6 x 0.4 m) loaded under
+#              /move_base/local_costmap: with node/footprint_param naming it the node starts
+#              with a 4-vertex polygon (r = its circumscribed 0.361 m); a footprint that crosses
+#              itself exits 2 naming footprint.polygon_m and the edges; an unset name exits 2
+#              naming node.footprint_param
 #   multi      multi_robot.launch (two_robots, the symmetric crossing) 5 times: both robots reach
 #              their goals every time, 0 collisions, topics namespaced
 #   carmen     the real CARMEN log played as LaserScans into the node
@@ -96,7 +101,7 @@
 set -Eeuo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd -P)
 cd "$ROOT"
-ALL=(md5 scan tf scanners cpu sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits multi carmen shutdown catkin rviz)
+ALL=(md5 scan tf scanners cpu sim stale latency ticks clock simtime locks diagnostics reconfigure bag params baselimits footprint multi carmen shutdown catkin rviz)
 SELECTED=("$@")
 [ ${#SELECTED[@]} -gt 0 ] || SELECTED=("${ALL[@]}")
 LOG=$ROOT/target/ros-tests
@@ -594,6 +599,34 @@ t_baselimits() {
   check "$([ -n "$f" ] && [ "$f" = "$b" ] && [ "$(basename "$f")" = base_limits.yaml ] && echo true)" \
     "bringup.launch: filter '$f', bridge '$b'" || return 1
   figure "baselimits: bringup.launch gives both nodes $f"
+}
+
+t_footprint() {
+  local l rc
+  # move_base's costmap YAML (the footprint as a string, 0.6 x 0.4 m) loaded where move_base keeps it.
+  rosparam load "$ROOT/tests/ros/move_base_costmap.yaml" /move_base/local_costmap
+  l=$(spawn footprint_ok roslaunch --wait oldbf_ros oldbf.launch ns:=/t_fp_a \
+    "overrides:={node: {footprint_param: /move_base/local_costmap/footprint}}")
+  wait_log "$LOG/footprint_ok.log" "filtering at" 15 || { stop_pid "$l"; say "  oldbf_node did not start with the costmap footprint"; return 1; }
+  stop_pid "$l"
+  # Read as a polygon of 4 vertices; until the checks take the polygon, r is its circumscribed circle √0.13.
+  check "$(grep -q 'footprint: a polygon of 4 vertices from /move_base/local_costmap/footprint' "$LOG/footprint_ok.log" \
+    && grep -q 'r = 0.361 m' "$LOG/footprint_ok.log" && echo true)" "costmap footprint not read" || return 1
+  figure "footprint: $(grep -o 'footprint: a polygon.*' "$LOG/footprint_ok.log" | head -1)"
+  # A footprint that crosses itself: the node exits 2 naming footprint.polygon_m.
+  rosparam set /move_base/bad_costmap/footprint "[[0.3, 0.2], [-0.3, -0.2], [0.3, -0.2], [-0.3, 0.2]]"
+  set +e
+  timeout 20 "$BIN/oldbf_node" __ns:=/t_fp_b _node/footprint_param:=/move_base/bad_costmap/footprint > "$LOG/footprint_bad.log" 2>&1
+  rc=$?
+  set -e
+  check "$([ $rc = 2 ] && grep -q 'footprint.polygon_m' "$LOG/footprint_bad.log" && grep -q 'edges 0 and 2 intersect' "$LOG/footprint_bad.log" && echo true)" \
+    "crossing footprint: exit $rc" || return 1
+  # A name nothing is set under: exit 2 naming node.footprint_param.
+  set +e
+  timeout 20 "$BIN/oldbf_node" __ns:=/t_fp_c _node/footprint_param:=/move_base/nothing/footprint > "$LOG/footprint_unset.log" 2>&1
+  rc=$?
+  set -e
+  check "$([ $rc = 2 ] && grep -q 'node.footprint_param' "$LOG/footprint_unset.log" && echo true)" "unset footprint param: exit $rc"
 }
 
 t_multi() {

@@ -82,6 +82,67 @@ pub fn node_config_from_params(ns: Value, source: &str) -> Result<NodeConfig, Co
     Ok(c)
 }
 
+/// Puts a footprint read from the ROS parameter `name` (costmap_2d's
+/// format: a list of `[x, y]`, or the same as a string, `"[[0.3, 0.2],
+/// ...]"`) into the private namespace `ns` as `footprint.polygon_m`, where it
+/// is validated with the rest (`node.footprint_param`). `value` is `None`
+/// when the parameter is not set. Errors name `node.footprint_param` and the
+/// parameter; a namespace that also sets `footprint.polygon_m` is refused
+/// (two footprints).
+pub fn with_costmap_footprint(
+    ns: &mut Value,
+    name: &str,
+    value: Option<&Value>,
+    source: &str,
+) -> Result<(), ConfigError> {
+    let key = "node.footprint_param";
+    let err = |why: String| ConfigError::at(source, key, why);
+    let value = value.ok_or_else(|| err(format!("names {name}, which is not set")))?;
+    let parsed;
+    let list = match value {
+        Value::String(text) => {
+            parsed = serde_yaml::from_str::<Value>(text)
+                .map_err(|e| err(format!("{name} = {text:?} is not a list of [x, y]: {e}")))?;
+            &parsed
+        }
+        v => v,
+    };
+    let bad = || {
+        err(format!(
+            "{name} = {value:?} is not a list of [x, y] (costmap_2d's footprint)"
+        ))
+    };
+    let points = list.as_sequence().ok_or_else(bad)?;
+    let mut polygon = Vec::with_capacity(points.len());
+    for p in points {
+        match p
+            .as_sequence()
+            .map(|xy| xy.iter().map(Value::as_f64).collect::<Vec<_>>())
+        {
+            Some(xy) if xy.len() == 2 && xy.iter().all(Option::is_some) => {
+                polygon.push(Value::Sequence(xy.into_iter().flatten().map(Value::from).collect()))
+            }
+            _ => return Err(bad()),
+        }
+    }
+    let Value::Mapping(m) = ns else {
+        return Err(err("the private namespace is not a mapping".into()));
+    };
+    let footprint = m
+        .entry("footprint".into())
+        .or_insert_with(|| Value::Mapping(Default::default()));
+    let Value::Mapping(fm) = footprint else {
+        return Err(ConfigError::at(source, "footprint", "expected a mapping".to_string()));
+    };
+    if fm.contains_key("polygon_m") {
+        return Err(err(format!(
+            "names {name}, but footprint.polygon_m is set too: give the footprint once"
+        )));
+    }
+    fm.insert("polygon_m".into(), Value::Sequence(polygon));
+    Ok(())
+}
+
 /// The filter's parameters (the scenario's overrides included) against the
 /// base's limits, when `node.base_limits_file` names a file: a conflict
 /// names the filter's key and the base's, and the node does not start.
@@ -145,6 +206,59 @@ mod tests {
 
     fn yaml(s: &str) -> Value {
         serde_yaml::from_str(s).unwrap()
+    }
+
+    #[test]
+    fn a_costmap_footprint_is_read_in_either_form_and_checked_like_polygon_m() {
+        let name = "/move_base/local_costmap/footprint";
+        // The string form move_base YAMLs often carry; integers are numbers too.
+        for given in [
+            Value::String("[[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]]".into()),
+            yaml("[[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]]"),
+        ] {
+            let mut ns = yaml("barrier: {d_safe_m: 0.1}");
+            with_costmap_footprint(&mut ns, name, Some(&given), "P").unwrap();
+            let c = node_config_from_params(ns, "P").unwrap();
+            assert_eq!(
+                c.params.footprint.polygon_m,
+                [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]]
+            );
+            // Until the checks take the polygon: its circumscribed circle, √(0.3² + 0.2²).
+            assert!((c.params.robot_radius_m() - 0.13f64.sqrt()).abs() < 1e-12);
+        }
+        let mut ns = Value::Mapping(Default::default());
+        with_costmap_footprint(&mut ns, name, Some(&yaml("[[1, 0], [0, 1], [-1, 0]]")), "P").unwrap();
+        assert_eq!(
+            node_config_from_params(ns, "P").unwrap().params.footprint.polygon_m,
+            [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]
+        );
+        // Not set, not a list of pairs, given twice: refused naming the setting.
+        let mut ns = Value::Mapping(Default::default());
+        let e = with_costmap_footprint(&mut ns, name, None, "P").unwrap_err();
+        assert_eq!(e.keys(), ["node.footprint_param"]);
+        assert!(
+            e.to_string()
+                .contains("names /move_base/local_costmap/footprint, which is not set"),
+            "{e}"
+        );
+        for bad in [
+            yaml("[[0.3, 0.2, 0.0], [0, 1], [1, 1]]"),
+            yaml("0.3"),
+            Value::String("[[0.3, x]]".into()),
+        ] {
+            let e = with_costmap_footprint(&mut ns, name, Some(&bad), "P").unwrap_err();
+            assert_eq!(e.keys(), ["node.footprint_param"], "{bad:?}: {e}");
+        }
+        let mut ns = yaml("footprint: {polygon_m: [[1, 0], [0, 1], [-1, 0]]}");
+        let e = with_costmap_footprint(&mut ns, name, Some(&yaml("[[1, 0], [0, 1], [-1, 0]]")), "P").unwrap_err();
+        assert!(e.to_string().contains("footprint.polygon_m is set too"), "{e}");
+        // A footprint that crosses itself is refused as footprint.polygon_m.
+        let mut ns = Value::Mapping(Default::default());
+        let bow_tie = yaml("[[0.3, 0.2], [-0.3, -0.2], [0.3, -0.2], [-0.3, 0.2]]");
+        with_costmap_footprint(&mut ns, name, Some(&bow_tie), "P").unwrap();
+        let e = node_config_from_params(ns, "P").unwrap_err();
+        assert_eq!(e.keys(), ["footprint.polygon_m"], "{e}");
+        assert!(e.to_string().contains("edges 0 and 2 intersect"), "{e}");
     }
 
     #[test]

@@ -145,6 +145,11 @@ pub struct NodeSettings {
     pub scans: Vec<ScanInput>,
     /// Beams of the merged scan over a full turn (several scanners).
     pub merged_beams: usize,
+    /// A ROS parameter holding a footprint in costmap_2d's format (a list
+    /// of `[x, y]` or its string form), e.g. move_base's
+    /// `/move_base/local_costmap/footprint`, read at start-up as
+    /// `footprint.polygon_m`; empty: none.
+    pub footprint_param: String,
 }
 
 /// One scanner of `node.scans`.
@@ -179,6 +184,7 @@ impl Default for NodeSettings {
             tf_tolerance_s: 0.2,
             scans: Vec::new(),
             merged_beams: 1440,
+            footprint_param: String::new(),
         }
     }
 }
@@ -242,6 +248,15 @@ impl Validate for NodeSettings {
             "node.laser_pose",
             "yaml",
             "tf or tf_else_yaml with several scanners (node.scans): each is placed by its own frame",
+        );
+        c.rule(
+            !self
+                .footprint_param
+                .chars()
+                .any(|ch| ch.is_whitespace() || ch.is_control()),
+            "node.footprint_param",
+            format_args!("{:?}", self.footprint_param),
+            "a parameter name (empty: none)",
         );
         // Shown on one line by rqt_robot_monitor and the aggregator.
         c.rule(

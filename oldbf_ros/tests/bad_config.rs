@@ -141,6 +141,7 @@ const NODE_ROWS: &[(&str, &str)] = &[
     ("node.disable_timeout_s", "3601"),
     ("node.plan_beside", "sometimes"),
     ("node.hardware_id", "\"two\\nlines\""),
+    ("node.footprint_param", "\"two words\""),
     ("node.base_limits_file", "/no/such/base_limits.yaml"),
     ("node.laser_pose", "urdf"),
     ("node.tf_tolerance_s", "5.5"),

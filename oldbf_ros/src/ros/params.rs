@@ -50,3 +50,18 @@ pub fn private_namespace() -> Result<serde_yaml::Value, RosParamError> {
         }),
     }
 }
+
+/// One parameter by name (relative names resolve in the node's namespace);
+/// `None` when it is not set.
+pub fn read_param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, RosParamError> {
+    let p = rosrust::param(name).ok_or_else(|| RosParamError::Unresolved { name: name.to_string() })?;
+    let read = |source| RosParamError::Read {
+        name: p.name().to_string(),
+        source,
+    };
+    match p.exists() {
+        Ok(false) => Ok(None),
+        Ok(true) => p.get::<T>().map(Some).map_err(read),
+        Err(source) => Err(read(source)),
+    }
+}

@@ -37,13 +37,13 @@ use super::msg::{
     std_srvs, tf2_msgs, visualization_msgs::MarkerArray,
 };
 use super::pacer::Pacer;
-use super::params::{private_namespace, RosParamError};
+use super::params::{private_namespace, read_param, RosParamError};
 use super::reconfigure as ros_reconfigure;
 use super::RosError;
 use crate::algo::select::Critic;
 use crate::algo::LaserMount;
 use crate::config::ConfigError;
-use crate::node_config::{node_config_from_params, NodeConfig};
+use crate::node_config::{node_config_from_params, with_costmap_footprint, NodeConfig};
 use crate::node_core::{LaserPoseSource, NodeCore, NodeSettings, Tick, WATCHDOG_POLLS_PER_PERIOD};
 use crate::reconfigure;
 use crate::resubscribe::Resubscribe;
@@ -106,7 +106,19 @@ enum LoadConfigError {
 
 fn load_config() -> Result<NodeConfig, LoadConfigError> {
     let source = format!("ROS parameters of {}", rosrust::name());
-    let ns = private_namespace()?;
+    let mut ns = private_namespace()?;
+    // node.footprint_param: a footprint in costmap_2d's format kept elsewhere
+    // on the server (move_base's), read once here.
+    let name = ns
+        .get("node")
+        .and_then(|n| n.get("footprint_param"))
+        .and_then(serde_yaml::Value::as_str)
+        .unwrap_or("")
+        .to_string();
+    if !name.is_empty() {
+        let value = read_param::<serde_yaml::Value>(&name)?;
+        with_costmap_footprint(&mut ns, &name, value.as_ref(), &source)?;
+    }
     Ok(node_config_from_params(ns, &source)?)
 }
 
@@ -517,6 +529,21 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
         }),
     )?;
 
+    if let Some(Ok(fp)) = params.footprint.polygon() {
+        log::info!(
+            "{}: footprint: a polygon of {} vertices{}, padding {} m; the checks keep its circumscribed circle \
+             (r = {:.4} m) clear",
+            rosrust::name(),
+            fp.polygon.vertices().len(),
+            if settings.footprint_param.is_empty() {
+                String::new()
+            } else {
+                format!(" from {}", settings.footprint_param)
+            },
+            fp.padding_m,
+            params.robot_radius_m()
+        );
+    }
     log::info!(
         "{}: filtering at {} Hz; r = {:.3} m, d_safe = {:.2} m, d_act = {:.2} m; nominal source {:?}",
         rosrust::name(),

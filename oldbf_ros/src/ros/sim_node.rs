@@ -32,7 +32,7 @@ use super::msg::{
     geometry_msgs, nav_msgs, sensor_msgs, std_msgs, tf2_msgs,
     visualization_msgs::{Marker, MarkerArray},
 };
-use super::params::RosParamError;
+use super::params::{read_param as param, RosParamError};
 use super::RosError;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::config::ConfigError;
@@ -101,19 +101,6 @@ fn subscribe_motion(
     .map_err(RosError::doing(format!(
         "subscribing to the motion source of robot {i}"
     )))
-}
-
-fn param<T: for<'de> serde::Deserialize<'de>>(name: &str) -> Result<Option<T>, RosParamError> {
-    let p = rosrust::param(name).ok_or_else(|| RosParamError::Unresolved { name: name.to_string() })?;
-    let read = |source| RosParamError::Read {
-        name: p.name().to_string(),
-        source,
-    };
-    match p.exists() {
-        Ok(false) => Ok(None),
-        Ok(true) => p.get::<T>().map(Some).map_err(read),
-        Err(source) => Err(read(source)),
-    }
 }
 
 fn transform(parent: &str, child: &str, stamp: rosrust::Time, pose: Pose2) -> geometry_msgs::TransformStamped {
