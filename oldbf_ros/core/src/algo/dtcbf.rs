@@ -40,7 +40,17 @@
 //! meets for static points and which also implies the logged condition.
 //!
 //! A circular footprint is rotation-invariant: pure rotation keeps h.
+//!
+//! With a polygon footprint ([`DtcbfFilter::set_footprint`], issue 26) the
+//! clearance of a point is its signed distance from the padded polygon and
+//! the step also turns the body by ωΔt (both models), so a turn in place can
+//! bring a corner closer: the same conditions, evaluated exactly for the
+//! polygon ([`super::body`]). The near-point selection keeps its bounds with
+//! r the polygon's circumscribed radius (turning about the origin moves no
+//! point nearer to or farther from it).
 
+use super::body::{polygon_clearance_after, polygon_forbidden_speeds};
+use super::footprint::PaddedPolygon;
 use super::geometry::{min_distance_squared, Twist, Vec2};
 use super::params::{Params, PredictionModel};
 
@@ -265,6 +275,35 @@ impl NearPoints {
             min_distance(all, disp)
         }
     }
+
+    /// h(k+1) + d_safe for the body after the step of `cmd`: the circle's
+    /// centre distance less r, or the polygon's least signed distance. For
+    /// the polygon the near points by (a) are taken (the nearest after the
+    /// step by signed distance need not be the nearest by (b)): the value
+    /// is exact wherever it is below the clearance the selection was made
+    /// for, the only values any requirement compares.
+    fn body_clearance(&self, all: &[Vec2], cmd: Twist, fp: Option<&PaddedPolygon>, p: &Params) -> f64 {
+        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        let disp = predicted_displacement(model, cmd, dt);
+        match fp {
+            None => self.min_distance(all, disp) - p.robot_radius_m(),
+            Some(fp) => {
+                let pts = if disp.norm() <= self.max_step_m {
+                    &self.points[..]
+                } else {
+                    all
+                };
+                polygon_clearance_after(fp, pts, disp, step_turn(cmd.omega_radps, dt))
+            }
+        }
+    }
+}
+
+/// (cos, sin) of the turn ωΔt one step makes (both prediction models).
+#[inline]
+fn step_turn(omega_radps: f64, dt_s: f64) -> (f64, f64) {
+    let (s, c) = (omega_radps * dt_s).sin_cos();
+    (c, s)
 }
 
 /// The DTCBF filter. Holds scratch buffers reused across steps.
@@ -283,6 +322,15 @@ pub struct DtcbfFilter {
     closing_in: bool,
 }
 
+/// h(k) = least clearance over `points` − d_safe, of the circle (`nearest_m`
+/// = ‖P‖ min) or the polygon.
+fn h_now(points: &[Vec2], nearest_m: f64, fp: Option<&PaddedPolygon>, p: &Params) -> f64 {
+    match fp {
+        None => nearest_m - p.robot_radius_m() - p.barrier.d_safe_m,
+        Some(fp) => polygon_clearance_after(fp, points, Vec2::zeros(), (1.0, 0.0)) - p.barrier.d_safe_m,
+    }
+}
+
 impl DtcbfFilter {
     /// Whether h has been falling by more than the predictions explain
     /// (§5): for the next [`Self::filter_in`], inside the unsafe set, the
@@ -297,11 +345,31 @@ impl DtcbfFilter {
         Self::default()
     }
 
+    /// The robot's footprint: a padded polygon, or `None` for the circle of
+    /// r (the paper's). The pipeline sets it from `footprint.polygon_m`.
+    pub fn set_footprint(&mut self, footprint: Option<PaddedPolygon>) {
+        self.forbidden.footprint = footprint;
+    }
+
+    /// The filter with the footprint of `p` (`footprint.polygon_m`, validated).
+    pub fn with_footprint(mut self, p: &Params) -> Self {
+        self.set_footprint(p.footprint.polygon().and_then(Result::ok));
+        self
+    }
+
+    /// Whether the body is a polygon: its forbidden speeds depend on ω even
+    /// with the Euler model (the step turns it).
+    pub fn has_polygon(&self) -> bool {
+        self.forbidden.footprint.is_some()
+    }
+
     /// A filter with buffers for `points` points (no allocation per scan up to that).
     pub fn with_capacity(points: usize) -> Self {
         Self {
             forbidden: ForbiddenSpeeds {
                 intervals: Vec::with_capacity(points),
+                footprint: None,
+                events: Vec::with_capacity(64),
             },
             near: NearPoints {
                 points: Vec::with_capacity(points),
@@ -322,13 +390,9 @@ impl DtcbfFilter {
     /// [`Self::filter_in`] call computes it (same near-point selection, so the
     /// same value bit for bit); the box must be the one of that call.
     pub fn h_next(&self, points_next: &[Vec2], cmd: Twist, p: &Params) -> f64 {
-        let disp = predicted_displacement(p.dtcbf.prediction, cmd, p.control.dt_s());
-        self.h_next_at(points_next, disp, p)
-    }
-
-    /// [`Self::h_next`] of the command whose predicted displacement is `disp`.
-    pub fn h_next_at(&self, points_next: &[Vec2], disp: Vec2, p: &Params) -> f64 {
-        self.near.min_distance(points_next, disp) - p.robot_radius_m() - p.barrier.d_safe_m
+        self.near
+            .body_clearance(points_next, cmd, self.forbidden.footprint.as_ref(), p)
+            - p.barrier.d_safe_m
     }
 
     /// Gets the geometry of one step ready for a search over the commands
@@ -344,7 +408,7 @@ impl DtcbfFilter {
         self.near.points.reserve(points_next.len());
         self.near.nearest.reserve(points_next.len());
         let nearest_now = min_distance(points, Vec2::zeros());
-        let h = nearest_now - r - d_safe;
+        let h = h_now(points, nearest_now, self.forbidden.footprint.as_ref(), p);
         if !h.is_finite() || points_next.is_empty() {
             self.near.points.clear();
             self.near.nearest.clear();
@@ -367,10 +431,10 @@ impl DtcbfFilter {
     /// points of the last [`Self::prepare`]: every other speed of its box
     /// meets the requirement (exactly, for the one-step model of `p`).
     pub fn forbidden_speeds(&mut self, omega_radps: f64, target_m: f64, p: &Params) -> &[(f64, f64)] {
-        let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target_m;
+        let need = Need::of(target_m, p);
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
         self.forbidden
-            .build(&self.near.points, omega_radps, clearance, model, dt);
+            .build(&self.near.points, omega_radps, need, self.near.max_step_m, model, dt);
         &self.forbidden.intervals
     }
 
@@ -402,13 +466,19 @@ impl DtcbfFilter {
         self.near.points.reserve(points_next.len());
         self.near.nearest.reserve(points_next.len());
         let nearest_now = min_distance(points, Vec2::zeros());
-        let h = nearest_now - r - d_safe;
+        let h = h_now(points, nearest_now, self.forbidden.footprint.as_ref(), p);
         if !h.is_finite() || points_next.is_empty() {
             // Nothing visible: nothing to keep away from.
             self.near.points.clear();
             self.near.nearest.clear();
             self.near.max_step_m = f64::INFINITY;
-            let h_next = min_distance(points_next, predicted_displacement(model, desired, dt)) - r - d_safe;
+            let h_next = match &self.forbidden.footprint {
+                None => min_distance(points_next, predicted_displacement(model, desired, dt)) - r - d_safe,
+                Some(fp) => {
+                    let disp = predicted_displacement(model, desired, dt);
+                    polygon_clearance_after(fp, points_next, disp, step_turn(desired.omega_radps, dt)) - d_safe
+                }
+            };
             return DtcbfOutcome {
                 cmd: desired,
                 h_m: h,
@@ -445,8 +515,9 @@ impl DtcbfFilter {
         };
         self.near.select(points_next, nearest_next, max_clearance, max_step);
         let near = &self.near;
-        let h_next_of =
-            |cmd: Twist| near.min_distance(points_next, predicted_displacement(model, cmd, dt)) - r - d_safe;
+        let fp = self.forbidden.footprint.clone();
+        let fp = fp.as_ref();
+        let h_next_of = |cmd: Twist| near.body_clearance(points_next, cmd, fp, p) - d_safe;
         let outcome = |cmd: Twist, infeasible: bool| {
             let h_next = h_next_of(cmd);
             DtcbfOutcome {
@@ -469,10 +540,10 @@ impl DtcbfFilter {
                 // the tracker missed, or took for static). Rather than the least rise ε
                 // closest to the desired command, a crawl it outpaces, ask for a share of
                 // the best rise the box offers.
-                if let Some((_, best)) = least_bad(near, points_next, &bx, p) {
+                if let Some((_, best)) = least_bad(near, points_next, &bx, fp, p) {
                     let mid = h + ESCAPE_BEST_SHARE * (best - h);
                     if mid > t {
-                        if let Some(cmd) = self.forbidden.solve(&near.points, desired, mid, h, &bx, p) {
+                        if let Some(cmd) = self.forbidden.solve(near, desired, mid, h, &bx, p) {
                             if h_next_of(cmd) >= mid - TOL_M {
                                 self.turn_sign = 0.0;
                                 return outcome(cmd, false);
@@ -481,7 +552,7 @@ impl DtcbfFilter {
                     }
                 }
             }
-            if let Some(cmd) = self.forbidden.solve(&near.points, desired, t, h, &bx, p) {
+            if let Some(cmd) = self.forbidden.solve(near, desired, t, h, &bx, p) {
                 if h_next_of(cmd) >= t - TOL_M {
                     self.turn_sign = 0.0;
                     return outcome(cmd, false);
@@ -499,18 +570,43 @@ impl DtcbfFilter {
         // walks in: then the least bad command, the one that keeps h(k+1) highest, beats
         // waiting to be hit.
         let stop_h_next = h_next_of(Twist::ZERO);
-        match least_bad(near, points_next, &bx, p) {
+        match least_bad(near, points_next, &bx, fp, p) {
             Some((cmd, h_next)) if h_next > stop_h_next + LEAST_BAD_GAIN_M => outcome(cmd, true),
             // Nothing beats standing still. Turning in place is as good for h (a circular
             // footprint) and faces the robot away from the nearest point, so that moving
             // away becomes possible: a forward-only robot that freezes facing an obstacle
-            // walking towards it is hit.
+            // walking towards it is hit. A polygon's corners swing out as it turns: it turns
+            // only while that brings nothing closer, else it stops.
             _ => {
                 if self.turn_sign == 0.0 {
                     self.turn_sign = turn_away_sign(points);
                 }
-                outcome(Twist::new(0.0, self.turn_sign * bx.omega_max), true)
+                let turn = Twist::new(0.0, self.turn_sign * bx.omega_max);
+                if fp.is_none() || h_next_of(turn) >= stop_h_next - TOL_M {
+                    outcome(turn, true)
+                } else {
+                    outcome(Twist::ZERO, true)
+                }
             }
+        }
+    }
+}
+
+/// What a requirement h(k+1) ≥ target asks of the body: the centre
+/// distance for the circle, the signed distance for a polygon.
+#[derive(Debug, Clone, Copy)]
+struct Need {
+    /// r + d_safe + target (m).
+    centre_m: f64,
+    /// d_safe + target (m).
+    body_m: f64,
+}
+
+impl Need {
+    fn of(target_m: f64, p: &Params) -> Self {
+        Self {
+            centre_m: p.robot_radius_m() + p.barrier.d_safe_m + target_m,
+            body_m: p.barrier.d_safe_m + target_m,
         }
     }
 }
@@ -519,6 +615,10 @@ impl DtcbfFilter {
 #[derive(Debug, Default, Clone)]
 struct ForbiddenSpeeds {
     intervals: Vec<(f64, f64)>,
+    /// The polygon footprint, if the body is one (else the circle of r).
+    footprint: Option<PaddedPolygon>,
+    /// Scratch for the polygon's events.
+    events: Vec<f64>,
 }
 
 impl ForbiddenSpeeds {
@@ -528,16 +628,16 @@ impl ForbiddenSpeeds {
     /// closest command in the box.
     fn solve(
         &mut self,
-        points: &[Vec2],
+        near: &NearPoints,
         desired: Twist,
         target: f64,
         h: f64,
         bx: &InputBox,
         p: &Params,
     ) -> Option<Twist> {
-        let clearance = p.robot_radius_m() + p.barrier.d_safe_m + target;
+        let need = Need::of(target, p);
         let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        self.build(points, desired.omega_radps, clearance, model, dt);
+        self.build(&near.points, desired.omega_radps, need, near.max_step_m, model, dt);
         if admissible(&self.intervals, desired.v_mps) {
             return Some(desired);
         }
@@ -546,17 +646,33 @@ impl ForbiddenSpeeds {
                 return Some(Twist::new(v, desired.omega_radps));
             }
         }
-        self.search_box(points, desired, clearance, bx, p)
+        self.search_box(near, desired, need, bx, p)
     }
 
     /// Fills `intervals` with the forbidden open speed intervals for yaw
-    /// rate ω and required centre distance `clearance`, sorted and merged.
-    fn build(&mut self, points: &[Vec2], omega: f64, clearance: f64, model: PredictionModel, dt: f64) {
+    /// rate ω and the requirement `need`, sorted and merged; `max_step_m`
+    /// is the longest step of the speeds asked about.
+    fn build(&mut self, points: &[Vec2], omega: f64, need: Need, max_step_m: f64, model: PredictionModel, dt: f64) {
         self.intervals.clear();
         let (u, kappa) = motion_direction(model, omega, dt);
+        if let Some(fp) = &self.footprint {
+            let body = need.body_m - 0.5 * TOL_M;
+            let turn = step_turn(omega, dt);
+            polygon_forbidden_speeds(
+                fp,
+                points,
+                u * kappa,
+                turn,
+                body,
+                max_step_m,
+                &mut self.events,
+                &mut self.intervals,
+            );
+            return;
+        }
         // Half the tolerance of the final check: the nearest point's interval ends exactly
         // at s = 0 when the target is h itself, and rounding must not forbid standing still.
-        let c = clearance - 0.5 * TOL_M;
+        let c = need.centre_m - 0.5 * TOL_M;
         let c2 = c * c;
         for pt in points {
             let a = pt.dot(&u);
@@ -586,9 +702,9 @@ impl ForbiddenSpeeds {
     /// Closest admissible command to `desired` over the ω grid (plus ω_d).
     fn search_box(
         &mut self,
-        points: &[Vec2],
+        near: &NearPoints,
         desired: Twist,
-        clearance: f64,
+        need: Need,
         bx: &InputBox,
         p: &Params,
     ) -> Option<Twist> {
@@ -598,7 +714,9 @@ impl ForbiddenSpeeds {
         let model = p.dtcbf.prediction;
         let mut best: Option<(f64, Twist)> = None;
         // Candidate 0 is ω_d itself, then the grid. With the Euler model the
-        // admissible speeds do not depend on ω, so one build serves them all.
+        // admissible speeds do not depend on ω (for the circle: a polygon turns), so one
+        // build serves them all.
+        let euler_once = model == PredictionModel::Euler && self.footprint.is_none();
         let mut built_for_euler = false;
         for k in 0..=n {
             let omega = if k == 0 {
@@ -606,8 +724,8 @@ impl ForbiddenSpeeds {
             } else {
                 omega_grid(-bx.omega_max, bx.omega_max, k - 1, n)
             };
-            if !(model == PredictionModel::Euler && built_for_euler) {
-                self.build(points, omega, clearance, model, dt);
+            if !(euler_once && built_for_euler) {
+                self.build(&near.points, omega, need, near.max_step_m, model, dt);
                 built_for_euler = true;
             }
             if let Some(v) = closest_admissible(&self.intervals, desired.v_mps, bx.v_lo, bx.v_hi) {
@@ -623,7 +741,13 @@ impl ForbiddenSpeeds {
 
 /// The command of the box (a grid: `LEAST_BAD_SPEEDS` speeds by the ω
 /// candidates) that keeps h(k+1) highest, and that h(k+1) (m).
-fn least_bad(near: &NearPoints, points_next: &[Vec2], bx: &InputBox, p: &Params) -> Option<(Twist, f64)> {
+fn least_bad(
+    near: &NearPoints,
+    points_next: &[Vec2],
+    bx: &InputBox,
+    fp: Option<&PaddedPolygon>,
+    p: &Params,
+) -> Option<(Twist, f64)> {
     let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
     let n = p.dtcbf.omega_candidates;
     let mut best: Option<(Twist, f64)> = None;
@@ -632,14 +756,22 @@ fn least_bad(near: &NearPoints, points_next: &[Vec2], bx: &InputBox, p: &Params)
         for j in 0..=LEAST_BAD_SPEEDS {
             let v = bx.v_lo + (bx.v_hi - bx.v_lo) * j as f64 / LEAST_BAD_SPEEDS as f64;
             let cmd = Twist::new(v, omega);
-            let h_next = near.min_distance(points_next, predicted_displacement(model, cmd, dt));
+            let h_next = match fp {
+                None => near.min_distance(points_next, predicted_displacement(model, cmd, dt)),
+                Some(_) => near.body_clearance(points_next, cmd, fp, p),
+            };
             if best.is_none_or(|(_, b)| h_next > b) {
                 best = Some((cmd, h_next));
             }
         }
     }
-    let r_total = p.robot_radius_m() + p.barrier.d_safe_m;
-    best.map(|(cmd, d)| (cmd, d - r_total))
+    match fp {
+        None => {
+            let r_total = p.robot_radius_m() + p.barrier.d_safe_m;
+            best.map(|(cmd, d)| (cmd, d - r_total))
+        }
+        Some(_) => best.map(|(cmd, d)| (cmd, d - p.barrier.d_safe_m)),
+    }
 }
 
 /// Whether v lies in none of the (sorted, merged) open intervals.
@@ -963,6 +1095,7 @@ mod tests {
             v_lo in proptest::prop_oneof![proptest::strategy::Just(0.0f64), -0.3..0.0f64],
             v_hi in 0.01..0.6f64,
             arc in proptest::bool::ANY,
+            polygon in proptest::bool::ANY,
         ) {
             let all: Vec<Vec2> = pts.iter().chain(&close).map(|&(x, y)| Vec2::new(x, y)).collect();
             let (dt, omega_max) = (0.1, 0.3);
@@ -971,6 +1104,15 @@ mod tests {
             near.select(&all, min_distance(&all, Vec2::zeros()), max_clearance, dt * v_lo.abs().max(v_hi));
             let speeds: Vec<f64> = (0..=20).map(|j| v_lo + (v_hi - v_lo) * j as f64 / 20.0).collect();
             let (mut from_near, mut from_all) = (ForbiddenSpeeds::default(), ForbiddenSpeeds::default());
+            // A 0.3 x 0.2 m polygon: the selection's clearance is its circumscribed
+            // radius plus what the body needs.
+            let footprint = polygon.then(|| PaddedPolygon {
+                polygon: crate::algo::footprint::Polygon::rectangle(0.3, 0.2, 0.0).unwrap(),
+                padding_m: 0.0,
+            });
+            let radius = footprint.as_ref().map_or(0.0, |fp| fp.circumscribed_radius_m());
+            from_near.footprint = footprint.clone();
+            from_all.footprint = footprint.clone();
             for k in 0..=10 {
                 let omega = -omega_max + 2.0 * omega_max * k as f64 / 10.0;
                 for &v in &speeds {
@@ -981,8 +1123,9 @@ mod tests {
                     );
                 }
                 for clearance in [max_clearance, 0.7 * max_clearance, 0.3 * max_clearance] {
-                    from_near.build(&near.points, omega, clearance, model, dt);
-                    from_all.build(&all, omega, clearance, model, dt);
+                    let need = Need { centre_m: clearance, body_m: clearance - radius };
+                    from_near.build(&near.points, omega, need, near.max_step_m, model, dt);
+                    from_all.build(&all, omega, need, f64::INFINITY, model, dt);
                     let (n, a) = (&from_near.intervals, &from_all.intervals);
                     for &v in &speeds {
                         proptest::prop_assert_eq!(admissible(n, v), admissible(a, v));

@@ -249,14 +249,23 @@ impl PaddedPolygon {
 
     /// The parameters t in `span` where the point `a + t d` is closer than
     /// `c` to the padded footprint (signed distance < `c`; `c` may be
-    /// negative, a depth inside), as sorted disjoint open intervals in `out`
-    /// (cleared first).
-    pub fn forbidden_on_line(&self, a: Vec2, d: Vec2, c: f64, span: Span, out: &mut Vec<(f64, f64)>) {
+    /// negative, a depth inside), appended to `out` as sorted disjoint open
+    /// intervals. `events` is scratch (no allocation once it has grown to
+    /// 4 E + 2).
+    pub fn forbidden_on_line(
+        &self,
+        a: Vec2,
+        d: Vec2,
+        c: f64,
+        span: Span,
+        events: &mut Vec<f64>,
+        out: &mut Vec<(f64, f64)>,
+    ) {
         let level = (c + self.padding_m).abs();
-        let mut events = Vec::with_capacity(4 * self.polygon.vertices.len() + 2);
+        events.clear();
         for (p0, p1) in self.polygon.edges() {
             // |a + t d − p0| = level: a quadratic in t.
-            line_disc_roots(a - p0, d, level, &mut events);
+            line_disc_roots(a - p0, d, level, events);
             // n·(a + t d − p0) = ±level, with the foot within the edge.
             let e = p1 - p0;
             let len = e.norm();
@@ -272,18 +281,19 @@ impl PaddedPolygon {
                 }
             }
         }
-        classify(&mut events, span, |t| self.signed_distance(a + t * d) < c, out);
+        classify(events, span, |t| self.signed_distance(a + t * d) < c, out);
     }
 
     /// The angles α in `span` (rad, counter-clockwise turns of the robot
     /// about its origin) at which the world point `p` (robot frame at α = 0)
     /// is closer than `c` to the padded footprint: the robot turned by α
-    /// sees it at R(−α) p. Sorted disjoint open intervals in `out`.
-    pub fn forbidden_turn(&self, p: Vec2, c: f64, span: Span, out: &mut Vec<(f64, f64)>) {
+    /// sees it at R(−α) p. Appended to `out` as sorted disjoint open
+    /// intervals; `events` is scratch.
+    pub fn forbidden_turn(&self, p: Vec2, c: f64, span: Span, events: &mut Vec<f64>, out: &mut Vec<(f64, f64)>) {
         let level = (c + self.padding_m).abs();
         let rho = p.norm();
         let phi_p = p.y.atan2(p.x);
-        let mut events = Vec::with_capacity(8 * self.polygon.vertices.len() + 2);
+        events.clear();
         // The point at angle ψ on its circle is seen after the turn α = φ_p − ψ;
         // every such α in the span (and its turns by 2π) is an event.
         let push = |psi: f64, events: &mut Vec<f64>| {
@@ -304,8 +314,8 @@ impl PaddedPolygon {
                     if (-1.0..=1.0).contains(&cos) {
                         let base = p0.y.atan2(p0.x);
                         let w = cos.acos();
-                        push(base + w, &mut events);
-                        push(base - w, &mut events);
+                        push(base + w, events);
+                        push(base - w, events);
                     }
                 }
                 // ... against the lines n·(q − p0) = ±level, the foot within the edge.
@@ -321,7 +331,7 @@ impl PaddedPolygon {
                             let q = rho * Vec2::new(psi.cos(), psi.sin());
                             let along = u.dot(&(q - p0));
                             if (0.0..=len).contains(&along) {
-                                push(psi, &mut events);
+                                push(psi, events);
                             }
                         }
                     }
@@ -332,7 +342,7 @@ impl PaddedPolygon {
             let (s, co) = alpha.sin_cos();
             Vec2::new(co * p.x + s * p.y, -s * p.x + co * p.y)
         };
-        classify(&mut events, span, |alpha| self.signed_distance(seen(alpha)) < c, out);
+        classify(events, span, |alpha| self.signed_distance(seen(alpha)) < c, out);
     }
 }
 
@@ -352,10 +362,10 @@ fn line_disc_roots(w: Vec2, d: Vec2, level: f64, events: &mut Vec<f64>) {
 }
 
 /// Cuts `span` at the `events` inside it, classifies each piece by
-/// `forbidden` at its midpoint, and writes the forbidden pieces, merged,
+/// `forbidden` at its midpoint, and appends the forbidden pieces, merged,
 /// to `out`.
 fn classify(events: &mut Vec<f64>, span: Span, forbidden: impl Fn(f64) -> bool, out: &mut Vec<(f64, f64)>) {
-    out.clear();
+    let start = out.len();
     events.retain(|t| t.is_finite() && *t > span.lo && *t < span.hi);
     events.push(span.lo);
     events.push(span.hi);
@@ -370,9 +380,11 @@ fn classify(events: &mut Vec<f64>, span: Span, forbidden: impl Fn(f64) -> bool, 
     for w in events.windows(2) {
         let (lo, hi) = (w[0], w[1]);
         if forbidden(0.5 * (lo + hi)) {
-            match out.last_mut() {
-                Some(last) if last.1 == lo => last.1 = hi,
-                _ => out.push((lo, hi)),
+            let n = out.len();
+            if n > start && out[n - 1].1 == lo {
+                out[n - 1].1 = hi;
+            } else {
+                out.push((lo, hi));
             }
         }
     }
@@ -456,26 +468,31 @@ mod tests {
         // 0.1 of it when 0.35 cos α = 0.3, while the point is still beside the
         // long side (0.35 sin α ≤ 0.3): α = acos(0.3/0.35) = 0.5411 rad.
         let b = base_0604();
-        let mut out = Vec::new();
+        let (mut out, mut ev) = (Vec::new(), Vec::new());
         let span = Span { lo: 0.0, hi: 0.5 };
-        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut out);
+        out.clear();
+        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut ev, &mut out);
         assert!(out.is_empty(), "half a radian is still clear: {out:?}");
         let span = Span { lo: 0.0, hi: 1.0 };
-        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut out);
+        out.clear();
+        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut ev, &mut out);
         assert_eq!(out.len(), 1, "{out:?}");
         assert!((out[0].0 - (0.3f64 / 0.35).acos()).abs() < 1e-12, "{out:?}");
         // Either way round: by symmetry the same angle clockwise.
         let span = Span { lo: -1.0, hi: 0.0 };
-        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut out);
+        out.clear();
+        b.forbidden_turn(v(0.0, 0.35), 0.1, span, &mut ev, &mut out);
         assert_eq!(out.len(), 1, "{out:?}");
         assert!((out[0].1 + (0.3f64 / 0.35).acos()).abs() < 1e-12, "{out:?}");
         // A wall point 0.5 m to the left is beyond the corner's reach
         // (0.3606 + 0.1 < 0.5): a full turn is clear.
         let span = Span { lo: -PI, hi: PI };
-        b.forbidden_turn(v(0.0, 0.5), 0.1, span, &mut out);
+        out.clear();
+        b.forbidden_turn(v(0.0, 0.5), 0.1, span, &mut ev, &mut out);
         assert!(out.is_empty(), "{out:?}");
         // ... and a point 0.45 m away is reached (0.45 < 0.4606).
-        b.forbidden_turn(v(0.0, 0.45), 0.1, span, &mut out);
+        out.clear();
+        b.forbidden_turn(v(0.0, 0.45), 0.1, span, &mut ev, &mut out);
         assert!(!out.is_empty());
     }
 
@@ -485,19 +502,43 @@ mod tests {
         // the time it is 0.1 m before the front (x = 0.4: t = 0.6) until it
         // is 0.1 m behind the back (x = −0.4: t = 1.4).
         let b = base_0604();
-        let mut out = Vec::new();
-        b.forbidden_on_line(v(1.0, 0.0), v(-1.0, 0.0), 0.1, Span { lo: 0.0, hi: 2.0 }, &mut out);
+        let (mut out, mut ev) = (Vec::new(), Vec::new());
+        out.clear();
+        b.forbidden_on_line(
+            v(1.0, 0.0),
+            v(-1.0, 0.0),
+            0.1,
+            Span { lo: 0.0, hi: 2.0 },
+            &mut ev,
+            &mut out,
+        );
         assert_eq!(out.len(), 1, "{out:?}");
         assert!(
             (out[0].0 - 0.6).abs() < 1e-12 && (out[0].1 - 1.4).abs() < 1e-12,
             "{out:?}"
         );
         // A line passing 0.25 m beside the long side (y = 0.45): clear at c = 0.1 ...
-        b.forbidden_on_line(v(1.0, 0.45), v(-1.0, 0.0), 0.1, Span { lo: 0.0, hi: 2.0 }, &mut out);
+        out.clear();
+        b.forbidden_on_line(
+            v(1.0, 0.45),
+            v(-1.0, 0.0),
+            0.1,
+            Span { lo: 0.0, hi: 2.0 },
+            &mut ev,
+            &mut out,
+        );
         assert!(out.is_empty(), "{out:?}");
         // ... forbidden at c = 0.3 while beside it, plus the rounded corners:
         // |x| < 0.3 + √(0.3² − 0.25²) = 0.3 + 0.1658.
-        b.forbidden_on_line(v(1.0, 0.45), v(-1.0, 0.0), 0.3, Span { lo: 0.0, hi: 2.0 }, &mut out);
+        out.clear();
+        b.forbidden_on_line(
+            v(1.0, 0.45),
+            v(-1.0, 0.0),
+            0.3,
+            Span { lo: 0.0, hi: 2.0 },
+            &mut ev,
+            &mut out,
+        );
         let w = (0.09f64 - 0.0625).sqrt();
         assert_eq!(out.len(), 1, "{out:?}");
         assert!((out[0].0 - (1.0 - 0.3 - w)).abs() < 1e-12, "{out:?}");
@@ -570,7 +611,7 @@ mod tests {
             c in -0.2..0.4f64, turn in prop::bool::ANY,
         ) {
             let fp = PaddedPolygon { polygon: poly, padding_m: pad };
-            let mut out = Vec::new();
+            let (mut out, mut ev) = (Vec::new(), Vec::new());
             let span = if turn { Span { lo: -PI, hi: 1.5 * PI } } else { Span { lo: -2.0, hi: 3.0 } };
             let at = |t: f64| if turn {
                 let (s, co) = t.sin_cos();
@@ -579,9 +620,9 @@ mod tests {
                 v(ax, ay) + t * v(dx, dy)
             };
             if turn {
-                fp.forbidden_turn(v(ax, ay), c, span, &mut out);
+                fp.forbidden_turn(v(ax, ay), c, span, &mut ev, &mut out);
             } else {
-                fp.forbidden_on_line(v(ax, ay), v(dx, dy), c, span, &mut out);
+                fp.forbidden_on_line(v(ax, ay), v(dx, dy), c, span, &mut ev, &mut out);
             }
             for w in out.windows(2) {
                 prop_assert!(w[0].1 < w[1].0, "not sorted and disjoint: {:?}", out);

@@ -8,6 +8,7 @@
 pub mod barrier;
 pub mod beam_memory;
 pub mod blind;
+pub mod body;
 pub mod clearance;
 pub mod clusters;
 pub mod collision_cone;

@@ -191,6 +191,7 @@ impl SafetyPipeline {
         let max_tracks = params.obstacles.max_tracks;
         let last_box = InputBox::from_params(&params);
         let way_round = WayRound::new(&params);
+        let filter = DtcbfFilter::with_capacity(cap).with_footprint(&params);
         Self {
             params,
             derived,
@@ -201,7 +202,7 @@ impl SafetyPipeline {
             doaa: Doaa::new(),
             unstuck: Unstuck::default(),
             guidance: None,
-            filter: DtcbfFilter::with_capacity(cap),
+            filter,
             passive: PassiveSafety::with_capacity(max_tracks, cap),
             selector,
             last_cmd: Twist::ZERO,
@@ -402,6 +403,8 @@ impl SafetyPipeline {
     /// `Params::validate`; buffers keep the capacity they were built with.
     pub fn set_params(&mut self, params: Params) {
         self.derived = Derived::new(&params);
+        self.filter
+            .set_footprint(params.footprint.polygon().and_then(Result::ok));
         // A mount given by [`Self::set_laser_mount`] (tf) outlives new parameters.
         if let Some(mount) = self.mount_given {
             self.derived.mount = mount;

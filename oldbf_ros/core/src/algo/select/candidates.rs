@@ -14,7 +14,7 @@
 
 use super::critics::{cheap_costs, unit_path, Context, CriticCosts, Look};
 use super::window::Window;
-use crate::algo::dtcbf::{predicted_displacement, DtcbfFilter};
+use crate::algo::dtcbf::DtcbfFilter;
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::{Params, PredictionModel};
 
@@ -86,13 +86,14 @@ impl Candidates {
         }
         dedup(&mut self.omegas);
         let (v0, v1) = s.v_range;
-        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
+        let model = p.dtcbf.prediction;
         // With the paper's one-step model the step does not depend on ω: one
-        // set of forbidden speeds serves every yaw rate.
+        // set of forbidden speeds serves every yaw rate (a circle's; a polygon turns).
+        let euler_once = model == PredictionModel::Euler && !filter.has_polygon();
         let mut euler_built = false;
         for wi in 0..self.omegas.len() {
             let omega = self.omegas[wi];
-            if !(model == PredictionModel::Euler && euler_built) {
+            if !(euler_once && euler_built) {
                 self.speeds.clear();
                 let m = p.select.speed_samples;
                 self.speeds
@@ -118,7 +119,7 @@ impl Candidates {
             for &v in &self.speeds {
                 let cmd = Twist::new(v, omega);
                 let look = Look::along(cmd, &unit);
-                let h_next_m = filter.h_next_at(points_next, predicted_displacement(model, cmd, dt), p);
+                let h_next_m = filter.h_next(points_next, cmd, p);
                 let cheap = cheap_costs(ctx, &look);
                 self.items.push(Candidate {
                     look,

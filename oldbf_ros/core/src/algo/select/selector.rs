@@ -32,7 +32,7 @@ use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
 use super::tiers::{escape_target, Tier};
 use super::window::{Limits, Window, WINDOW_TOL};
-use crate::algo::dtcbf::{condition_holds, predicted_displacement, DtcbfFilter, InputBox, TOL_M};
+use crate::algo::dtcbf::{condition_holds, DtcbfFilter, InputBox, TOL_M};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
 use crate::algo::passive::{EvasionSoFar, PassiveSafety, Profile};
@@ -239,8 +239,7 @@ impl Selector {
         }
         self.clearance.prepare(g.points, p);
         let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
-        let (model, dt) = (p.dtcbf.prediction, p.control.dt_s());
-        let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next_at(g.points_next, predicted_displacement(model, u, dt), p);
+        let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next(g.points_next, u, p);
         let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
         // Is the upstream command safe as it is? Then it is sent unchanged if the base can
         // follow it now, and approached through the window otherwise; the critics that
