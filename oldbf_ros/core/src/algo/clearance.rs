@@ -33,6 +33,7 @@
 //! one sign to the other. d_min and the front sector are not faded. A fade of 0
 //! gives the hard sectors.
 
+use super::footprint::PaddedPolygon;
 use super::geometry::Vec2;
 
 /// Sector half-angle encoded as a cosine so membership needs no atan2:
@@ -352,7 +353,13 @@ fn faded_within(
 fn add_faded(c: &mut Clearances, p: Vec2, robot_radius_m: f64, front: Sector, fade: &SideFade) -> u8 {
     // ‖P‖ as nalgebra computes it: the root of the squared norm.
     let norm = p.norm_squared().sqrt();
-    let clearance = norm - robot_radius_m;
+    add_faded_at(c, p, norm, norm - robot_radius_m, front, fade)
+}
+
+/// [`add_faded`] with the point's `clearance` from the body given (the
+/// circle's ‖P‖ − r, or a polygon's signed distance); `norm` = ‖P‖.
+#[inline]
+fn add_faded_at(c: &mut Clearances, p: Vec2, norm: f64, clearance: f64, front: Sector, fade: &SideFade) -> u8 {
     let mut lowered = 0;
     if clearance < c.d_min_m {
         c.d_min_m = clearance;
@@ -446,12 +453,59 @@ pub fn side_crowding(points: &[Vec2], fade: &SideFade) -> (f64, f64) {
 
 /// Computes every clearance in one pass over the points.
 pub fn compute_clearances(points: &[Vec2], robot_radius_m: f64, hemisphere: Sector, front: Sector) -> Clearances {
+    clearances_with(points, hemisphere, front, |_, norm| norm - robot_radius_m)
+}
+
+/// [`compute_clearances`] of a polygon body (`footprint.polygon_m`, issue
+/// 26): a point's clearance is its signed distance from the padded polygon;
+/// the sectors are told by its bearing from the robot's origin, as for the
+/// circle.
+pub fn compute_clearances_polygon(
+    points: &[Vec2],
+    fp: &PaddedPolygon,
+    hemisphere: Sector,
+    front: Sector,
+) -> Clearances {
+    clearances_with(points, hemisphere, front, |p, _| fp.signed_distance(p))
+}
+
+/// [`compute_clearances_faded`] of a polygon body, every point taken, with
+/// the minimisers (as [`compute_clearances_faded_seeded`] returns them).
+pub fn compute_clearances_faded_polygon(
+    points: &[Vec2],
+    fp: &PaddedPolygon,
+    front: Sector,
+    fade: &SideFade,
+) -> (Clearances, Minimisers) {
+    let mut c = Clearances::OPEN;
+    let mut at = NO_MINIMISERS;
+    for (i, &p) in points.iter().enumerate() {
+        let norm = p.norm_squared().sqrt();
+        let lowered = add_faded_at(&mut c, p, norm, fp.signed_distance(p), front, fade);
+        for (k, slot) in at.iter_mut().enumerate() {
+            if lowered & (1 << k) != 0 {
+                *slot = i;
+            }
+        }
+    }
+    (c, at)
+}
+
+/// Every clearance in one pass, a point's clearance from the body given by
+/// `clearance_of(P, ‖P‖)`.
+#[inline]
+fn clearances_with(
+    points: &[Vec2],
+    hemisphere: Sector,
+    front: Sector,
+    clearance_of: impl Fn(Vec2, f64) -> f64,
+) -> Clearances {
     let mut c = Clearances::OPEN;
     for chunk in points.chunks(BATCH) {
         let (norms, reciprocals) = norms_and_reciprocals(chunk);
         for (k, &p) in chunk.iter().enumerate() {
             let norm = norms[k];
-            let clearance = norm - robot_radius_m;
+            let clearance = clearance_of(p, norm);
             if clearance < c.d_min_m {
                 c.d_min_m = clearance;
                 c.closest = Some(p);
@@ -549,6 +603,45 @@ mod tests {
         assert_eq!(c.closest, Some(Vec2::new(-0.3, 0.0)));
         // Front (±30°): (1, 0.5) is at 26.6°, (0.5, -0.5) at -45° (outside), (2, 0) at 0°.
         assert!((c.d_front_m - (1.25f64.sqrt() - 0.1)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_polygon_body_measures_from_its_sides_not_its_corner_circle() {
+        // The 0.6 x 0.4 m base: a point 0.35 m to the left (and 5 cm ahead) is 0.15 m from the long
+        // side (the circumscribed circle, √0.13 = 0.3606 m, would say −0.0106); one
+        // 0.5 m ahead is 0.2 m from the front; one 0.5 m behind, 0.2 m from the back.
+        let fp = PaddedPolygon {
+            polygon: crate::algo::footprint::Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
+            padding_m: 0.0,
+        };
+        let pts = [Vec2::new(0.05, 0.35), Vec2::new(0.5, 0.0), Vec2::new(-0.5, 0.0)];
+        let c = compute_clearances_polygon(&pts, &fp, Sector::new(deg(180.0)), Sector::new(deg(60.0)));
+        assert!((c.d_left_m - 0.15).abs() < 1e-12, "{c:?}");
+        assert!((c.d_front_m - 0.2).abs() < 1e-12, "{c:?}");
+        assert!((c.d_min_m - 0.15).abs() < 1e-12, "{c:?}");
+        assert_eq!(c.d_right_m, f64::INFINITY);
+        assert_eq!(c.closest, Some(Vec2::new(0.05, 0.35)));
+        // Faded sides: the same distances enter with the same penalties as the circle's.
+        let fade = SideFade::new(deg(30.0), deg(180.0), 1.2).unwrap();
+        let (f, at) = compute_clearances_faded_polygon(&pts, &fp, Sector::new(deg(60.0)), &fade);
+        let reference = reference_clearances_faded(&pts, 0.0, Sector::new(deg(60.0)), &fade);
+        // With r = 0 the circle's clearance is ‖P‖. Here the point ahead realises both
+        // faded sides (bearing 0, no penalty) and the front: 0.5 m less the half-length.
+        assert_eq!(reference.closest_left, Some(Vec2::new(0.5, 0.0)));
+        assert!(
+            (f.d_left_m - (reference.d_left_m - 0.3)).abs() < 1e-12,
+            "{f:?} {reference:?}"
+        );
+        assert!(
+            (f.d_right_m - (reference.d_right_m - 0.3)).abs() < 1e-12,
+            "{f:?} {reference:?}"
+        );
+        assert!(
+            (f.d_front_m - (reference.d_front_m - 0.3)).abs() < 1e-12,
+            "{f:?} {reference:?}"
+        );
+        assert!((f.d_min_m - 0.15).abs() < 1e-12, "{f:?}");
+        assert_eq!(at[0], 0);
     }
 
     #[test]

@@ -357,6 +357,11 @@ impl DtcbfFilter {
         self
     }
 
+    /// The polygon footprint, if the body is one.
+    pub fn footprint(&self) -> Option<&PaddedPolygon> {
+        self.forbidden.footprint.as_ref()
+    }
+
     /// Whether the body is a polygon: its forbidden speeds depend on ω even
     /// with the Euler model (the step turns it).
     pub fn has_polygon(&self) -> bool {

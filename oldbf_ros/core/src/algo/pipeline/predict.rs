@@ -6,7 +6,10 @@
 use super::perceive::Frame;
 use super::Threat;
 use super::{next_points, SafetyPipeline, PLAN_THROUGH_SPEED_MPS, SURPRISE_STEPS};
-use crate::algo::clearance::{compute_clearances, compute_clearances_faded_seeded, side_crowding, Clearances};
+use crate::algo::clearance::{
+    compute_clearances, compute_clearances_faded_polygon, compute_clearances_faded_seeded, compute_clearances_polygon,
+    side_crowding, Clearances,
+};
 use crate::algo::collision_cone::collision_cone;
 use crate::algo::doaa::sides_tie;
 use crate::algo::geometry::Vec2;
@@ -21,8 +24,12 @@ impl SafetyPipeline {
     /// points, phantoms and movers. `v_now` is the robot's speed (m/s).
     pub(super) fn measure(&mut self, frame: &Frame, v_now: f64) -> Clearances {
         let d = self.derived;
-        let mut c = match &d.fade {
-            Some(fade) => {
+        let polygon = self.filter.footprint();
+        let mut c = match (&d.fade, polygon) {
+            // A polygon body: every point's signed distance (the seeded bounds are the circle's).
+            (Some(fade), Some(fp)) => compute_clearances_faded_polygon(&self.points.points, fp, d.front, fade).0,
+            (None, Some(fp)) => compute_clearances_polygon(&self.points.points, fp, d.hemisphere, d.front),
+            (Some(fade), None) => {
                 // Seeded by the points on the beams of the last step's minimisers.
                 let beams = &self.points.beam_index;
                 let seeds = self
@@ -33,7 +40,7 @@ impl SafetyPipeline {
                 self.minimiser_beams = at.map(|i| beams.get(i).copied().unwrap_or(u32::MAX));
                 c
             }
-            None => compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front),
+            (None, None) => compute_clearances(&self.points.points, d.robot_radius_m, d.hemisphere, d.front),
         };
         self.predict_threats(&mut c, v_now, frame);
         // The faded pass leaves the crowding sums out: they only break a tie between the
