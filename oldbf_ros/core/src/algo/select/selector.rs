@@ -237,7 +237,7 @@ impl Selector {
                 input.clearer_side
             });
         }
-        self.clearance.prepare(g.points, p);
+        self.clearance.prepare(g.points, g.filter.footprint(), p);
         let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
         let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next(g.points_next, u, p);
         let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
