@@ -531,8 +531,8 @@ fn run_connected(config: NodeConfig, stop: &lifecycle::StopFlag) -> Result<bool,
 
     if let Some(Ok(fp)) = params.footprint.polygon() {
         log::info!(
-            "{}: footprint: a polygon of {} vertices{}, padding {} m; the checks keep its circumscribed circle \
-             (r = {:.4} m) clear",
+            "{}: footprint: a polygon of {} vertices{}, padding {} m; the checks that still use a circle keep \
+             its circumscribed circle (r = {:.4} m) clear",
             rosrust::name(),
             fp.polygon.vertices().len(),
             if settings.footprint_param.is_empty() {
