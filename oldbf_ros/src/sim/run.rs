@@ -22,6 +22,7 @@ use super::fleet::{Contact, Fleet, FleetError, CLOSING_SPEED_MPS};
 use super::motion_quality::{MeteredStep, MotionMeter};
 use super::scenario::{AgentPlan, Scenario};
 use super::world::World;
+use crate::algo::body::polygon_clearance_after;
 use crate::algo::doaa::DoaaState;
 use crate::algo::dtcbf::{min_distance, predicted_displacement, InputBox};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
@@ -278,6 +279,8 @@ pub fn run_scenario_with(
     let (range_min, range_max) = (lidar.range_min_m as f32, lidar.range_max_m as f32);
     let r = params.robot_radius_m();
     let d_safe = params.barrier.d_safe_m;
+    // A polygon footprint: the filter's clearances are its signed distances.
+    let polygon = params.footprint.polygon().and_then(Result::ok);
     let gamma = params.dtcbf.gamma;
     let input_box = InputBox::from_params(params);
     let steps_max = (spec.duration_s / dt).ceil() as usize;
@@ -451,7 +454,14 @@ pub fn run_scenario_with(
                 let disp = predicted_displacement(params.dtcbf.prediction, cmd, dt);
                 // The same prediction the filter made: static points stay, tracked moving
                 // obstacles on a collision course advance by v_o Δt (ALGORITHM.md §5).
-                let h_next = min_distance(a.node.pipeline().points_next(), disp) - r - d_safe;
+                let points_next = a.node.pipeline().points_next();
+                let h_next = match &polygon {
+                    None => min_distance(points_next, disp) - r - d_safe,
+                    Some(fp) => {
+                        let (s, c) = (cmd.omega_radps * dt).sin_cos();
+                        polygon_clearance_after(fp, points_next, disp, (c, s)) - d_safe
+                    }
+                };
                 (
                     h_next,
                     !rec.h_m.is_finite() || h_next >= (1.0 - gamma) * rec.h_m - TOL_M,
