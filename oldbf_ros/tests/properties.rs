@@ -5,8 +5,8 @@
 //! bug in the command.
 
 use oldbf_ros::algo::barrier::distance_barrier;
-use oldbf_ros::algo::dtcbf::InputBox;
-use oldbf_ros::algo::params::{BarrierParams, Params};
+use oldbf_ros::algo::dtcbf::{predicted_displacement, InputBox};
+use oldbf_ros::algo::params::{BarrierParams, Params, PredictionModel};
 use oldbf_ros::algo::select::{window::Limits, Window};
 use oldbf_ros::algo::{LaserScan, SafetyPipeline, ScanHeader, Twist};
 use proptest::prelude::*;
@@ -233,5 +233,89 @@ proptest! {
         prop_assert!(close(a.cmd.v_mps, b.cmd.v_mps) && close(a.cmd.omega_radps, b.cmd.omega_radps), "{a:?}\n{b:?}");
         prop_assert_eq!(a.state, b.state);
         prop_assert_eq!(a.valid_beams, b.valid_beams);
+    }
+}
+
+/// Signed distance from `q` to the polygon `v` (any winding), written apart
+/// from the core's: the least distance to each edge, negative inside by the
+/// winding number.
+fn polygon_sd(v: &[(f64, f64)], q: (f64, f64)) -> f64 {
+    let n = v.len();
+    let (mut d, mut winding) = (f64::INFINITY, 0i32);
+    for i in 0..n {
+        let (a, b) = (v[i], v[(i + 1) % n]);
+        let (ex, ey) = (b.0 - a.0, b.1 - a.1);
+        let t = (((q.0 - a.0) * ex + (q.1 - a.1) * ey) / (ex * ex + ey * ey)).clamp(0.0, 1.0);
+        d = d.min(((q.0 - a.0 - t * ex).powi(2) + (q.1 - a.1 - t * ey).powi(2)).sqrt());
+        let cross = ex * (q.1 - a.1) - ey * (q.0 - a.0);
+        if a.1 <= q.1 && b.1 > q.1 && cross > 0.0 {
+            winding += 1;
+        } else if a.1 > q.1 && b.1 <= q.1 && cross < 0.0 {
+            winding -= 1;
+        }
+    }
+    if winding != 0 {
+        -d
+    } else {
+        d
+    }
+}
+
+/// h of a polygon body after a step that moves it by `disp` and turns it by
+/// `theta`: the least signed distance from the polygon, less d_safe.
+fn polygon_h_after(v: &[(f64, f64)], points: &[(f64, f64)], disp: (f64, f64), theta: f64, d_safe: f64) -> f64 {
+    let (s, c) = theta.sin_cos();
+    points
+        .iter()
+        .map(|&(x, y)| {
+            let (rx, ry) = (x - disp.0, y - disp.1);
+            polygon_sd(v, (c * rx + s * ry, -s * rx + c * ry))
+        })
+        .fold(f64::INFINITY, f64::min)
+        - d_safe
+}
+
+proptest! {
+    #![proptest_config(config(300))]
+
+    /// A rectangular robot (any size, off-centre on its axle), both
+    /// prediction models: from inside the safe set, the command sent keeps
+    /// the one-step condition on the polygon, so no corner or edge comes
+    /// inside d_safe of a static point at the next step (checked from the
+    /// raw ranges with a plain signed distance, the turn included).
+    #[test]
+    fn a_polygon_robot_never_brings_a_corner_or_edge_inside_d_safe_in_one_step(
+        ranges in prop::collection::vec(prop_oneof![5 => 0.5f32..3.49, 3 => 0.3f32..0.7, 1 => Just(f32::INFINITY)], 1..360),
+        v_nom in -0.1f64..0.3,
+        w_nom in -0.5f64..0.5,
+        gamma in 0.05f64..1.0,
+        d_safe in 0.05f64..0.15,
+        length in 0.3f64..0.6,
+        width in 0.2f64..0.4,
+        offset in -0.05f64..0.05,
+        arc in any::<bool>(),
+    ) {
+        let n = ranges.len();
+        let inc = (2.0 * std::f64::consts::PI / n as f64) as f32;
+        let angle_min = -std::f32::consts::PI;
+        let (hx, hy) = (0.5 * length, 0.5 * width);
+        let v = [(offset + hx, hy), (offset - hx, hy), (offset - hx, -hy), (offset + hx, -hy)];
+        let mut p = Params::default();
+        p.dtcbf.gamma = gamma;
+        p.dtcbf.noise_margin_m = 0.0; // the plain definition
+        p.barrier.d_safe_m = d_safe;
+        p.control.omega_max_radps = 1.0;
+        p.dtcbf.prediction = if arc { PredictionModel::Arc } else { PredictionModel::Euler };
+        p.footprint.polygon_m = v.iter().map(|&(x, y)| [x, y]).collect();
+        let pts = points_of(&ranges, angle_min, inc);
+        let h = polygon_h_after(&v, &pts, (0.0, 0.0), 0.0, d_safe);
+        prop_assume!(h >= 0.0 && h.is_finite());
+        let rec = SafetyPipeline::new(p.clone()).step(&scan_of(&ranges, angle_min, inc), 5.0, Twist::new(v_nom, w_nom), v_nom);
+        let dt = p.control.dt_s();
+        let disp = predicted_displacement(p.dtcbf.prediction, rec.cmd, dt);
+        let h_next = polygon_h_after(&v, &pts, (disp.x, disp.y), rec.cmd.omega_radps * dt, d_safe);
+        prop_assert!((rec.h_m - h).abs() < 1e-6, "h {} vs {}", rec.h_m, h);
+        prop_assert!(h_next >= (1.0 - gamma) * h - 1e-7, "h {h} h_next {h_next} cmd {:?}", rec.cmd);
+        prop_assert!(h_next >= -1e-7, "a corner or edge inside d_safe: {h_next}");
     }
 }

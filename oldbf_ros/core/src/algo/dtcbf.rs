@@ -830,6 +830,43 @@ mod tests {
     }
 
     #[test]
+    fn a_rectangle_turning_in_place_beside_a_wall_is_refused_only_when_a_corner_would_come_within_d_safe() {
+        // The 0.6 x 0.4 m base, a wall 0.35 m to its left (points every cm), d_safe
+        // 0.1 m, γ = 0.5: h = 0.15 − 0.1 = 0.05 m, the condition asks h(k+1) ≥ 0.025 m.
+        let mut p = params();
+        p.barrier.d_safe_m = 0.1;
+        p.dtcbf.gamma = 0.5;
+        p.control.omega_max_radps = 1.0;
+        p.footprint.polygon_m = vec![[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]];
+        let wall: Vec<Vec2> = (-100..=100).map(|k| Vec2::new(0.01 * k as f64, 0.35)).collect();
+        let mut f = DtcbfFilter::new().with_footprint(&p);
+        // Turning left at 1 rad/s for Δt = 0.1 s: the front-left corner rises to
+        // y = 0.3 sin 0.1 + 0.2 cos 0.1 = 0.2290 m, 0.1210 m from the wall:
+        // h(k+1) = 0.0210 < 0.025. Refused.
+        let out = f.filter(&wall, &wall, Twist::new(0.0, 1.0), &p);
+        assert!((out.h_m - 0.05).abs() < 1e-12, "{out:?}");
+        assert!(out.changed && out.cmd != Twist::new(0.0, 1.0), "{out:?}");
+        assert!(out.h_next_m >= 0.025 - TOL_M, "{out:?}");
+        let corner_y = 0.3 * 0.1f64.sin() + 0.2 * 0.1f64.cos();
+        assert!((f.h_next(&wall, Twist::new(0.0, 1.0), &p) - (0.35 - corner_y - 0.1)).abs() < 1e-4);
+        // At 0.3 rad/s: 0.3 sin 0.03 + 0.2 cos 0.03 = 0.2089 m, h(k+1) = 0.0411. Allowed.
+        let out = f.filter(&wall, &wall, Twist::new(0.0, 0.3), &p);
+        assert_eq!(out.cmd, Twist::new(0.0, 0.3), "{out:?}");
+        assert!(!out.changed && out.condition_held, "{out:?}");
+        // The circle turns for free at any rate: the same wall 0.15 m beyond r.
+        let mut round = params();
+        round.barrier.d_safe_m = 0.1;
+        round.dtcbf.gamma = 0.5;
+        round.control.omega_max_radps = 1.0;
+        let wall_r: Vec<Vec2> = wall
+            .iter()
+            .map(|q| Vec2::new(q.x, round.robot_radius_m() + 0.15))
+            .collect();
+        let out = DtcbfFilter::new().filter(&wall_r, &wall_r, Twist::new(0.0, 1.0), &round);
+        assert_eq!(out.cmd, Twist::new(0.0, 1.0), "{out:?}");
+    }
+
+    #[test]
     fn free_space_passes_unchanged() {
         let pts = [Vec2::new(3.0, 0.0)];
         let out = DtcbfFilter::new().filter(&pts, &pts, Twist::new(0.15, 0.1), &params());
