@@ -100,10 +100,21 @@ fn run(pipe: &mut SafetyPipeline, scans: &[Vec<f32>], rounds: usize) {
 
 #[test]
 fn steady_state_steps_do_not_allocate() {
-    for beams in [360, 720, 1440, 2048] {
+    for (beams, polygon) in [
+        (360, false),
+        (720, false),
+        (1440, false),
+        (2048, false),
+        (360, true),
+        (1440, true),
+    ] {
         let scans = scans(beams);
         let mut p = Params::default();
         p.control.allow_reverse = true; // so escape searches the whole box
+        if polygon {
+            // A 0.3 x 0.2 m rectangular body: the polygon's own scratch too.
+            p.footprint.polygon_m = vec![[0.15, 0.1], [-0.15, 0.1], [-0.15, -0.1], [0.15, -0.1]];
+        }
         let mut pipe = SafetyPipeline::new(p);
         run(&mut pipe, &scans, 2); // the first scans of this size (both stale and fresh) may grow buffers
         let before = allocations();
@@ -111,7 +122,7 @@ fn steady_state_steps_do_not_allocate() {
         let during = allocations() - before;
         assert_eq!(
             during, 0,
-            "{beams} beams: {during} allocations in 250 steady-state steps"
+            "{beams} beams (polygon {polygon}): {during} allocations in 250 steady-state steps"
         );
     }
 }
