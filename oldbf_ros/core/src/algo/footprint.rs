@@ -216,6 +216,21 @@ impl Polygon {
         }
     }
 
+    /// The point of the polygon's boundary nearest to `q`.
+    pub fn closest_boundary_point(&self, q: Vec2) -> Vec2 {
+        let mut best = (f64::INFINITY, self.vertices[0]);
+        for (a, b) in self.edges() {
+            let ab = b - a;
+            let t = ((q - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+            let at = a + t * ab;
+            let d2 = (q - at).norm_squared();
+            if d2 < best.0 {
+                best = (d2, at);
+            }
+        }
+        best.1
+    }
+
     /// The largest distance of a vertex from the robot frame's origin (m):
     /// the circumscribed circle about the rotation centre.
     pub fn circumscribed_radius_m(&self) -> f64 {

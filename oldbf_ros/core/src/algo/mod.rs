@@ -9,6 +9,7 @@ pub mod barrier;
 pub mod beam_memory;
 pub mod blind;
 pub mod body;
+pub mod braking_polygon;
 pub mod clearance;
 pub mod clusters;
 pub mod collision_cone;

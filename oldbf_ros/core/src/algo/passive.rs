@@ -26,6 +26,8 @@
 //! points are taken at the filter's r; the DTCBF already keeps d_safe from
 //! them, so for static worlds this check only bites inside the unsafe set.
 
+use super::braking_polygon::{braking_poses, first_polygon_contact, PathPose};
+use super::footprint::PaddedPolygon;
 use super::geometry::{Twist, Vec2};
 use super::params::Params;
 use super::unicycle::sinc;
@@ -342,6 +344,10 @@ pub struct PassiveSafety {
     /// The points one path can reach and their squared contact radii (m, m²).
     scratch: Vec<(Vec2, f64)>,
     path: Vec<Sample>,
+    /// The polygon body, if the robot has one (else the circle of r).
+    footprint: Option<PaddedPolygon>,
+    /// The polygon's swept path.
+    poses: Vec<PathPose>,
     reach: Vec<Vec2>,
     /// The same points as f32 coordinates, padded to whole lanes with far
     /// points: for [`Self::nearest_lower_bound_m`].
@@ -405,6 +411,8 @@ impl PassiveSafety {
             near_unseen: Vec::with_capacity(points),
             scratch: Vec::with_capacity(points),
             path: Vec::with_capacity(MAX_STEP_SAMPLES + MAX_BRAKE_SAMPLES + 2),
+            footprint: None,
+            poses: Vec::with_capacity(130),
             reach: Vec::with_capacity(points),
             reach_x: Vec::with_capacity(points + LANES),
             reach_y: Vec::with_capacity(points + LANES),
@@ -529,7 +537,25 @@ impl PassiveSafety {
         self.contact_memo.put(cmd, answer)
     }
 
+    /// The robot's footprint: a padded polygon swept along the braking path
+    /// ([`super::braking_polygon`]), or `None` for the circle of r.
+    pub fn set_footprint(&mut self, footprint: Option<PaddedPolygon>) {
+        self.footprint = footprint;
+        self.forget_answers();
+    }
+
     fn first_closing_contact(&mut self, cmd: Twist, p: &Params) -> Option<ClosingContact> {
+        if let Some(fp) = &self.footprint {
+            braking_poses(cmd, fp.circumscribed_radius_m(), p, &mut self.poses);
+            return first_polygon_contact(
+                fp,
+                &self.poses,
+                &self.near_seen,
+                &self.near_unseen,
+                &self.brake_movers,
+                p,
+            );
+        }
         self.braking_path(cmd, p);
         let last = self.path.last()?;
         let r = p.robot_radius_m();

@@ -192,6 +192,8 @@ impl SafetyPipeline {
         let last_box = InputBox::from_params(&params);
         let way_round = WayRound::new(&params);
         let filter = DtcbfFilter::with_capacity(cap).with_footprint(&params);
+        let mut passive = PassiveSafety::with_capacity(max_tracks, cap);
+        passive.set_footprint(params.footprint.polygon().and_then(Result::ok));
         Self {
             params,
             derived,
@@ -203,7 +205,7 @@ impl SafetyPipeline {
             unstuck: Unstuck::default(),
             guidance: None,
             filter,
-            passive: PassiveSafety::with_capacity(max_tracks, cap),
+            passive,
             selector,
             last_cmd: Twist::ZERO,
             last_sent_s: f64::NAN,
