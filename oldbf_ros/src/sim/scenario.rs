@@ -6,6 +6,7 @@
 //! section is deep-merged over the base parameters (`config/oldbf.yaml` or
 //! `--config FILE`) and validated as a whole.
 
+use super::body::BodyPolygon;
 use super::lidar::LidarSpec;
 use super::robot::{RobotLimits, RobotSpec};
 use super::world::{World, WorldSpec};
@@ -157,6 +158,9 @@ pub struct Scenario {
     /// Filter parameters after the scenario's overrides.
     pub params: Params,
     pub robot: RobotLimits,
+    /// The robot's body polygon (`robot.body_polygon_m` or the preset's);
+    /// `None`: the disc of `robot.body_radius_m`.
+    pub body: Option<BodyPolygon>,
     /// The robots: one for a single-robot scenario.
     pub agents: Vec<AgentPlan>,
 }
@@ -251,6 +255,10 @@ impl Scenario {
         }
         let robot = spec.robot.limits();
         robot.check(&mut c);
+        let body = spec.robot.body().unwrap_or_else(|e| {
+            c.push(e);
+            None
+        });
         finish(c, file)?;
         World::new(&spec.world).map_err(|e| e.in_file(file))?;
         let agents = Self::agents_of(&spec, file)?;
@@ -259,6 +267,7 @@ impl Scenario {
             spec,
             params,
             robot,
+            body,
             agents,
         })
     }
