@@ -502,6 +502,21 @@ robots:
     }
 
     #[test]
+    fn a_body_polygon_is_loaded_and_a_bad_one_names_its_key() {
+        assert!(Scenario::from_str(MINIMAL, "t.yaml", None).unwrap().body.is_none());
+        let rect = MINIMAL.replace("preset: turtlebot3_burger", "preset: rect_0604");
+        let s = Scenario::from_str(&rect, "t.yaml", None).unwrap();
+        assert_eq!(s.body.expect("the preset's").polygon().vertices().len(), 4);
+        let own = MINIMAL.replace(
+            "preset: turtlebot3_burger",
+            "preset: turtlebot3_burger, body_polygon_m: [[0.1, 0.1], [-0.1, 0.1], [0.1, -0.1], [-0.1, -0.1]]",
+        );
+        let e = Scenario::from_str(&own, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["robot.body_polygon_m"], "{e}");
+        assert!(e.to_string().contains("intersect"), "{e}");
+    }
+
+    #[test]
     fn scenario_keys_are_checked() {
         let e = Scenario::from_str(&format!("{MINIMAL}speed: 3\n"), "t.yaml", None).unwrap_err();
         assert_eq!(e.keys(), ["speed"], "{e}");
