@@ -61,6 +61,38 @@ fn every_shipped_scenario_is_safe_on_several_seeds() {
     }
 }
 
+/// The rectangular base (0.6 x 0.4 m) at a 0.85 m door and in a 0.9 m
+/// corridor: contacts and clearance are measured on its rectangle. Whether
+/// it gets through is not asserted: that changes when the filter's checks
+/// take the polygon (issue 26).
+#[test]
+fn the_rectangular_robot_never_touches_at_a_narrow_door_or_corridor() {
+    for name in ["rect_door", "rect_corridor"] {
+        let s = scenario(name);
+        assert!(s.body.is_some(), "{name}: the rect_0604 body polygon");
+        for seed in SEEDS {
+            let r = run_scenario(&s, Controller::Oldbf, seed).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let f = &r.summary.figures;
+            let what = format!("{name} seed {seed}: {:?}", r.summary);
+            assert_eq!(
+                (f.collisions, f.closing_contacts, f.passive_contacts),
+                (0, 0, 0),
+                "{what}"
+            );
+            assert!(f.min_clearance_m >= 0.0, "{what}");
+            let rows = &r.robots[0].rows;
+            assert!(!rows.is_empty());
+            for row in rows {
+                assert!(
+                    row.clearance_true_m >= 0.0 && !row.in_collision,
+                    "{name} seed {seed} at {} s: {row:?}",
+                    row.t_s
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn paper_line_reaches_its_goal_and_the_filter_acts() {
     let s = scenario("paper_line");

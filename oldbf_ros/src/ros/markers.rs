@@ -1,4 +1,5 @@
-//! ~markers for rviz: the robot footprint, the d_safe and d_act circles, the
+//! ~markers for rviz: the robot footprint (and, with `footprint.polygon_m`,
+//! the polygon and its d_safe outline), the d_safe and d_act circles, the
 //! hemisphere and front sectors, the closest left/right points, the command
 //! a label with B_l, B_r and the DOAA state, and each tracked obstacle on a
 //! collision course (its circle, its velocity over 1 s, its time to
@@ -60,6 +61,69 @@ fn sector(frame: &str, stamp: rosrust::Time, id: i32, half: f64, length: f64, c:
             .push(point(length * (s * half).cos(), length * (s * half).sin()));
     }
     m
+}
+
+/// The footprint polygon (`footprint.polygon_m`) as a closed line, and its
+/// outline grown by padding_m + d_safe (ids 9, 10); deleted without one.
+const POLYGON_ID: i32 = 9;
+const POLYGON_SAFE_ID: i32 = 10;
+
+/// The closed outline of the polygon `vertices` (counter-clockwise) with
+/// every edge moved outward by `offset_m`: each vertex moves along the
+/// bisector of its two edges' outward normals by offset / cos(half the angle
+/// between them), where the moved edges meet. The corners stay sharp
+/// (mitred), so at a convex corner the outline lies a little outside the
+/// rounded set "within offset of the polygon"; the edges are exact. The
+/// first point is repeated at the end.
+pub fn offset_outline(vertices: &[Vec2], offset_m: f64) -> Vec<Vec2> {
+    let n = vertices.len();
+    let normal = |i: usize| {
+        let e = vertices[(i + 1) % n] - vertices[i];
+        // Outward: the right of a counter-clockwise edge.
+        Vec2::new(e.y, -e.x).try_normalize(0.0).unwrap_or(Vec2::zeros())
+    };
+    let mut out: Vec<Vec2> = (0..n)
+        .map(|i| {
+            let (n_in, n_out) = (normal((i + n - 1) % n), normal(i));
+            let bisector = (n_in + n_out).try_normalize(0.0).unwrap_or(n_out);
+            let cos_half = bisector.dot(&n_out);
+            // A simple polygon never folds an edge back on the last (cos_half > 0).
+            let scale = if cos_half > 1e-9 { offset_m / cos_half } else { offset_m };
+            vertices[i] + bisector * scale
+        })
+        .collect();
+    if let Some(&first) = out.first() {
+        out.push(first);
+    }
+    out
+}
+
+/// The polygon footprint's two line strips (the polygon, its d_safe
+/// outline), or their deletions when `p` has no valid polygon.
+fn polygon_markers(frame: &str, stamp: rosrust::Time, p: &Params) -> [Marker; 2] {
+    let mut body = marker(frame, stamp, POLYGON_ID, Marker::LINE_STRIP as i32);
+    let mut safe = marker(frame, stamp, POLYGON_SAFE_ID, Marker::LINE_STRIP as i32);
+    match p.footprint.polygon() {
+        Some(Ok(fp)) => {
+            body.scale.x = 0.02;
+            body.color = color(0.2, 0.2, 0.2, 0.9);
+            body.points = offset_outline(fp.polygon.vertices(), 0.0)
+                .iter()
+                .map(|q| point(q.x, q.y))
+                .collect();
+            safe.scale.x = 0.02;
+            safe.color = color(0.9, 0.1, 0.1, 0.9);
+            safe.points = offset_outline(fp.polygon.vertices(), fp.padding_m + p.barrier.d_safe_m)
+                .iter()
+                .map(|q| point(q.x, q.y))
+                .collect();
+        }
+        _ => {
+            body.action = Marker::DELETE as i32;
+            safe.action = Marker::DELETE as i32;
+        }
+    }
+    [body, safe]
 }
 
 /// Threat markers use ids from here, three per threat.
@@ -176,6 +240,7 @@ pub fn markers(
         _ => format!("B_l {:.2}  B_r {:.2}  {}", rec.b_left, rec.b_right, rec.state),
     };
     v.push(label);
+    v.extend(polygon_markers(frame, stamp, p));
     v.extend(threat_markers(frame, stamp, threats));
     MarkerArray { markers: v }
 }
@@ -335,6 +400,47 @@ mod tests {
         let (x, y) = label_position(&p, None);
         assert!(x.abs() < 1e-9 && (y - up).abs() < 1e-9);
         assert_eq!(label_position(&p, Some(f64::NAN)), label_position(&p, None));
+    }
+
+    #[test]
+    fn a_polygon_footprint_is_drawn_with_its_d_safe_outline_and_deleted_without_one() {
+        let mut p = Params::default();
+        p.footprint.polygon_m = vec![[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]];
+        p.footprint.padding_m = 0.05;
+        p.barrier.d_safe_m = 0.1;
+        let [body, safe] = polygon_markers("base_link", rosrust::Time::default(), &p);
+        let xy = |m: &Marker| m.points.iter().map(|q| (q.x, q.y)).collect::<Vec<_>>();
+        assert_eq!((body.id, body.type_), (POLYGON_ID, Marker::LINE_STRIP as i32));
+        // Counter-clockwise from the first vertex of the validated polygon, closed.
+        let b = xy(&body);
+        assert_eq!(b.len(), 5);
+        assert_eq!(b[0], b[4]);
+        for corner in [(0.3, 0.2), (-0.3, 0.2), (-0.3, -0.2), (0.3, -0.2)] {
+            assert!(b.contains(&corner), "{corner:?} in {b:?}");
+        }
+        // Grown by 0.05 + 0.1 m: a rectangle's corners move 0.15 m out in x and in y.
+        let s = xy(&safe);
+        assert_eq!(s.len(), 5);
+        for (i, &(x, y)) in b.iter().enumerate() {
+            let (sx, sy) = s[i];
+            assert!(
+                (sx - (x + 0.15 * x.signum())).abs() < 1e-12 && (sy - (y + 0.15 * y.signum())).abs() < 1e-12,
+                "{:?} → {:?}",
+                (x, y),
+                (sx, sy)
+            );
+        }
+        // A triangle: the right-angle corner at the origin moves along its
+        // bisector by 0.1 / cos 45° = 0.1414 m, to (−0.1, −0.1).
+        let tri = offset_outline(&[Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)], 0.1);
+        assert!((tri[0] - Vec2::new(-0.1, -0.1)).norm() < 1e-12, "{tri:?}");
+        assert!((tri[1].y + 0.1).abs() < 1e-12 && (tri[2].x + 0.1).abs() < 1e-12);
+        // No polygon: both deleted.
+        let [body, safe] = polygon_markers("base_link", rosrust::Time::default(), &Params::default());
+        assert_eq!(
+            (body.action, safe.action),
+            (Marker::DELETE as i32, Marker::DELETE as i32)
+        );
     }
 
     #[test]

@@ -2,13 +2,18 @@
 //! closed-loop runner (`oldbf sim`) and the ROS sim node.
 //!
 //! Every robot is a disc of its body radius in the other robots' LiDAR scans
-//! and collision checks, so robots in one world see and avoid each other.
-//! Collisions are checked exactly (robot circle against segments and circles)
+//! and collision checks (a polygon body: its circumscribed disc), so robots
+//! in one world see and avoid each other. Collisions are checked exactly
+//! (the robot's circle, or its body polygon, against segments and circles)
 //! after every physics step; a contact counts once when it begins. Each
 //! contact is classified at its onset (ALGORITHM.md §5b): *closing* when the
 //! robot's own velocity towards the touched point exceeds
 //! [`CLOSING_SPEED_MPS`] (it drove in), else *passive* (it was at rest, or
-//! turning, or moving away: the obstacle came to it).
+//! turning, or moving away: the obstacle came to it). For a polygon body the
+//! velocity is that of the body's point at the contact (v plus ω × the
+//! point, [`super::body::Touch`]) along the direction to the shape: a turn
+//! alone swings a corner into a wall. For a disc the rim's turning velocity
+//! is tangential, so the centre's velocity gives the same number.
 
 use super::lidar::{Lidar, LidarError, LidarSpec};
 use super::robot::SimRobot;
@@ -113,7 +118,7 @@ impl Fleet {
             let lidar_seed = seed.wrapping_add((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             agents.push(SimAgent {
                 name: plan.name.clone(),
-                robot: SimRobot::new(plan.start, scenario.robot),
+                robot: SimRobot::new(plan.start, scenario.robot).with_body(scenario.body.clone()),
                 lidars: specs
                     .iter()
                     .enumerate()
@@ -206,10 +211,24 @@ impl Fleet {
             if hit && !a.in_collision {
                 a.collisions += 1;
                 let pose = a.robot.pose;
-                let velocity = Vec2::new(pose.theta.cos(), pose.theta.sin()) * a.robot.twist.v_mps;
-                let closing_speed_mps = match self.world.nearest_surface_point(pose.position()) {
-                    Some(q) if q != pose.position() => velocity.dot(&(q - pose.position()).normalize()),
-                    _ => velocity.norm(),
+                let closing_speed_mps = match a.robot.body() {
+                    None => {
+                        let velocity = Vec2::new(pose.theta.cos(), pose.theta.sin()) * a.robot.twist.v_mps;
+                        match self.world.nearest_surface_point(pose.position()) {
+                            Some(q) if q != pose.position() => velocity.dot(&(q - pose.position()).normalize()),
+                            _ => velocity.norm(),
+                        }
+                    }
+                    Some(body) => {
+                        let Twist { v_mps, omega_radps } = a.robot.twist;
+                        match body.touch(pose, &self.world) {
+                            // The body point's velocity in the robot frame: v x̂ + ω ẑ × p.
+                            Some(t) => {
+                                Vec2::new(v_mps - omega_radps * t.point.y, omega_radps * t.point.x).dot(&t.normal)
+                            }
+                            None => v_mps.abs(),
+                        }
+                    }
                 };
                 a.contacts.push(Contact {
                     t_s: self.world.time_s(),
@@ -286,6 +305,40 @@ mod tests {
             assert!(b.contacts[0].closing());
         }
     }
+
+    #[test]
+    fn a_rectangle_turning_in_place_into_a_wall_has_a_closing_contact() {
+        // The wall 0.33 m to the left of the 0.6 x 0.4 m body: its side is
+        // 0.13 m off, but its corners (0.3606 m from the centre) swing into
+        // the wall as it turns. The centre is at rest: only the corner's
+        // velocity makes the contact closing.
+        let s = Scenario::from_str(TURN, "t.yaml", None).unwrap();
+        let mut f = Fleet::new(&s, 1).unwrap();
+        assert!((f.agents()[0].min_clearance_m - 0.13).abs() < 1e-12);
+        f.set_cmd(0, Twist::new(0.0, 1.0));
+        for _ in 0..100 {
+            f.step(0.01);
+        }
+        let a = &f.agents()[0];
+        assert_eq!(a.contacts.len(), 1, "{:?}", a.contacts);
+        // ω at the onset is about 0.5 rad/s, the corner's speed towards the wall about ω · 0.3 m.
+        assert!(
+            a.contacts[0].closing() && a.contacts[0].closing_speed_mps > 0.05,
+            "{:?}",
+            a.contacts[0]
+        );
+        assert!(a.min_clearance_m < 0.0 && a.path_length_m == 0.0);
+    }
+
+    const TURN: &str = "
+name: turn
+duration_s: 10
+robot: {preset: rect_0604}
+lidar: {beams: 36, noise_std_m: 0.0}
+start: {x_m: 0, y_m: 0, theta_deg: 0}
+nominal: {kind: constant, v_mps: 0.0, omega_radps: 0}
+world: {walls: [{from: [-1, 0.33], to: [1, 0.33]}]}
+";
 
     const TWO: &str = "
 name: two

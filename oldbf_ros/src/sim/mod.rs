@@ -15,12 +15,15 @@
 //! * [`motion_quality`] — how smoothly the robot was commanded (variation,
 //!   reversals, the dynamic window, what the filter added);
 //! * [`robot`] — a unicycle with speed and acceleration limits, presets for
-//!   the TurtleBot3 Burger and the Quanser QBot 2e, collision check.
+//!   the TurtleBot3 Burger, the Quanser QBot 2e and a 0.6 x 0.4 m
+//!   rectangular base, collision check;
+//! * [`body`] — a polygon body's exact signed distance to the world.
 //!
 //! Units: m, s, rad, m/s, rad/s throughout; degrees only in YAML keys ending
 //! in `_deg`. Every spec type rejects unknown YAML keys and every constructor
 //! returns an error (naming the key) instead of panicking on bad values.
 
+pub mod body;
 #[cfg(feature = "eval")]
 pub mod figures;
 pub mod fleet;
@@ -35,6 +38,7 @@ pub mod scenario;
 pub mod shapes;
 pub mod world;
 
+pub use body::BodyPolygon;
 pub use lidar::{DropoutKind, Lidar, LidarError, LidarSpec};
 pub use motion::{MotionSpec, MovingObstacle, MovingObstacleError, MovingObstacleSpec};
 pub use robot::{RobotLimits, RobotPreset, RobotSpec, SimRobot};

@@ -4,18 +4,21 @@
 //! Why: the safety filter issues velocity commands; what keeps a real base
 //! from executing them instantly is its speed and acceleration limits, and
 //! what decides a collision is its footprint. This file holds exactly that —
-//! a disc footprint, the limits (with presets for the two target robots),
-//! and an exact arc integration of the resulting motion.
+//! a disc footprint, or a polygon ([`super::body`]), the limits (with
+//! presets for the target robots), and an exact arc integration of the
+//! resulting motion.
 //!
 //! Units: m, s, rad, m/s, rad/s, m/s², rad/s².
 
+use super::body::BodyPolygon;
 use super::world::World;
 use crate::algo::geometry::{Pose2, Twist};
 use crate::algo::unicycle::arc_step;
 use oldbf::config::{Checker, ParamError, Validate};
 use serde::{Deserialize, Serialize};
 
-/// Robots with built-in limits (YAML: `turtlebot3_burger`, `quanser_qbot`).
+/// Robots with built-in limits (YAML: `turtlebot3_burger`, `quanser_qbot`,
+/// `rect_0604`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RobotPreset {
@@ -31,6 +34,28 @@ pub enum RobotPreset {
     /// conservative approximations (the datasheet gives no acceleration
     /// limits).
     QuanserQbot,
+    /// A rectangular base 0.6 m long and 0.4 m wide, centred on the wheel
+    /// axis (a generic indoor platform, not a product): body polygon
+    /// ±0.3 m x ±0.2 m, its disc the circumscribed one (√0.13 = 0.3606 m,
+    /// what other robots see), v_max 0.5 m/s, ω_max 1.0 rad/s; accel
+    /// 1.0 m/s² and yaw accel 2.0 rad/s² chosen as moderate values for such
+    /// a base.
+    #[serde(rename = "rect_0604")]
+    Rect0604,
+}
+
+/// The [`RobotPreset::Rect0604`] body (m, robot frame): 0.6 m x 0.4 m about
+/// the wheel axis.
+pub const RECT_0604_POLYGON_M: [[f64; 2]; 4] = [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]];
+
+/// Radius of the disc about the origin through a polygon's farthest vertex
+/// (m); NaN for a non-finite vertex.
+fn circumscribed_radius_m(vertices_m: &[[f64; 2]]) -> f64 {
+    vertices_m
+        .iter()
+        .map(|&[x, y]| x * x + y * y)
+        .fold(0.0, |a: f64, b| if b.is_nan() { b } else { a.max(b) })
+        .sqrt()
 }
 
 impl RobotPreset {
@@ -52,6 +77,21 @@ impl RobotPreset {
                 accel_max_mps2: 1.0,
                 omega_accel_max_radps2: 3.0,
             },
+            RobotPreset::Rect0604 => RobotLimits {
+                body_radius_m: circumscribed_radius_m(&RECT_0604_POLYGON_M),
+                v_max_mps: 0.5,
+                omega_max_radps: 1.0,
+                accel_max_mps2: 1.0,
+                omega_accel_max_radps2: 2.0,
+            },
+        }
+    }
+
+    /// The preset's body polygon (m, robot frame); `None`: a disc.
+    pub fn body_polygon_m(self) -> Option<&'static [[f64; 2]]> {
+        match self {
+            RobotPreset::Rect0604 => Some(&RECT_0604_POLYGON_M),
+            RobotPreset::Turtlebot3Burger | RobotPreset::QuanserQbot => None,
         }
     }
 }
@@ -62,9 +102,15 @@ impl RobotPreset {
 #[serde(deny_unknown_fields)]
 pub struct RobotSpec {
     pub preset: RobotPreset,
-    /// Footprint disc radius (m).
+    /// Footprint disc radius (m). Not with a body polygon.
     #[serde(default)]
     pub body_radius_m: Option<f64>,
+    /// The body as a simple polygon in the robot frame, `[[x, y], ...]`
+    /// (m, x forward, y left; either winding), instead of the disc: contacts
+    /// and clearances are measured on it exactly. Absent: the preset's
+    /// (a disc for all but `rect_0604`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_polygon_m: Option<Vec<[f64; 2]>>,
     /// Maximum |linear speed| (m/s), forward and reverse.
     #[serde(default)]
     pub v_max_mps: Option<f64>,
@@ -85,6 +131,7 @@ impl RobotSpec {
         Self {
             preset,
             body_radius_m: None,
+            body_polygon_m: None,
             v_max_mps: None,
             omega_max_radps: None,
             accel_max_mps2: None,
@@ -100,11 +147,45 @@ impl RobotSpec {
         Ok(l)
     }
 
+    /// The body polygon's vertices: `body_polygon_m`, else the preset's;
+    /// `None` for a disc body.
+    pub fn body_polygon_vertices_m(&self) -> Option<&[[f64; 2]]> {
+        self.body_polygon_m.as_deref().or(self.preset.body_polygon_m())
+    }
+
+    /// The body polygon, checked; `Ok(None)` for a disc body. Errors name
+    /// `robot.body_polygon_m` (not a simple polygon, or a vertex beyond
+    /// 5 m) or `robot.body_radius_m` (given with a polygon).
+    pub fn body(&self) -> Result<Option<BodyPolygon>, ParamError> {
+        let Some(v) = self.body_polygon_vertices_m() else {
+            return Ok(None);
+        };
+        if let Some(r) = self.body_radius_m {
+            return Err(ParamError::new(
+                "robot.body_radius_m",
+                r,
+                "absent with a body polygon (its disc is the polygon's circumscribed one)",
+            ));
+        }
+        let key = "robot.body_polygon_m";
+        let body = BodyPolygon::new(v).map_err(|e| ParamError::new(key, format!("{v:?}"), e.to_string()))?;
+        if v.iter().flatten().any(|x| x.abs() > 5.0) {
+            return Err(ParamError::new(
+                key,
+                format!("{v:?}"),
+                "vertices within 5 m of the robot's origin",
+            ));
+        }
+        Ok(Some(body))
+    }
+
     /// The preset's limits with the overrides applied, not yet checked.
+    /// With a body polygon, `body_radius_m` is its circumscribed radius.
     pub fn limits(&self) -> RobotLimits {
         let p = self.preset.limits();
+        let polygon_radius_m = self.body_polygon_vertices_m().map(circumscribed_radius_m);
         RobotLimits {
-            body_radius_m: self.body_radius_m.unwrap_or(p.body_radius_m),
+            body_radius_m: polygon_radius_m.or(self.body_radius_m).unwrap_or(p.body_radius_m),
             v_max_mps: self.v_max_mps.unwrap_or(p.v_max_mps),
             omega_max_radps: self.omega_max_radps.unwrap_or(p.omega_max_radps),
             accel_max_mps2: self.accel_max_mps2.unwrap_or(p.accel_max_mps2),
@@ -116,7 +197,8 @@ impl RobotSpec {
 /// Footprint and motion limits of a robot. All values > 0 and finite.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RobotLimits {
-    /// Footprint disc radius (m).
+    /// Footprint disc radius (m); with a body polygon, its circumscribed
+    /// radius (the disc other robots see).
     pub body_radius_m: f64,
     /// Maximum |v| (m/s).
     pub v_max_mps: f64,
@@ -153,7 +235,7 @@ fn limit(x: f64, bound: f64) -> f64 {
     }
 }
 
-/// The simulated robot: pose, actual velocity, limits.
+/// The simulated robot: pose, actual velocity, limits, body.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimRobot {
     /// Pose in the world frame (m, rad).
@@ -161,6 +243,8 @@ pub struct SimRobot {
     /// Actual (rate-limited) velocity (m/s, rad/s).
     pub twist: Twist,
     limits: RobotLimits,
+    /// The body polygon; `None`: the disc of `limits.body_radius_m`.
+    body: Option<BodyPolygon>,
 }
 
 impl SimRobot {
@@ -172,11 +256,23 @@ impl SimRobot {
             pose,
             twist: Twist::ZERO,
             limits,
+            body: None,
         }
+    }
+
+    /// The same robot with `body` as its footprint (`None`: the disc).
+    pub fn with_body(mut self, body: Option<BodyPolygon>) -> Self {
+        self.body = body;
+        self
     }
 
     pub fn limits(&self) -> &RobotLimits {
         &self.limits
+    }
+
+    /// The body polygon, if the footprint is one.
+    pub fn body(&self) -> Option<&BodyPolygon> {
+        self.body.as_ref()
     }
 
     /// Advances by `dt_s` (s) under the command `cmd`:
@@ -201,11 +297,15 @@ impl SimRobot {
         self.pose = arc_step(self.pose, self.twist, dt_s);
     }
 
-    /// Distance (m) from the footprint disc to the nearest obstacle surface:
-    /// `world.distance_to_nearest(position) − body_radius_m`. Negative means
-    /// a collision (the penetration depth); `+inf` in an empty world.
+    /// Distance (m) from the footprint to the nearest obstacle surface: for
+    /// the disc `world.distance_to_nearest(position) − body_radius_m`, for a
+    /// polygon [`BodyPolygon::clearance_m`]. Negative means a collision
+    /// (minus the penetration depth); `+inf` in an empty world.
     pub fn clearance_m(&self, world: &World) -> f64 {
-        world.distance_to_nearest(self.pose.position()) - self.limits.body_radius_m
+        match &self.body {
+            None => world.distance_to_nearest(self.pose.position()) - self.limits.body_radius_m,
+            Some(body) => body.clearance_m(self.pose, world),
+        }
     }
 
     /// True if the footprint overlaps an obstacle (clearance strictly < 0).
@@ -240,6 +340,59 @@ mod tests {
         assert_eq!(l.omega_max_radps, std::f64::consts::PI);
         assert!(serde_yaml::from_str::<RobotSpec>("preset: quanser_qbot\nstart: [0, 0, 0]\n").is_err());
         assert!(serde_yaml::from_str::<RobotSpec>("preset: roomba\n").is_err());
+    }
+
+    #[test]
+    fn the_rectangular_preset_has_its_polygon_and_bad_polygons_name_the_key() {
+        let s: RobotSpec = serde_yaml::from_str("preset: rect_0604\n").expect("parses");
+        let l = s.resolve().expect("valid");
+        assert_eq!((l.v_max_mps, l.omega_max_radps), (0.5, 1.0));
+        // The circumscribed disc: √(0.3² + 0.2²).
+        assert!((l.body_radius_m - 0.13f64.sqrt()).abs() < 1e-15);
+        let body = s.body().expect("valid").expect("a polygon");
+        assert_eq!(body.polygon().vertices().len(), 4);
+        // Disc presets have none, unless given one; then its disc is the polygon's.
+        let mut q = RobotSpec::from_preset(RobotPreset::QuanserQbot);
+        assert_eq!(q.body(), Ok(None));
+        q.body_polygon_m = Some(vec![[0.5, 0.0], [0.0, 0.5], [-0.5, 0.0]]);
+        assert!(q.body().expect("valid").is_some());
+        assert_eq!(q.limits().body_radius_m, 0.5);
+        let err = |s: &RobotSpec| s.body().unwrap_err().to_string();
+        q.body_polygon_m = Some(vec![[0.5, 0.5], [-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5]]);
+        assert!(
+            err(&q).starts_with("key `robot.body_polygon_m` = [[0.5, 0.5]"),
+            "{}",
+            err(&q)
+        );
+        assert!(err(&q).contains("intersect"), "{}", err(&q));
+        q.body_polygon_m = Some(vec![[0.5, 0.0], [0.0, 0.5]]);
+        assert!(err(&q).contains("at least 3 vertices"), "{}", err(&q));
+        q.body_polygon_m = Some(vec![[6.0, 0.0], [0.0, 0.5], [-0.5, 0.0]]);
+        assert!(err(&q).contains("within 5 m"), "{}", err(&q));
+        q.body_polygon_m = None;
+        let mut r = s.clone();
+        r.body_radius_m = Some(0.3);
+        assert!(err(&r).starts_with("key `robot.body_radius_m` = 0.3"), "{}", err(&r));
+    }
+
+    #[test]
+    fn a_polygon_body_measures_its_clearance_on_the_polygon() {
+        let w = World::new(&WorldSpec {
+            walls: vec![WallSpec {
+                from: [0.5, -1.0],
+                to: [0.5, 1.0],
+            }],
+            ..WorldSpec::default()
+        })
+        .expect("valid");
+        let spec = RobotSpec::from_preset(RobotPreset::Rect0604);
+        let mut r = SimRobot::new(Pose2::default(), spec.limits()).with_body(spec.body().expect("valid"));
+        // Front edge 0.2 m from the wall (the disc would say 0.5 − 0.3606).
+        assert!((r.clearance_m(&w) - 0.2).abs() < 1e-12);
+        r.pose = Pose2::new(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+        assert!((r.clearance_m(&w) - 0.3).abs() < 1e-12);
+        r.pose = Pose2::new(0.21, 0.0, 0.0);
+        assert!(r.collides(&w));
     }
 
     #[test]

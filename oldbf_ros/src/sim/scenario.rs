@@ -6,6 +6,7 @@
 //! section is deep-merged over the base parameters (`config/oldbf.yaml` or
 //! `--config FILE`) and validated as a whole.
 
+use super::body::BodyPolygon;
 use super::lidar::LidarSpec;
 use super::robot::{RobotLimits, RobotSpec};
 use super::world::{World, WorldSpec};
@@ -157,6 +158,9 @@ pub struct Scenario {
     /// Filter parameters after the scenario's overrides.
     pub params: Params,
     pub robot: RobotLimits,
+    /// The robot's body polygon (`robot.body_polygon_m` or the preset's);
+    /// `None`: the disc of `robot.body_radius_m`.
+    pub body: Option<BodyPolygon>,
     /// The robots: one for a single-robot scenario.
     pub agents: Vec<AgentPlan>,
 }
@@ -251,6 +255,10 @@ impl Scenario {
         }
         let robot = spec.robot.limits();
         robot.check(&mut c);
+        let body = spec.robot.body().unwrap_or_else(|e| {
+            c.push(e);
+            None
+        });
         finish(c, file)?;
         World::new(&spec.world).map_err(|e| e.in_file(file))?;
         let agents = Self::agents_of(&spec, file)?;
@@ -259,6 +267,7 @@ impl Scenario {
             spec,
             params,
             robot,
+            body,
             agents,
         })
     }
@@ -490,6 +499,21 @@ robots:
             format!("{text}start: {{x_m: 0, y_m: 0}}\nnominal: {{kind: constant, v_mps: 0.1, omega_radps: 0}}\n");
         let e = Scenario::from_str(&both, "t.yaml", None).unwrap_err();
         assert_eq!(e.keys(), ["robots"], "{e}");
+    }
+
+    #[test]
+    fn a_body_polygon_is_loaded_and_a_bad_one_names_its_key() {
+        assert!(Scenario::from_str(MINIMAL, "t.yaml", None).unwrap().body.is_none());
+        let rect = MINIMAL.replace("preset: turtlebot3_burger", "preset: rect_0604");
+        let s = Scenario::from_str(&rect, "t.yaml", None).unwrap();
+        assert_eq!(s.body.expect("the preset's").polygon().vertices().len(), 4);
+        let own = MINIMAL.replace(
+            "preset: turtlebot3_burger",
+            "preset: turtlebot3_burger, body_polygon_m: [[0.1, 0.1], [-0.1, 0.1], [0.1, -0.1], [-0.1, -0.1]]",
+        );
+        let e = Scenario::from_str(&own, "t.yaml", None).unwrap_err();
+        assert_eq!(e.keys(), ["robot.body_polygon_m"], "{e}");
+        assert!(e.to_string().contains("intersect"), "{e}");
     }
 
     #[test]
