@@ -66,14 +66,35 @@ fn every_shipped_scenario_is_safe_on_several_seeds() {
 /// it gets through is not asserted: that changes when the filter's checks
 /// take the polygon (issue 26).
 #[test]
-fn the_rectangular_robot_never_touches_at_a_narrow_door_or_corridor() {
+fn the_rectangular_robot_passes_a_narrow_door_and_corridor_the_circle_is_refused() {
+    // A 0.6 x 0.4 m robot, d_safe 0.1 m: a 0.85 m door and a 0.9 m corridor leave
+    // the polygon 0.125-0.15 m a side beyond d_safe; its circumscribed circle
+    // (0.3606 m) needs 2 (r + d_safe) = 0.92 m.
     for name in ["rect_door", "rect_corridor"] {
         let s = scenario(name);
         assert!(s.body.is_some(), "{name}: the rect_0604 body polygon");
+        assert!(
+            !s.params.footprint.polygon_m.is_empty(),
+            "{name}: the filter's footprint polygon"
+        );
+        let mut circle = s.clone();
+        circle.params.footprint.polygon_m.clear();
+        circle.params.footprint.radius_override_m = Some(s.params.robot_radius_m());
         for seed in SEEDS {
+            let refused = run(&circle, Controller::Oldbf, seed);
+            assert!(
+                !refused.figures.reached_goal,
+                "{name} seed {seed}, the circle: {refused:?}"
+            );
             let r = run_scenario(&s, Controller::Oldbf, seed).unwrap_or_else(|e| panic!("{name}: {e}"));
             let f = &r.summary.figures;
             let what = format!("{name} seed {seed}: {:?}", r.summary);
+            assert!(f.reached_goal, "{what}");
+            assert_eq!(
+                (f.cbf_violations, f.true_cbf_violations, f.braking_violations),
+                (0, 0, 0),
+                "{what}"
+            );
             assert_eq!(
                 (f.collisions, f.closing_contacts, f.passive_contacts),
                 (0, 0, 0),

@@ -15,6 +15,7 @@
 //! alone swings a corner into a wall. For a disc the rim's turning velocity
 //! is tangential, so the centre's velocity gives the same number.
 
+use super::body::BodyPolygon;
 use super::lidar::{Lidar, LidarError, LidarSpec};
 use super::robot::SimRobot;
 use super::scenario::Scenario;
@@ -275,6 +276,14 @@ impl Fleet {
     pub fn distance_from_centre(&mut self, i: usize) -> f64 {
         self.show_others_to(i);
         self.world.distance_to_nearest(self.agents[i].robot.pose.position())
+    }
+
+    /// Exact signed distance from `body` placed at robot `i`'s pose to the
+    /// nearest obstacle surface, other robots included (m): the filter's
+    /// footprint polygon on the true geometry.
+    pub fn polygon_clearance(&mut self, i: usize, body: &BodyPolygon) -> f64 {
+        self.show_others_to(i);
+        body.clearance_m(self.agents[i].robot.pose, &self.world)
     }
 }
 

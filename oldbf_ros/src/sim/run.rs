@@ -17,6 +17,7 @@
 //! simulator's exact geometry after the step: it also sees sensor noise,
 //! actuator lag and obstacle motion that a static one-step prediction cannot.
 
+use super::body::BodyPolygon;
 use super::figures::{InfeasibleCounts, RunFigures, StateCounts};
 use super::fleet::{Contact, Fleet, FleetError, CLOSING_SPEED_MPS};
 use super::motion_quality::{MeteredStep, MotionMeter};
@@ -281,6 +282,15 @@ pub fn run_scenario_with(
     let d_safe = params.barrier.d_safe_m;
     // A polygon footprint: the filter's clearances are its signed distances.
     let polygon = params.footprint.polygon().and_then(Result::ok);
+    // h on the exact geometry: from the filter's footprint, the polygon's signed
+    // distance to every surface (less its padding), else the centre's distance less r.
+    let footprint_body = polygon
+        .as_ref()
+        .and_then(|fp| Some((BodyPolygon::new(&params.footprint.polygon_m).ok()?, fp.padding_m)));
+    let h_true = |fleet: &mut Fleet, i: usize| match &footprint_body {
+        None => fleet.distance_from_centre(i) - r - d_safe,
+        Some((body, pad)) => fleet.polygon_clearance(i, body) - pad - d_safe,
+    };
     let gamma = params.dtcbf.gamma;
     let input_box = InputBox::from_params(params);
     let steps_max = (spec.duration_s / dt).ceil() as usize;
@@ -522,7 +532,7 @@ pub fn run_scenario_with(
             max_us = max_us.max(step_us);
             timed_steps += 1;
             fleet.set_cmd(i, cmd);
-            a.h_true_now = fleet.distance_from_centre(i) - r - d_safe;
+            a.h_true_now = h_true(&mut fleet, i);
             let boxed = input_box.clamp(nominal);
             a.row = Some(StepRow {
                 t_s: t,
@@ -578,7 +588,7 @@ pub fn run_scenario_with(
 
         for (i, a) in agents.iter_mut().enumerate() {
             let Some(mut row) = a.row.take() else { continue };
-            let h_true_next = fleet.distance_from_centre(i) - r - d_safe;
+            let h_true_next = h_true(&mut fleet, i);
             if a.h_true_now.is_finite() && h_true_next < (1.0 - gamma) * a.h_true_now - TOL_M {
                 a.true_violations += 1;
             }
