@@ -231,6 +231,22 @@ impl Polygon {
         best.1
     }
 
+    /// The least, over the directions normal to its edges, of the polygon's
+    /// larger extent from the origin across that direction (m): how far the
+    /// body reaches to either side of its origin when it moves along its
+    /// narrowest way (for a rectangle centred on the origin, half its
+    /// width). A non-convex polygon may be narrower along a direction none
+    /// of its edges is normal to; this is then an upper bound, never less.
+    pub fn passing_half_width_m(&self) -> f64 {
+        self.edges()
+            .map(|(a, b)| {
+                let e = b - a;
+                let n = Vec2::new(-e.y, e.x) / e.norm();
+                self.vertices.iter().map(|v| v.dot(&n).abs()).fold(0.0, f64::max)
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The largest distance of a vertex from the robot frame's origin (m):
     /// the circumscribed circle about the rotation centre.
     pub fn circumscribed_radius_m(&self) -> f64 {
@@ -466,6 +482,11 @@ mod tests {
         // Inside: minus the distance to the nearest side.
         assert!((b.signed_distance(v(0.0, 0.0)) + 0.2).abs() < 1e-12);
         assert!((b.polygon.circumscribed_radius_m() - 0.13f64.sqrt()).abs() < 1e-12);
+        // Its narrowest way is along x: 0.2 m to either side.
+        assert!((b.polygon.passing_half_width_m() - 0.2).abs() < 1e-12);
+        // Off-centre on its axle by 0.1 m: along y still 0.2; along x 0.4 one way.
+        let off = Polygon::rectangle(0.6, 0.4, 0.1).unwrap();
+        assert!((off.passing_half_width_m() - 0.2).abs() < 1e-12);
         // A padding of 0.05 m: 0.05 m less everywhere.
         let p = PaddedPolygon {
             padding_m: 0.05,

@@ -305,7 +305,10 @@ impl Template {
             ..WorldSpec::default()
         };
         let room = world.clone();
-        let clearance_m = self.params.robot_radius_m() + self.params.barrier.d_safe_m;
+        // What a gap must leave the robot's origin: r + d_safe for the circle; for a
+        // polygon its half-width along its narrowest way + d_safe (a path for the
+        // body moving lengthwise: where it has to turn, a turn in place may not fit).
+        let clearance_m = self.params.footprint.passing_half_width_m() + self.params.barrier.d_safe_m;
         let mut path_exists = false;
         let mut label = "room";
         for attempt in 0..PATH_ATTEMPTS {

@@ -70,7 +70,9 @@ impl Params {
     /// command, then the DTCBF filter's own search, no window, no critics),
     /// `unstuck.enabled: false`, `passive.enabled: false` (no braking check
     /// or evasion), `control.allow_reverse: false` and
-    /// `obstacles.lookahead_s: 2` (the look-ahead it had). Everything else,
+    /// `obstacles.lookahead_s: 2` (the look-ahead it had), and a polygon
+    /// footprint kept as its circumscribed circle (the paper's robot is a
+    /// circle). Everything else,
     /// obstacle tracking included, is left as given. This is the
     /// filter as it was before REP 117 semantics, passive motion safety and the
     /// liveness additions. It is the `oldbf-paper` controller (`oldbf batch
@@ -85,6 +87,12 @@ impl Params {
         self.select.enabled = false;
         self.control.allow_reverse = false;
         self.obstacles.lookahead_s = obstacles::PAPER_LOOKAHEAD_S;
+        // The paper's robot is a circle: a polygon footprint becomes its
+        // circumscribed circle (the radius every circle check used already).
+        if !self.footprint.polygon_m.is_empty() {
+            self.footprint.radius_override_m = Some(self.footprint.radius_m() - self.footprint.padding_m);
+            self.footprint.polygon_m.clear();
+        }
         self
     }
 
@@ -103,6 +111,18 @@ mod tests {
     #[test]
     fn defaults_are_valid() {
         assert_eq!(Params::default().validate(), Ok(()));
+    }
+
+    #[test]
+    fn the_papers_method_keeps_a_polygon_as_its_circumscribed_circle() {
+        let mut p = Params::default();
+        p.footprint.polygon_m = vec![[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]];
+        p.footprint.padding_m = 0.05;
+        let r = p.robot_radius_m();
+        assert!((r - (0.13f64.sqrt() + 0.05)).abs() < 1e-12);
+        let paper = p.paper_method();
+        assert!(paper.footprint.polygon_m.is_empty());
+        assert!((paper.robot_radius_m() - r).abs() < 1e-12);
     }
 
     #[test]

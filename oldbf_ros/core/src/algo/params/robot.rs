@@ -119,6 +119,17 @@ impl FootprintParams {
         }
     }
 
+    /// How far the body reaches to either side of its origin along its
+    /// narrowest way, padding included (m): the polygon's
+    /// [`Polygon::passing_half_width_m`], or r for the circle. What a
+    /// doorway or a gap must leave it, beyond d_safe, on each side.
+    pub fn passing_half_width_m(&self) -> f64 {
+        match self.polygon() {
+            Some(Ok(fp)) => fp.polygon.passing_half_width_m() + self.padding_m,
+            _ => self.radius_m(),
+        }
+    }
+
     /// The padded polygon, if one is given and valid.
     pub fn polygon(&self) -> Option<Result<PaddedPolygon, PolygonError>> {
         if self.polygon_m.is_empty() {
