@@ -21,6 +21,9 @@
 //! [`PassiveSafety::evasion_score`], the predicted time to contact of a
 //! command held for `passive.evasion_horizon_s`.
 //!
+//! A polygon body (issue 26) is swept along the same path, turns in place
+//! included: [`super::braking_polygon`].
+//!
 //! Paths are sampled every centimetre of travel (at most 64 samples), so
 //! the check costs a few hundred distance computations per command. Static
 //! points are taken at the filter's r; the DTCBF already keeps d_safe from

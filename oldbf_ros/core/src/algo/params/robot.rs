@@ -74,10 +74,10 @@ pub struct FootprintParams {
     pub radius_override_m: Option<f64>,
     /// The footprint as a simple polygon in the robot frame, `[[x, y], ...]`
     /// (m; costmap_2d's `footprint`), convex or not; empty: the circle above.
-    /// h, the barriers, the one-step condition and the clearance critic take
-    /// it exactly; the checks that still use a circle (the braking check,
-    /// movers, the way round) use its circumscribed circle about the robot's
-    /// origin, [`Self::radius_m`].
+    /// h, the barriers, the one-step condition, the clearance critic and the
+    /// braking check take it exactly; what still uses a circle (the mover
+    /// predictions and critic, the way round) uses its circumscribed circle
+    /// about the robot's origin, [`Self::radius_m`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub polygon_m: Vec<[f64; 2]>,
     /// Grows the footprint (polygon or circle) by this much all round (m;
