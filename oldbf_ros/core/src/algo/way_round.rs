@@ -172,18 +172,22 @@ impl WayRound {
                 self.planner.avoid(at, ask.now_s + p.unstuck.memory_s);
             }
         }
+        // The body's reach to either side along its narrowest way: r for the circle, a
+        // polygon's half-width (a route for the body moving lengthwise; the filter checks
+        // the polygon itself wherever it has to turn).
+        let half_width = p.footprint.passing_half_width_m();
         let req = RouteRequest {
             now_s: ask.now_s,
             from: ask.from,
             goal: ask.goal,
-            clearance_m: p.robot_radius_m() + p.barrier.d_safe_m + p.unstuck.margin_m,
+            clearance_m: half_width + p.barrier.d_safe_m + p.unstuck.margin_m,
             own_m: ask.own_m,
             memory_s: p.unstuck.memory_s,
         };
         // Gaps narrower than 2 (r + d_safe + margin) but not than 2 (r + d_safe) are
         // taken only when no wider way reaches the goal.
         let tight = RouteRequest {
-            clearance_m: p.robot_radius_m() + p.barrier.d_safe_m,
+            clearance_m: half_width + p.barrier.d_safe_m,
             ..req
         };
         let (route, change) = self.planner.replan(&self.map, &[req, tight]);

@@ -124,10 +124,26 @@ impl FootprintParams {
     /// [`Polygon::passing_half_width_m`], or r for the circle. What a
     /// doorway or a gap must leave it, beyond d_safe, on each side.
     pub fn passing_half_width_m(&self) -> f64 {
-        match self.polygon() {
-            Some(Ok(fp)) => fp.polygon.passing_half_width_m() + self.padding_m,
-            _ => self.radius_m(),
+        if self.polygon_m.is_empty() {
+            return self.radius_m();
         }
+        // As the polygon computes it, from the vertices as given (no allocation:
+        // the way round asks on every scan).
+        let v = &self.polygon_m;
+        let n = v.len();
+        let mut best = f64::INFINITY;
+        for i in 0..n {
+            let ([ax, ay], [bx, by]) = (v[i], v[(i + 1) % n]);
+            let (ex, ey) = (bx - ax, by - ay);
+            let len = (ex * ex + ey * ey).sqrt();
+            if len == 0.0 {
+                continue;
+            }
+            let (nx, ny) = (-ey / len, ex / len);
+            let extent = v.iter().map(|&[x, y]| (x * nx + y * ny).abs()).fold(0.0, f64::max);
+            best = best.min(extent);
+        }
+        best + self.padding_m
     }
 
     /// The padded polygon, if one is given and valid.

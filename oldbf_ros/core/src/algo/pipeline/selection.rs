@@ -51,7 +51,7 @@ impl SafetyPipeline {
     fn heading(&mut self, now_s: f64, nominal: Twist, frame: &Frame, c: &Clearances) -> Heading {
         let p = &self.params;
         let guidance = self.guidance.take();
-        let r = p.robot_radius_m();
+        let r = p.footprint.passing_half_width_m();
         let stuck = self.unstuck.take_stuck();
         self.route_ask = guidance.filter(|_| p.unstuck.enabled).map(|g| {
             // A robot already closer than the clearance to something (noise, a tight spot)
