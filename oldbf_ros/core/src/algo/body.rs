@@ -32,8 +32,15 @@ fn unturn(q: Vec2, (c, s): (f64, f64)) -> Vec2 {
 /// points. Points farther from the robot's origin than the best so far
 /// plus the circumscribed radius are skipped: their distance cannot be less.
 pub fn polygon_clearance_after(fp: &PaddedPolygon, points: &[Vec2], disp: Vec2, turn: (f64, f64)) -> f64 {
+    polygon_clearance_below(fp, points, disp, turn, f64::INFINITY)
+}
+
+/// [`polygon_clearance_after`] where only values below `cap` matter: the
+/// least signed distance when it is below `cap`, else `cap` (points that
+/// cannot come below it are not measured).
+pub fn polygon_clearance_below(fp: &PaddedPolygon, points: &[Vec2], disp: Vec2, turn: (f64, f64), cap: f64) -> f64 {
     let reach = fp.circumscribed_radius_m();
-    let mut best = f64::INFINITY;
+    let mut best = cap;
     for &q in points {
         let rel = q - disp;
         let bound = best + reach;
@@ -73,11 +80,18 @@ pub fn polygon_forbidden_speeds(
         lo: -SPEED_SPAN_MPS,
         hi: SPEED_SPAN_MPS,
     };
+    let (radius, d_norm) = (fp.circumscribed_radius_m(), d.norm());
     for &q in points {
         if reach >= 0.0 && q.norm_squared() > reach * reach {
             continue;
         }
-        fp.forbidden_on_line(unturn(q, turn), d, need_m, span, events, out);
+        let a = unturn(q, turn);
+        // The whole line stays farther from the origin than the circumscribed radius
+        // plus need: its signed distance never falls below need (‖x‖ − R ≤ it).
+        if d_norm > 0.0 && (a.x * d.y - a.y * d.x).abs() / d_norm >= radius + need_m {
+            continue;
+        }
+        fp.forbidden_on_line(a, d, need_m, span, events, out);
     }
     out.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
     let mut n = 0;

@@ -276,6 +276,14 @@ impl NearPoints {
         }
     }
 
+    /// Nearest first: a polygon's least signed distance then skips the rest
+    /// early (a point farther than the best so far plus the circumscribed
+    /// radius cannot be nearer). The circle's minima do not depend on order.
+    fn sort_by_distance(&mut self) {
+        self.points
+            .sort_unstable_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
+    }
+
     /// h(k+1) + d_safe for the body after the step of `cmd`: the circle's
     /// centre distance less r, or the polygon's least signed distance. For
     /// the polygon the near points by (a) are taken (the nearest after the
@@ -428,6 +436,9 @@ impl DtcbfFilter {
             min_distance(points_next, Vec2::zeros())
         };
         self.near.select(points_next, nearest_next, max_clearance, max_step);
+        if self.forbidden.footprint.is_some() {
+            self.near.sort_by_distance();
+        }
         h
     }
 
@@ -519,6 +530,9 @@ impl DtcbfFilter {
             min_distance(points_next, Vec2::zeros())
         };
         self.near.select(points_next, nearest_next, max_clearance, max_step);
+        if self.forbidden.footprint.is_some() {
+            self.near.sort_by_distance();
+        }
         let near = &self.near;
         let fp = self.forbidden.footprint.clone();
         let fp = fp.as_ref();

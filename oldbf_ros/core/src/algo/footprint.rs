@@ -66,6 +66,8 @@ impl std::error::Error for PolygonError {}
 #[derive(Debug, Clone, PartialEq)]
 pub struct Polygon {
     vertices: Vec<Vec2>,
+    /// The farthest vertex's distance from the origin (m).
+    radius_m: f64,
 }
 
 /// The closed parameter range of a motion (t or α).
@@ -108,6 +110,12 @@ fn segments_meet(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> bool {
 
 /// Distance from `q` to the closed segment `a b`.
 pub fn segment_distance(q: Vec2, a: Vec2, b: Vec2) -> f64 {
+    segment_distance_squared(q, a, b).sqrt()
+}
+
+/// Squared distance from `q` to the closed segment `a b`.
+#[inline]
+fn segment_distance_squared(q: Vec2, a: Vec2, b: Vec2) -> f64 {
     let ab = b - a;
     let len2 = ab.norm_squared();
     let t = if len2 > 0.0 {
@@ -115,7 +123,7 @@ pub fn segment_distance(q: Vec2, a: Vec2, b: Vec2) -> f64 {
     } else {
         0.0
     };
-    (q - (a + t * ab)).norm()
+    (q - (a + t * ab)).norm_squared()
 }
 
 impl Polygon {
@@ -162,7 +170,8 @@ impl Polygon {
         if area2 < 0.0 {
             v.reverse();
         }
-        Ok(Self { vertices: v })
+        let radius_m = v.iter().map(|p| p.norm_squared()).fold(0.0, f64::max).sqrt();
+        Ok(Self { vertices: v, radius_m })
     }
 
     /// An axis-aligned rectangle `length_m` x `width_m` centred on
@@ -205,10 +214,12 @@ impl Polygon {
     /// Signed distance from `q` to the polygon (m): positive outside,
     /// negative inside.
     pub fn signed_distance(&self, q: Vec2) -> f64 {
+        // The least squared distance to an edge, one root at the end.
         let d = self
             .edges()
-            .map(|(a, b)| segment_distance(q, a, b))
-            .fold(f64::INFINITY, f64::min);
+            .map(|(a, b)| segment_distance_squared(q, a, b))
+            .fold(f64::INFINITY, f64::min)
+            .sqrt();
         if self.contains(q) {
             -d
         } else {
@@ -250,11 +261,7 @@ impl Polygon {
     /// The largest distance of a vertex from the robot frame's origin (m):
     /// the circumscribed circle about the rotation centre.
     pub fn circumscribed_radius_m(&self) -> f64 {
-        self.vertices
-            .iter()
-            .map(|v| v.norm_squared())
-            .fold(0.0, f64::max)
-            .sqrt()
+        self.radius_m
     }
 }
 

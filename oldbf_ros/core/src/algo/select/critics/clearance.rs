@@ -13,7 +13,7 @@
 //! placed at each path sample with the heading the arc has there.
 
 use super::{Look, PATH_SAMPLES};
-use crate::algo::body::polygon_clearance_after;
+use crate::algo::body::{polygon_clearance_after, polygon_clearance_below};
 use crate::algo::footprint::PaddedPolygon;
 use crate::algo::geometry::{min_distance_squared, Vec2};
 use crate::algo::params::Params;
@@ -102,16 +102,14 @@ impl Clearance {
         if near.is_empty() {
             return 0.0;
         }
-        let least = look
-            .path
-            .iter()
-            .enumerate()
-            .map(|(k, &at)| {
-                let t = p.select.horizon_s * (k + 1) as f64 / PATH_SAMPLES as f64;
-                let (s, c) = (look.cmd.omega_radps * t).sin_cos();
-                polygon_clearance_after(fp, near, at, (c, s))
-            })
-            .fold(f64::INFINITY, f64::min);
+        // Only clearances below d_safe + band cost, and only the least along the
+        // path counts: each sample is measured below the least so far.
+        let mut least = d_safe + band;
+        for (k, &at) in look.path.iter().enumerate() {
+            let t = p.select.horizon_s * (k + 1) as f64 / PATH_SAMPLES as f64;
+            let (s, c) = (look.cmd.omega_radps * t).sin_cos();
+            least = polygon_clearance_below(fp, near, at, (c, s), least);
+        }
         (shortfall(least - d_safe, band) - shortfall(self.polygon_now_m - d_safe, band)).max(0.0)
     }
 }
