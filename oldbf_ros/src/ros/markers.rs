@@ -119,8 +119,14 @@ fn polygon_markers(frame: &str, stamp: rosrust::Time, p: &Params) -> [Marker; 2]
                 .collect();
         }
         _ => {
+            // A DELETE carries the ADD's scale and colour: rviz checks those on
+            // every marker, and a zero scale put the whole display in error.
             body.action = Marker::DELETE as i32;
             safe.action = Marker::DELETE as i32;
+            for m in [&mut body, &mut safe] {
+                m.scale.x = 0.02;
+                m.color = color(0.2, 0.2, 0.2, 0.9);
+            }
         }
     }
     [body, safe]
