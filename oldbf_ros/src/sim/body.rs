@@ -24,41 +24,8 @@
 
 use super::shapes::{Circle, Segment};
 use super::world::World;
-use crate::algo::footprint::{segment_distance, Polygon, PolygonError};
+use crate::algo::footprint::{closest_on_segment, cross, segment_distance, segments_meet, Polygon, PolygonError};
 use crate::algo::geometry::{Pose2, Vec2};
-
-/// 2-D cross product (z of the 3-D one).
-fn cross(u: Vec2, v: Vec2) -> f64 {
-    u.x * v.y - u.y * v.x
-}
-
-/// The point of the closed segment `a b` nearest to `q`.
-fn closest_on_segment(q: Vec2, a: Vec2, b: Vec2) -> Vec2 {
-    let e = b - a;
-    let ee = e.dot(&e);
-    let t = if ee > 0.0 {
-        ((q - a).dot(&e) / ee).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    a + e * t
-}
-
-/// Whether closed segments `p0 p1` and `q0 q1` share a point (touching
-/// counts), by the signs of the four orientation tests.
-fn segments_meet(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> bool {
-    let d1 = cross(p1 - p0, q0 - p0);
-    let d2 = cross(p1 - p0, q1 - p0);
-    let d3 = cross(q1 - q0, p0 - q0);
-    let d4 = cross(q1 - q0, p1 - q0);
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
-        return true;
-    }
-    let on = |a: Vec2, b: Vec2, p: Vec2, d: f64| {
-        d == 0.0 && p.x >= a.x.min(b.x) && p.x <= a.x.max(b.x) && p.y >= a.y.min(b.y) && p.y <= a.y.max(b.y)
-    };
-    on(p0, p1, q0, d1) || on(p0, p1, q1, d2) || on(q0, q1, p0, d3) || on(q0, q1, p1, d4)
-}
 
 /// The nearest pair (on `p0 p1`, on `q0 q1`) of two segments that do not
 /// meet: it has an endpoint of one of them.

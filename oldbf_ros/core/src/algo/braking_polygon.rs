@@ -150,51 +150,39 @@ pub fn first_polygon_contact(
 ) -> Option<ClosingContact> {
     let threshold = 0.5 * p.passive.closing_speed_mps;
     let reach = fp.circumscribed_radius_m();
-    for pose in poses {
-        let points = seen
+    // A closing contact of the body at `pose` with `q` (robot frame now),
+    // which it may come within `margin` of.
+    let contact = |pose: &PathPose, q: Vec2, margin: f64, mover: bool| {
+        let far = reach + margin;
+        if (q - pose.pos).norm_squared() >= far * far {
+            return None;
+        }
+        let q_local = local(q, pose);
+        let sd = fp.signed_distance(q_local);
+        if sd >= margin {
+            return None;
+        }
+        let towards = closing_speed(fp, pose, q, q_local, sd < 0.0);
+        (towards > threshold).then_some(ClosingContact {
+            t_s: pose.t_s,
+            closing_speed_mps: towards,
+            mover,
+        })
+    };
+    poses.iter().find_map(|pose| {
+        let statics = seen
             .iter()
             .map(|q| (*q, 0.0))
             .chain(unseen.iter().map(|q| (*q, UNSEEN_MARGIN_M)));
-        for (q, margin) in points {
-            let far = reach + margin;
-            if (q - pose.pos).norm_squared() >= far * far {
-                continue;
-            }
-            let q_local = local(q, pose);
-            let sd = fp.signed_distance(q_local);
-            if sd < margin {
-                let towards = closing_speed(fp, pose, q, q_local, sd < 0.0);
-                if towards > threshold {
-                    return Some(ClosingContact {
-                        t_s: pose.t_s,
-                        closing_speed_mps: towards,
-                        mover: false,
-                    });
-                }
-            }
-        }
-        for m in movers {
-            let c = m.position + m.velocity * pose.t_s;
-            let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * pose.t_s;
-            let far = reach + grown;
-            if (c - pose.pos).norm_squared() >= far * far {
-                continue;
-            }
-            let c_local = local(c, pose);
-            let sd = fp.signed_distance(c_local);
-            if sd < grown {
-                let towards = closing_speed(fp, pose, c, c_local, sd < 0.0);
-                if towards > threshold {
-                    return Some(ClosingContact {
-                        t_s: pose.t_s,
-                        closing_speed_mps: towards,
-                        mover: true,
-                    });
-                }
-            }
-        }
-    }
-    None
+        statics
+            .filter_map(|(q, margin)| contact(pose, q, margin, false))
+            .chain(movers.iter().filter_map(|m| {
+                let c = m.position + m.velocity * pose.t_s;
+                let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * pose.t_s;
+                contact(pose, c, grown, true)
+            }))
+            .next()
+    })
 }
 
 #[cfg(test)]

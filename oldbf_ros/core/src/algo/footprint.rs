@@ -89,12 +89,14 @@ fn twice_area(v: &[Vec2]) -> f64 {
         .sum()
 }
 
-fn cross(a: Vec2, b: Vec2) -> f64 {
+/// 2-D cross product (z of the 3-D one).
+pub fn cross(a: Vec2, b: Vec2) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
-/// Whether closed segments `p0 p1` and `q0 q1` share a point.
-fn segments_meet(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> bool {
+/// Whether closed segments `p0 p1` and `q0 q1` share a point (touching
+/// counts), by the signs of the four orientation tests.
+pub fn segments_meet(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> bool {
     let d1 = cross(p1 - p0, q0 - p0);
     let d2 = cross(p1 - p0, q1 - p0);
     let d3 = cross(q1 - q0, p0 - q0);
@@ -116,6 +118,12 @@ pub fn segment_distance(q: Vec2, a: Vec2, b: Vec2) -> f64 {
 /// Squared distance from `q` to the closed segment `a b`.
 #[inline]
 fn segment_distance_squared(q: Vec2, a: Vec2, b: Vec2) -> f64 {
+    (q - closest_on_segment(q, a, b)).norm_squared()
+}
+
+/// The point of the closed segment `a b` nearest to `q`.
+#[inline]
+pub fn closest_on_segment(q: Vec2, a: Vec2, b: Vec2) -> Vec2 {
     let ab = b - a;
     let len2 = ab.norm_squared();
     let t = if len2 > 0.0 {
@@ -123,7 +131,7 @@ fn segment_distance_squared(q: Vec2, a: Vec2, b: Vec2) -> f64 {
     } else {
         0.0
     };
-    (q - (a + t * ab)).norm_squared()
+    a + t * ab
 }
 
 impl Polygon {
@@ -231,9 +239,7 @@ impl Polygon {
     pub fn closest_boundary_point(&self, q: Vec2) -> Vec2 {
         let mut best = (f64::INFINITY, self.vertices[0]);
         for (a, b) in self.edges() {
-            let ab = b - a;
-            let t = ((q - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
-            let at = a + t * ab;
+            let at = closest_on_segment(q, a, b);
             let d2 = (q - at).norm_squared();
             if d2 < best.0 {
                 best = (d2, at);
@@ -249,13 +255,7 @@ impl Polygon {
     /// width). A non-convex polygon may be narrower along a direction none
     /// of its edges is normal to; this is then an upper bound, never less.
     pub fn passing_half_width_m(&self) -> f64 {
-        self.edges()
-            .map(|(a, b)| {
-                let e = b - a;
-                let n = Vec2::new(-e.y, e.x) / e.norm();
-                self.vertices.iter().map(|v| v.dot(&n).abs()).fold(0.0, f64::max)
-            })
-            .fold(f64::INFINITY, f64::min)
+        passing_half_width_m(self.vertices.iter().copied())
     }
 
     /// The largest distance of a vertex from the robot frame's origin (m):
@@ -263,6 +263,26 @@ impl Polygon {
     pub fn circumscribed_radius_m(&self) -> f64 {
         self.radius_m
     }
+}
+
+/// [`Polygon::passing_half_width_m`] of the polygon with `vertices` (in
+/// order, either winding; a repeated vertex's empty edge is skipped), without
+/// building it: the way round asks on every scan.
+pub fn passing_half_width_m(vertices: impl Iterator<Item = Vec2> + Clone) -> f64 {
+    let first = vertices.clone().next();
+    let next = vertices.clone().skip(1).chain(first);
+    vertices
+        .clone()
+        .zip(next)
+        .filter_map(|(a, b)| {
+            let e = b - a;
+            let len = e.norm();
+            (len > 0.0).then(|| {
+                let n = Vec2::new(-e.y, e.x) / len;
+                vertices.clone().map(|v| v.dot(&n).abs()).fold(0.0, f64::max)
+            })
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// A polygon grown by a padding: what the checks keep clear.

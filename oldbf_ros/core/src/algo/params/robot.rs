@@ -1,6 +1,6 @@
 //! The robot: control limits and rates, and its footprint.
 
-use crate::algo::footprint::{PaddedPolygon, Polygon, PolygonError};
+use crate::algo::footprint::{passing_half_width_m, PaddedPolygon, Polygon, PolygonError};
 use crate::algo::geometry::Vec2;
 use serde::{Deserialize, Serialize};
 
@@ -127,23 +127,8 @@ impl FootprintParams {
         if self.polygon_m.is_empty() {
             return self.radius_m();
         }
-        // As the polygon computes it, from the vertices as given (no allocation:
-        // the way round asks on every scan).
-        let v = &self.polygon_m;
-        let n = v.len();
-        let mut best = f64::INFINITY;
-        for i in 0..n {
-            let ([ax, ay], [bx, by]) = (v[i], v[(i + 1) % n]);
-            let (ex, ey) = (bx - ax, by - ay);
-            let len = (ex * ex + ey * ey).sqrt();
-            if len == 0.0 {
-                continue;
-            }
-            let (nx, ny) = (-ey / len, ex / len);
-            let extent = v.iter().map(|&[x, y]| (x * nx + y * ny).abs()).fold(0.0, f64::max);
-            best = best.min(extent);
-        }
-        best + self.padding_m
+        // From the vertices as given: the way round asks on every scan.
+        passing_half_width_m(self.polygon_m.iter().map(|&[x, y]| Vec2::new(x, y))) + self.padding_m
     }
 
     /// The padded polygon, if one is given and valid.
