@@ -93,6 +93,10 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
         "…and grows by this per second of prediction (m/s)",
     ),
     (
+        "passive.seen_margin_m",
+        "the braking check keeps the body this far from a seen point it moves towards (m)",
+    ),
+    (
         "passive.evasion_horizon_s",
         "evasion ranks commands by predicted time to contact over this (s)",
     ),

@@ -86,6 +86,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("control.angular_accel_radps2", "0"),
     ("passive.mover_margin_m", "-0.01"),
     ("passive.mover_growth_mps", "11"),
+    ("passive.seen_margin_m", "0.3"),
     ("passive.closing_speed_mps", "2"),
     ("passive.evasion_horizon_s", "0"),
     ("passive.evasion_max_speed_mps", "-0.1"),

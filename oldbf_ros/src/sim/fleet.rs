@@ -39,6 +39,10 @@ pub struct Contact {
     pub position: Vec2,
     /// Robot speed towards the touched point (m/s; negative: moving away).
     pub closing_speed_mps: f64,
+    /// Where the body touched (m, world): the nearest surface point to a
+    /// disc's centre, or the body polygon's point nearest the shape.
+    #[serde(serialize_with = "xy")]
+    pub touched_m: Vec2,
 }
 
 fn xy<S: serde::Serializer>(p: &Vec2, s: S) -> Result<S::Ok, S::Error> {
@@ -212,22 +216,23 @@ impl Fleet {
             if hit && !a.in_collision {
                 a.collisions += 1;
                 let pose = a.robot.pose;
-                let closing_speed_mps = match a.robot.body() {
+                let (closing_speed_mps, touched_m) = match a.robot.body() {
                     None => {
                         let velocity = Vec2::new(pose.theta.cos(), pose.theta.sin()) * a.robot.twist.v_mps;
                         match self.world.nearest_surface_point(pose.position()) {
-                            Some(q) if q != pose.position() => velocity.dot(&(q - pose.position()).normalize()),
-                            _ => velocity.norm(),
+                            Some(q) if q != pose.position() => (velocity.dot(&(q - pose.position()).normalize()), q),
+                            _ => (velocity.norm(), pose.position()),
                         }
                     }
                     Some(body) => {
                         let Twist { v_mps, omega_radps } = a.robot.twist;
                         match body.touch(pose, &self.world) {
                             // The body point's velocity in the robot frame: v x̂ + ω ẑ × p.
-                            Some(t) => {
-                                Vec2::new(v_mps - omega_radps * t.point.y, omega_radps * t.point.x).dot(&t.normal)
-                            }
-                            None => v_mps.abs(),
+                            Some(t) => (
+                                Vec2::new(v_mps - omega_radps * t.point.y, omega_radps * t.point.x).dot(&t.normal),
+                                pose.transform_point(t.point),
+                            ),
+                            None => (v_mps.abs(), pose.position()),
                         }
                     }
                 };
@@ -235,6 +240,7 @@ impl Fleet {
                     t_s: self.world.time_s(),
                     position: pose.position(),
                     closing_speed_mps,
+                    touched_m,
                 });
             }
             a.in_collision = hit;

@@ -172,7 +172,7 @@ pub fn first_polygon_contact(
     poses.iter().find_map(|pose| {
         let statics = seen
             .iter()
-            .map(|q| (*q, 0.0))
+            .map(|q| (*q, p.passive.seen_margin_m))
             .chain(unseen.iter().map(|q| (*q, UNSEEN_MARGIN_M)));
         statics
             .filter_map(|(q, margin)| contact(pose, q, margin, false))
@@ -198,16 +198,22 @@ mod tests {
     }
 
     fn params() -> Params {
-        // Δt 0.1 s, decel 1.0 m/s², angular accel 1.0 rad/s², closing speed 0.05 m/s (default).
-        Params::default()
+        // Δt 0.1 s, decel 1.0 m/s², angular accel 1.0 rad/s², closing speed 0.05 m/s (default);
+        // seen points at the polygon exactly (the margin has a test of its own).
+        let mut p = Params::default();
+        p.passive.seen_margin_m = 0.0;
+        p
     }
 
     fn contact(cmd: Twist, seen: &[Vec2]) -> Option<ClosingContact> {
+        contact_with(cmd, seen, &params())
+    }
+
+    fn contact_with(cmd: Twist, seen: &[Vec2], p: &Params) -> Option<ClosingContact> {
         let fp = base_0604();
-        let p = params();
         let mut poses = Vec::new();
-        braking_poses(cmd, fp.circumscribed_radius_m(), &p, &mut poses);
-        first_polygon_contact(&fp, &poses, seen, &[], &[], &p)
+        braking_poses(cmd, fp.circumscribed_radius_m(), p, &mut poses);
+        first_polygon_contact(&fp, &poses, seen, &[], &[], p)
     }
 
     #[test]
@@ -252,5 +258,23 @@ mod tests {
         assert_eq!(contact(Twist::new(0.0, 0.05), &wall), None);
         // Backing straight away from a point 1 cm inside the front: not closing.
         assert_eq!(contact(Twist::new(-0.1, 0.0), &[Vec2::new(0.29, 0.0)]), None);
+    }
+
+    #[test]
+    fn the_body_keeps_the_seen_margin_from_a_point_it_backs_towards() {
+        // The rear edge is at x = −0.3. Backing at 0.03 m/s: 3 mm in the step and
+        // 0.45 mm braking. A point 8 mm behind the edge is not reached; with a 1 cm
+        // margin it is already within it, closed on at 0.03 m/s (> 0.01).
+        let behind = [Vec2::new(-0.308, 0.0)];
+        let back = Twist::new(-0.03, 0.0);
+        assert_eq!(contact(back, &behind), None);
+        let mut p = params();
+        p.passive.seen_margin_m = 0.01;
+        assert!(contact_with(back, &behind, &p).is_some_and(|c| !c.mover));
+        // 15 mm behind: 11.55 mm left at rest, beyond the margin.
+        assert_eq!(contact_with(back, &[Vec2::new(-0.315, 0.0)], &p), None);
+        // Beside the long side, 5 mm out, and driving along it: within the margin
+        // but not closing.
+        assert_eq!(contact_with(Twist::new(0.2, 0.0), &[Vec2::new(0.0, 0.205)], &p), None);
     }
 }

@@ -506,7 +506,8 @@ impl PassiveSafety {
     pub fn prepare(&mut self, points: &[Vec2], p: &Params) {
         let speed = p.control.v_max_mps.max(p.control.v_reverse_max_mps);
         let travel = speed * (p.control.dt_s() + speed / p.control.decel_mps2);
-        let reach = p.robot_radius_m() + UNSEEN_MARGIN_M + travel + 2.0 * SAMPLE_SPACING_M;
+        let margin = UNSEEN_MARGIN_M.max(p.passive.seen_margin_m);
+        let reach = p.robot_radius_m() + margin + travel + 2.0 * SAMPLE_SPACING_M;
         let reach2 = reach * reach;
         self.near_seen.clear();
         self.near_seen
@@ -566,8 +567,8 @@ impl PassiveSafety {
         // Only points the body can reach on this path matter: within r of a path
         // no longer than the time it takes at the starting speed.
         let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
-        let reach2 = reach * reach;
-        let r2 = r * r;
+        let rs = r + p.passive.seen_margin_m;
+        let (r2, reach2) = (rs * rs, (reach + p.passive.seen_margin_m).powi(2));
         let ru = r + UNSEEN_MARGIN_M;
         let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
         // The points this path can reach, with the contact radius of each, once.
@@ -874,9 +875,12 @@ impl PassiveSafety {
 mod tests {
     use super::*;
 
-    /// r = 0.178 m, Δt = 0.1 s, decel 1 m/s², closing threshold 0.02 m/s.
+    /// r = 0.178 m, Δt = 0.1 s, decel 1 m/s², closing threshold 0.02 m/s; seen
+    /// points at r exactly (the margin has a test of its own).
     fn params() -> Params {
-        Params::default()
+        let mut p = Params::default();
+        p.passive.seen_margin_m = 0.0;
+        p
     }
 
     /// `cmd`'s first closing contact with the static `points` and `ps`'s movers.
@@ -975,6 +979,24 @@ mod tests {
         assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.035, 0.0)], &strong), None);
         // Standing still and turning in place are always passively safe.
         assert_eq!(contact(&mut ps, Twist::new(0.0, 0.3), &[Vec2::new(0.1, 0.0)], &p), None);
+    }
+
+    #[test]
+    fn the_body_keeps_the_seen_margin_from_a_point_it_moves_towards() {
+        // v = 0.03 m/s: 3 mm in the step, then 0.03²/2 = 0.45 mm braking: 3.45 mm in all.
+        // A point 8 mm ahead of the rim is not reached; with a 1 cm margin it is
+        // already within it, and approached at 0.03 m/s (> 0.01, half the threshold).
+        let mut p = params();
+        let mut ps = PassiveSafety::default();
+        let cmd = Twist::new(0.03, 0.0);
+        let near = [Vec2::new(0.178 + 0.008, 0.0)];
+        assert_eq!(contact(&mut ps, cmd, &near, &p), None);
+        p.passive.seen_margin_m = 0.01;
+        assert!(contact(&mut ps, cmd, &near, &p).is_some_and(|c| !c.mover));
+        // 15 mm ahead: 11.55 mm left at rest, beyond the margin.
+        assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.015, 0.0)], &p), None);
+        // Moving away from a point inside the margin is not closing.
+        assert_eq!(contact(&mut ps, Twist::new(-0.05, 0.0), &near, &p), None);
     }
 
     #[test]
@@ -1155,8 +1177,8 @@ impl PassiveSafety {
         // Only points the body can reach on this path matter: within r of a path
         // no longer than the time it takes at the starting speed.
         let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
-        let reach2 = reach * reach;
-        let r2 = r * r;
+        let rs = r + p.passive.seen_margin_m;
+        let (r2, reach2) = (rs * rs, (reach + p.passive.seen_margin_m).powi(2));
         let ru = r + UNSEEN_MARGIN_M;
         let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
         // The points this path can reach, with the contact radius of each, once.

@@ -264,6 +264,11 @@ impl Validate for Params {
             Interval::closed(0.0, 10.0).unit("m/s"),
         );
         c.range(
+            "passive.seen_margin_m",
+            pa.seen_margin_m,
+            Interval::closed(0.0, 0.2).unit("m"),
+        );
+        c.range(
             "passive.closing_speed_mps",
             pa.closing_speed_mps,
             Interval::closed(0.0, 1.0).unit("m/s"),

@@ -71,6 +71,10 @@ pub struct PassiveParams {
     /// …and grows by this per second of prediction (m/s): unmodelled turns
     /// and accelerations of people.
     pub mover_growth_mps: f64,
+    /// The braking check keeps the body this far from a seen point it moves
+    /// towards (m): a point is one noisy sample of a surface, which may lie
+    /// nearer than read, and between two beams (a corner) nearer than both.
+    pub seen_margin_m: f64,
     /// Robot speed towards an obstacle above which a contact is "closing" (m/s).
     pub closing_speed_mps: f64,
     /// Evasion scores a command by the predicted time to contact with the
@@ -100,6 +104,7 @@ impl Default for PassiveParams {
             enabled: true,
             mover_margin_m: 0.05,
             mover_growth_mps: 0.1,
+            seen_margin_m: 0.01,
             closing_speed_mps: 0.02,
             evasion_horizon_s: 5.0,
             evasion_max_speed_mps: 0.22,
