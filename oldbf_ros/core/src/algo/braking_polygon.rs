@@ -112,7 +112,7 @@ pub fn braking_poses(cmd: Twist, reach_m: f64, p: &Params, out: &mut Vec<PathPos
 
 /// `q` (robot frame now) in the body's frame at `pose`.
 #[inline]
-fn local(q: Vec2, pose: &PathPose) -> Vec2 {
+pub fn local(q: Vec2, pose: &PathPose) -> Vec2 {
     let d = q - pose.pos;
     let h = pose.heading;
     Vec2::new(h.x * d.x + h.y * d.y, -h.y * d.x + h.x * d.y)
@@ -121,7 +121,7 @@ fn local(q: Vec2, pose: &PathPose) -> Vec2 {
 /// The speed at which the body at `pose` closes on `q` (robot frame now),
 /// `q_local` being `q` in the body's frame: the velocity of the body point
 /// nearest to it along the outward normal there.
-fn closing_speed(fp: &PaddedPolygon, pose: &PathPose, q: Vec2, q_local: Vec2, inside: bool) -> f64 {
+pub fn closing_speed(fp: &PaddedPolygon, pose: &PathPose, q: Vec2, q_local: Vec2, inside: bool) -> f64 {
     let b_local = fp.polygon.closest_boundary_point(q_local);
     let h = pose.heading;
     let lever = Vec2::new(h.x * b_local.x - h.y * b_local.y, h.y * b_local.x + h.x * b_local.y);

@@ -300,6 +300,19 @@ impl PaddedPolygon {
         self.polygon.signed_distance(q) - self.padding_m
     }
 
+    /// How far the padded footprint reaches from its origin across a line of
+    /// unit direction `dir` (its frame), to either side: the larger support
+    /// of the vertices along the line's normal, plus the padding (m).
+    pub fn half_extent_across_m(&self, dir: Vec2) -> f64 {
+        let normal = Vec2::new(-dir.y, dir.x);
+        self.polygon
+            .vertices()
+            .iter()
+            .map(|v| v.dot(&normal).abs())
+            .fold(0.0, f64::max)
+            + self.padding_m
+    }
+
     /// The circumscribed radius of the padded footprint about the origin (m).
     pub fn circumscribed_radius_m(&self) -> f64 {
         self.polygon.circumscribed_radius_m() + self.padding_m

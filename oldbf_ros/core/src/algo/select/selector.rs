@@ -35,7 +35,7 @@ use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, DtcbfFilter, InputBox, TOL_M};
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
-use crate::algo::passive::{EvasionSoFar, PassiveSafety, Profile};
+use crate::algo::passive::{EvasionSoFar, Mover, PassiveSafety, Profile};
 
 /// A safe nominal whose clearance critic's (unweighted) cost exceeds this is
 /// heading into something: about half the clearance band given up over the
@@ -246,12 +246,13 @@ impl Selector {
         // steer (the DOAA's law, progress, clearance, the side kept) count only when it is not.
         let nominal_h_next = h_next_of(g.filter, input.nominal);
         // A person near may step anywhere: the steering critics keep the robot away.
+        // Near: within `mover_near_m` of the body (the circle, or the footprint polygon).
         let near_m = p.select.mover_near_m;
-        let people_near = passive
-            && g.passive
-                .movers()
-                .iter()
-                .any(|m| m.position.norm() - m.radius_m - p.robot_radius_m() < near_m);
+        let body_gap = |m: &Mover| match g.filter.footprint() {
+            None => m.position.norm() - m.radius_m - p.robot_radius_m(),
+            Some(fp) => fp.signed_distance(m.position) - m.radius_m,
+        };
+        let people_near = passive && g.passive.movers().iter().any(|m| body_gap(m) < near_m);
         // Heading into something: held for the horizon, the nominal gives up room well
         // inside the clearance band; the steering critics act now, gently, rather than
         // at the last moment.
