@@ -192,6 +192,8 @@ pub fn write_comparison(dir: &Path, scenario: &Scenario, seed: u64, runs: &[Comp
     let path_of = |rows: &[StepRow]| rows.iter().map(|r| Vec2::new(r.x_m, r.y_m)).collect::<Vec<_>>();
     let first = &runs[0].result;
     let robot_path = path_of(&first.robots[0].rows);
+    let polygon = crate::report::body_polygon(scenario);
+    let headings: Vec<f64> = first.robots[0].rows.iter().map(|r| r.theta_rad).collect();
     let others: Vec<(String, Vec<Vec2>)> = runs[1..]
         .iter()
         .map(|r| (name(r.controller), path_of(&r.result.robots[0].rows)))
@@ -226,6 +228,7 @@ pub fn write_comparison(dir: &Path, scenario: &Scenario, seed: u64, runs: &[Comp
             body_radius_m: scenario.robot.body_radius_m,
             collisions: &collisions,
             goal: first.robots[0].goal,
+            body: crate::report::body_outline(scenario, &polygon, &headings),
         },
     )?;
 

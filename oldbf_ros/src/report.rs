@@ -225,6 +225,8 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
             .collect::<Vec<_>>()
     };
     let robot_path = path_of(rows);
+    let polygon = body_polygon(scenario);
+    let headings: Vec<f64> = rows.iter().map(|r| r.theta_rad).collect();
     let reference_path: Vec<_> = rows
         .iter()
         .filter(|r| r.ref_x_m.is_finite())
@@ -267,6 +269,7 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
             body_radius_m: scenario.robot.body_radius_m,
             collisions: &collisions,
             goal: first.goal,
+            body: body_outline(scenario, &polygon, &headings),
         },
     )?;
 
@@ -355,4 +358,32 @@ pub fn write_outputs(dir: &Path, scenario: &Scenario, result: &RunResult) -> any
         ],
     )?;
     Ok(())
+}
+
+/// The robot body's polygon for the plots (robot frame, m): the simulated
+/// body's, else the filter's footprint; empty for a disc.
+pub(crate) fn body_polygon(scenario: &Scenario) -> Vec<nalgebra::Vector2<f64>> {
+    let fp = &scenario.params.footprint.polygon_m;
+    scenario
+        .spec
+        .robot
+        .body_polygon_vertices_m()
+        .unwrap_or(fp)
+        .iter()
+        .map(|&[x, y]| nalgebra::Vector2::new(x, y))
+        .collect()
+}
+
+/// The trajectory plot's polygon body, when there is one: `polygon` posed
+/// with `headings`, its safety outline at the footprint's padding + d_safe.
+pub(crate) fn body_outline<'a>(
+    scenario: &Scenario,
+    polygon: &'a [nalgebra::Vector2<f64>],
+    headings: &'a [f64],
+) -> Option<crate::plot::BodyOutline<'a>> {
+    (polygon.len() >= 3).then_some(crate::plot::BodyOutline {
+        polygon_m: polygon,
+        headings_rad: headings,
+        grow_m: scenario.params.footprint.padding_m + scenario.params.barrier.d_safe_m,
+    })
 }

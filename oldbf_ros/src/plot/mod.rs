@@ -234,7 +234,7 @@ mod time_series;
 mod trajectory;
 pub use distribution::{plot_distributions, Distribution};
 pub use time_series::{plot_time_series, Series, TimePanel};
-pub use trajectory::{plot_trajectory, TrajectoryPlot};
+pub use trajectory::{plot_trajectory, BodyOutline, TrajectoryPlot};
 #[cfg(test)]
 use {time_series::*, trajectory::*};
 
@@ -421,6 +421,7 @@ mod tests {
             body_radius_m: 0.3,
             collisions: &[v(5.0, 0.3)],
             goal: Some(v(10.0, 0.0)),
+            body: None,
         };
         let stem = dir.0.join("trajectory");
         plot_trajectory(&stem, &plot).unwrap();
@@ -430,6 +431,55 @@ mod tests {
         assert!(svg.contains("y (m)"));
         assert!(svg.contains("robot path"));
         assert!(svg.contains("safety perimeter"));
+    }
+
+    #[test]
+    fn a_polygon_body_is_drawn_posed_with_its_safety_outline() {
+        ensure_fonts().unwrap();
+        let dir = TempDir::new("traj_polygon");
+        // A 0.6 x 0.4 m rectangle grown by 0.1 m: every outline point is 0.1 m
+        // from the rectangle (on an edge's offset or an arc about a corner).
+        let rect = [v(0.3, 0.2), v(-0.3, 0.2), v(-0.3, -0.2), v(0.3, -0.2)];
+        let hull = convex_hull(&rect);
+        assert_eq!(hull.len(), 4);
+        let outline = grown_outline(&hull, 0.1);
+        for q in &outline {
+            let dx = (q.x.abs() - 0.3).max(0.0);
+            let dy = (q.y.abs() - 0.2).max(0.0);
+            assert!(((dx * dx + dy * dy).sqrt() - 0.1).abs() < 1e-9, "{q:?}");
+        }
+        // A notch (a concave vertex) is inside the hull and left out of it.
+        let notched = [v(0.3, 0.2), v(0.0, 0.1), v(-0.3, 0.2), v(-0.3, -0.2), v(0.3, -0.2)];
+        assert_eq!(convex_hull(&notched).len(), 4);
+        let path: Vec<Vec2> = (0..40).map(|i| v(0.1 * i as f64, 0.0)).collect();
+        let headings: Vec<f64> = (0..40).map(|i| 0.02 * i as f64).collect();
+        let plot = TrajectoryPlot {
+            title: "polygon",
+            robot_path: &path,
+            robot_label: "robot path",
+            other_paths: &[],
+            reference_path: &[],
+            walls: &[],
+            circles: &[],
+            mover_paths: &[],
+            safety_radius_m: 0.46,
+            body_radius_m: 0.36,
+            collisions: &[],
+            goal: None,
+            body: Some(BodyOutline {
+                polygon_m: &rect,
+                headings_rad: &headings,
+                grow_m: 0.1,
+            }),
+        };
+        let stem = dir.0.join("polygon");
+        plot_trajectory(&stem, &plot).unwrap();
+        let svg = check_outputs(&stem, None);
+        assert!(
+            svg.contains("safety outline (footprint + 0.10 m)"),
+            "no outline in the legend"
+        );
+        assert!(!svg.contains("safety perimeter"), "the disc perimeter is drawn too");
     }
 
     #[test]
@@ -450,6 +500,7 @@ mod tests {
                 body_radius_m: 0.3,
                 collisions: &[],
                 goal: None,
+                body: None,
             };
             let fig = TrajectoryFigure::new(&plot);
             let (w, h) = fig.size();
@@ -483,6 +534,7 @@ mod tests {
             body_radius_m: -1.0,
             collisions: &[v(f64::NAN, 1.0), v(1e308, -1e308)],
             goal: Some(v(f64::INFINITY, 0.0)),
+            body: None,
         };
         let stem = dir.0.join("empty");
         plot_trajectory(&stem, &plot).unwrap();

@@ -29,6 +29,90 @@ pub struct TrajectoryPlot<'a> {
     pub collisions: &'a [Vec2],
     /// Goal marker.
     pub goal: Option<Vec2>,
+    /// A polygon footprint: drawn instead of the discs (the body at start and
+    /// end, the safety outline along the path), posed with the headings.
+    pub body: Option<BodyOutline<'a>>,
+}
+
+/// A polygon robot as the trajectory plot draws it.
+pub struct BodyOutline<'a> {
+    /// The footprint (m, robot frame).
+    pub polygon_m: &'a [Vec2],
+    /// The robot's heading at each point of `robot_path` (rad).
+    pub headings_rad: &'a [f64],
+    /// How far the safety outline lies beyond the polygon (m): its padding
+    /// plus d_safe. Drawn around the polygon's convex hull (for a concave
+    /// footprint, a little outside the true outline).
+    pub grow_m: f64,
+}
+
+/// The convex hull of `points`, counter-clockwise (Andrew's monotone chain).
+pub(super) fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+    let mut pts: Vec<Vec2> = points.iter().copied().filter(finite2).collect();
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let cross = |o: Vec2, a: Vec2, b: Vec2| (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    let mut hull: Vec<Vec2> = Vec::with_capacity(2 * pts.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let ordered: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &q in ordered {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// `vertices` (robot frame) posed at `centre` with `heading_rad`, closed.
+fn posed(vertices: &[Vec2], centre: Vec2, heading_rad: f64) -> Vec<(f64, f64)> {
+    let (s, c) = heading_rad.sin_cos();
+    let mut out: Vec<(f64, f64)> = vertices
+        .iter()
+        .map(|v| (centre.x + c * v.x - s * v.y, centre.y + s * v.x + c * v.y))
+        .collect();
+    if let Some(&first) = out.first() {
+        out.push(first);
+    }
+    out
+}
+
+/// The outline of the convex `hull` (counter-clockwise) grown by `grow_m`:
+/// each edge moved out along its normal, joined by arcs about the vertices.
+pub(super) fn grown_outline(hull: &[Vec2], grow_m: f64) -> Vec<Vec2> {
+    let n = hull.len();
+    if n == 0 || grow_m <= 0.0 {
+        return hull.to_vec();
+    }
+    let normal_angle = |i: usize| {
+        let (a, b) = (hull[i], hull[(i + 1) % n]);
+        (b.y - a.y).atan2(b.x - a.x) - std::f64::consts::FRAC_PI_2
+    };
+    let mut out = Vec::new();
+    for (i, vertex) in hull.iter().enumerate() {
+        // The arc at vertex i, from the normal of the edge before to the edge after.
+        let from = normal_angle((i + n - 1) % n);
+        let mut to = normal_angle(i);
+        while to < from {
+            to += std::f64::consts::TAU;
+        }
+        let steps = (((to - from) / 0.2).ceil() as usize).max(1);
+        for k in 0..=steps {
+            let a = from + (to - from) * k as f64 / steps as f64;
+            out.push(vertex + Vec2::new(a.cos(), a.sin()) * grow_m);
+        }
+    }
+    out
 }
 
 /// Writes `<stem>.png` and `<stem>.svg`: a top view with equal aspect ratio
@@ -394,10 +478,44 @@ pub(super) fn draw_trajectory<DB: DrawingBackend>(
         legend.push(("reference".into(), Swatch::Dashed(ref_style)));
     }
 
-    // Safety perimeter r + d_safe every N samples (~SAFETY_CIRCLES circles).
+    // A polygon body: its safety outline every N samples, posed with the heading.
     let finite_path: Vec<Vec2> = p.robot_path.iter().copied().filter(finite2).collect();
+    let body = p
+        .body
+        .as_ref()
+        .filter(|b| b.polygon_m.len() >= 3 && b.headings_rad.len() == p.robot_path.len());
+    let posed_at = |i: usize, vertices: &[Vec2]| {
+        let (c, h) = (p.robot_path[i], body.map_or(0.0, |b| b.headings_rad[i]));
+        (finite2(&c) && h.is_finite()).then(|| posed(vertices, c, h))
+    };
+    if let Some(b) = body {
+        let outline = grown_outline(&convex_hull(b.polygon_m), b.grow_m.max(0.0));
+        let n = p.robot_path.len();
+        let step = n.div_ceil(SAFETY_CIRCLES).max(1);
+        let mut at: Vec<usize> = (0..n).step_by(step).collect();
+        if n > 0 && at.last() != Some(&(n - 1)) {
+            at.push(n - 1);
+        }
+        let s: ShapeStyle = SAFETY_COLOR.mix(0.6).into();
+        chart
+            .draw_series(
+                at.iter()
+                    .filter_map(|&i| posed_at(i, &outline))
+                    .map(|o| PathElement::new(o, s)),
+            )
+            .map_err(pe)?;
+        legend.push((
+            format!("safety outline (footprint + {:.2} m)", b.grow_m),
+            Swatch::Disc {
+                fill: None,
+                edge: s,
+                dashed: false,
+            },
+        ));
+    }
+    // Safety perimeter r + d_safe every N samples (~SAFETY_CIRCLES circles).
     let sr = p.safety_radius_m;
-    if !finite_path.is_empty() && sr.is_finite() && sr > 0.0 {
+    if body.is_none() && !finite_path.is_empty() && sr.is_finite() && sr > 0.0 {
         let step = finite_path.len().div_ceil(SAFETY_CIRCLES).max(1);
         let mut centres: Vec<Vec2> = finite_path.iter().copied().step_by(step).collect();
         if let Some(last) = finite_path.last() {
@@ -440,17 +558,29 @@ pub(super) fn draw_trajectory<DB: DrawingBackend>(
         legend.push((label.clone(), Swatch::Line(style)));
     }
 
-    // Robot body at start and end.
+    // Robot body at start and end: the polygon posed, or the disc.
     let br = p.body_radius_m;
-    if !finite_path.is_empty() && br.is_finite() && br > 0.0 {
-        let ends = [finite_path[0], finite_path[finite_path.len() - 1]];
+    let ends: Vec<Vec<(f64, f64)>> = match body {
+        Some(b) => [0, p.robot_path.len().saturating_sub(1)]
+            .into_iter()
+            .filter_map(|i| posed_at(i, b.polygon_m))
+            .collect(),
+        None if !finite_path.is_empty() && br.is_finite() && br > 0.0 => {
+            [finite_path[0], finite_path[finite_path.len() - 1]]
+                .iter()
+                .map(|c| circle_points(*c, br, N))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    if !ends.is_empty() {
         let fill = ROBOT_COLOR.mix(0.3).filled();
         let edge = ROBOT_COLOR.stroke_width(2);
         chart
-            .draw_series(ends.iter().map(|c| Polygon::new(circle_points(*c, br, N), fill)))
+            .draw_series(ends.iter().map(|o| Polygon::new(o.clone(), fill)))
             .map_err(pe)?;
         chart
-            .draw_series(ends.iter().map(|c| PathElement::new(circle_points(*c, br, N), edge)))
+            .draw_series(ends.iter().map(|o| PathElement::new(o.clone(), edge)))
             .map_err(pe)?;
         legend.push((
             "robot body (start, end)".into(),
