@@ -168,7 +168,7 @@ impl BodyPolygon {
                 best = Some((d, s));
             }
         };
-        for s in world.segments() {
+        for s in world.segments().iter().chain(world.agent_segments()) {
             consider(self.distance_to_segment(pose, s), Shape::Segment(*s));
         }
         for c in world.circles().iter().copied().chain(world.moving_circles()) {

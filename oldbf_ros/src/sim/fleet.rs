@@ -1,8 +1,8 @@
 //! One world with one or more simulated robots: the physics shared by the
 //! closed-loop runner (`oldbf sim`) and the ROS sim node.
 //!
-//! Every robot is a disc of its body radius in the other robots' LiDAR scans
-//! and collision checks (a polygon body: its circumscribed disc), so robots
+//! Every robot is its body in the other robots' LiDAR scans and collision
+//! checks (a disc of its radius, or its polygon's edges, posed), so robots
 //! in one world see and avoid each other. Collisions are checked exactly
 //! (the robot's circle, or its body polygon, against segments and circles)
 //! after every physics step; a contact counts once when it begins. Each
@@ -19,7 +19,7 @@ use super::body::BodyPolygon;
 use super::lidar::{Lidar, LidarError, LidarSpec};
 use super::robot::SimRobot;
 use super::scenario::Scenario;
-use super::shapes::Circle;
+use super::shapes::{Circle, Segment};
 use super::world::{World, WorldError};
 use crate::algo::geometry::{Pose2, Twist, Vec2};
 
@@ -185,13 +185,25 @@ impl Fleet {
 
     /// Places every robot but `i` into the world as a disc.
     fn show_others_to(&mut self, i: usize) {
-        let others = self
-            .agents
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .map(|(_, a)| Circle::new(a.robot.pose.position(), a.robot.limits().body_radius_m));
-        self.world.set_agents(others);
+        let others = || {
+            self.agents
+                .iter()
+                .enumerate()
+                .filter(move |(j, _)| *j != i)
+                .map(|(_, a)| a)
+        };
+        // A disc body is a disc; a polygon body is its edges, posed.
+        let discs = others()
+            .filter(|a| a.robot.body().is_none())
+            .map(|a| Circle::new(a.robot.pose.position(), a.robot.limits().body_radius_m));
+        let edges = others()
+            .filter_map(|a| a.robot.body().map(|b| (a.robot.pose, b)))
+            .flat_map(|(pose, b)| {
+                let v = b.polygon().vertices();
+                (0..v.len())
+                    .map(move |k| Segment::new(pose.transform_point(v[k]), pose.transform_point(v[(k + 1) % v.len()])))
+            });
+        self.world.set_agents(discs, edges);
     }
 
     /// Moves every robot by its command and the world's obstacles by `dt_s`
@@ -374,6 +386,53 @@ robots:
         // Beam at 0° (index 180 of a 360° scan from −180°) sees b's disc: 1.0 − 0.105 m.
         assert!((ranges[180] - 0.895).abs() < 1e-5, "{}", ranges[180]);
         assert!((f.distance_from_centre(1) - 0.895).abs() < 1e-12);
+    }
+
+    const TWO_RECTS: &str = "
+name: two_rects
+duration_s: 10
+robot: {preset: rect_0604}
+lidar: {beams: 360, noise_std_m: 0.0}
+robots:
+  - {name: a, start: {x_m: 0, y_m: 0, theta_deg: 0}, nominal: {kind: constant, v_mps: 0.1, omega_radps: 0}}
+  - {name: b, start: {x_m: 0, y_m: 0.5, theta_deg: 0}, nominal: {kind: constant, v_mps: 0.1, omega_radps: 0}}
+";
+
+    #[test]
+    fn rectangular_robots_see_and_touch_each_others_polygons() {
+        // Side by side, centres 0.5 m apart, 0.6 x 0.4 m each: 0.1 m between the
+        // long sides (their circumscribed discs, 0.3606 m, would overlap).
+        let s = Scenario::from_str(TWO_RECTS, "t.yaml", None).unwrap();
+        let mut f = Fleet::new(&s, 1).unwrap();
+        assert!(
+            (f.agents()[0].min_clearance_m - 0.1).abs() < 1e-12,
+            "{}",
+            f.agents()[0].min_clearance_m
+        );
+        assert!(f.agents().iter().all(|a| a.contacts.is_empty()));
+        // a's beam at +90° (index 270) meets b's near side at y = 0.3: 0.3 m.
+        let mut ranges = Vec::new();
+        f.scan(0, &mut ranges);
+        assert!((ranges[270] - 0.3).abs() < 1e-5, "{}", ranges[270]);
+        // b turns in place: its corners swing down into a's side, a contact for both.
+        f.set_cmd(1, Twist::new(0.0, 1.0));
+        for _ in 0..100 {
+            f.step(0.01);
+        }
+        let (a, b) = (&f.agents()[0], &f.agents()[1]);
+        assert_eq!(
+            (a.contacts.len(), b.contacts.len()),
+            (1, 1),
+            "{:?} {:?}",
+            a.contacts,
+            b.contacts
+        );
+        assert!(
+            b.contacts[0].closing() && !a.contacts[0].closing(),
+            "{:?} {:?}",
+            a.contacts,
+            b.contacts
+        );
     }
 
     #[test]

@@ -81,8 +81,10 @@ pub struct World {
     /// Moving discs at `time_s` (same order as `moving`).
     moving_now: Vec<Circle>,
     /// Discs placed from outside (other robots in a multi-robot world), part
-    /// of every query until replaced.
+    /// of every query until replaced…
     agents: Vec<Circle>,
+    /// …and the edges of the polygon bodies among them.
+    agent_segments: Vec<Segment>,
     time_s: f64,
     bounds: Option<(Vec2, Vec2)>,
 }
@@ -279,6 +281,7 @@ impl World {
             circles,
             moving_now: Vec::with_capacity(moving.len()),
             agents: Vec::new(),
+            agent_segments: Vec::new(),
             moving,
             time_s: 0.0,
             bounds,
@@ -337,11 +340,14 @@ impl World {
         self.moving_now.iter().copied()
     }
 
-    /// Replaces the externally placed discs (other robots, seen by the one
-    /// being queried). Allocates only while the buffer grows.
-    pub fn set_agents(&mut self, agents: impl Iterator<Item = Circle>) {
+    /// Replaces the externally placed shapes (other robots, seen by the one
+    /// being queried): disc bodies, and the edges of polygon bodies.
+    /// Allocates only while the buffers grow.
+    pub fn set_agents(&mut self, discs: impl Iterator<Item = Circle>, edges: impl Iterator<Item = Segment>) {
         self.agents.clear();
-        self.agents.extend(agents);
+        self.agents.extend(discs);
+        self.agent_segments.clear();
+        self.agent_segments.extend(edges);
     }
 
     /// The externally placed discs.
@@ -349,12 +355,17 @@ impl World {
         &self.agents
     }
 
+    /// The externally placed polygon bodies' edges.
+    pub fn agent_segments(&self) -> &[Segment] {
+        &self.agent_segments
+    }
+
     /// Exact distance from `p` (m) to the nearest obstacle surface: segments,
     /// static circles and moving circles at the current time. Negative inside
     /// a circle (minus the penetration depth); `+inf` for an empty world.
     pub fn distance_to_nearest(&self, p: Vec2) -> f64 {
         let mut best = f64::INFINITY;
-        for s in &self.segments {
+        for s in self.segments.iter().chain(&self.agent_segments) {
             best = best.min(s.distance_to(p));
         }
         for c in self.circles.iter().chain(&self.moving_now).chain(&self.agents) {
@@ -373,7 +384,7 @@ impl World {
                 best = Some((d, q));
             }
         };
-        for s in &self.segments {
+        for s in self.segments.iter().chain(&self.agent_segments) {
             let e = s.b - s.a;
             let ee = e.dot(&e);
             let t = if ee > 0.0 {
@@ -405,7 +416,7 @@ impl World {
             dir_unit,
             max_range_m,
         );
-        let agents = ray_cast_shapes(&[], &self.agents, &[], origin, dir_unit, max_range_m);
+        let agents = ray_cast_shapes(&self.agent_segments, &self.agents, &[], origin, dir_unit, max_range_m);
         match (hit, agents) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -418,9 +429,12 @@ impl World {
     pub fn prepare_scan(&self, origin: Vec2, max_range_m: f64, scratch: &mut ScanScratch) {
         scratch.segments.clear();
         scratch.circles.clear();
-        scratch
-            .segments
-            .extend(self.segments.iter().filter(|s| s.distance_to(origin) < max_range_m));
+        scratch.segments.extend(
+            self.segments
+                .iter()
+                .chain(&self.agent_segments)
+                .filter(|s| s.distance_to(origin) < max_range_m),
+        );
         scratch.circles.extend(
             self.circles
                 .iter()
@@ -989,13 +1003,21 @@ mod tests {
     #[test]
     fn agents_are_seen_by_every_query_until_replaced() {
         let mut w = World::new(&WorldSpec::default()).unwrap();
-        w.set_agents([Circle::new(v(2.0, 0.0), 0.5)].into_iter());
+        w.set_agents([Circle::new(v(2.0, 0.0), 0.5)].into_iter(), std::iter::empty());
         assert!((w.distance_to_nearest(v(0.0, 0.0)) - 1.5).abs() < 1e-12);
         assert_eq!(w.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.5));
         let mut scratch = ScanScratch::default();
         w.prepare_scan(v(0.0, 0.0), 10.0, &mut scratch);
         assert_eq!(scratch.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.5));
-        w.set_agents(std::iter::empty());
+        // A polygon body's edge, 1.2 m ahead across the ray: seen by every query too.
+        let edge = Segment::new(v(1.2, -0.2), v(1.2, 0.2));
+        w.set_agents(std::iter::empty(), std::iter::once(edge));
+        assert!((w.distance_to_nearest(v(0.0, 0.0)) - 1.2).abs() < 1e-12);
+        assert_eq!(w.nearest_surface_point(v(0.0, 0.0)), Some(v(1.2, 0.0)));
+        assert_eq!(w.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.2));
+        w.prepare_scan(v(0.0, 0.0), 10.0, &mut scratch);
+        assert_eq!(scratch.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), Some(1.2));
+        w.set_agents(std::iter::empty(), std::iter::empty());
         assert_eq!(w.ray_cast(v(0.0, 0.0), v(1.0, 0.0), 10.0), None);
     }
 
