@@ -94,7 +94,7 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
     ),
     (
         "passive.seen_margin_m",
-        "the braking check keeps the body this far from a seen point it moves towards (m)",
+        "a polygon's braking check keeps the body this far from a seen point it moves towards (m)",
     ),
     (
         "passive.evasion_horizon_s",

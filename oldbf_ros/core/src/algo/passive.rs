@@ -596,8 +596,7 @@ impl PassiveSafety {
         // Only points the body can reach on this path matter: within r of a path
         // no longer than the time it takes at the starting speed.
         let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
-        let rs = r + p.passive.seen_margin_m;
-        let (r2, reach2) = (rs * rs, (reach + p.passive.seen_margin_m).powi(2));
+        let (r2, reach2) = (r * r, reach * reach);
         let ru = r + UNSEEN_MARGIN_M;
         let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
         // The points this path can reach, with the contact radius of each, once.
@@ -1069,21 +1068,19 @@ mod tests {
     }
 
     #[test]
-    fn the_body_keeps_the_seen_margin_from_a_point_it_moves_towards() {
+    fn the_circle_keeps_no_seen_margin() {
         // v = 0.03 m/s: 3 mm in the step, then 0.03²/2 = 0.45 mm braking: 3.45 mm in all.
-        // A point 8 mm ahead of the rim is not reached; with a 1 cm margin it is
-        // already within it, and approached at 0.03 m/s (> 0.01, half the threshold).
+        // A point 8 mm ahead of the rim is not reached, whatever `seen_margin_m` (a
+        // polygon's alone, braking_polygon.rs).
         let mut p = params();
         let mut ps = PassiveSafety::default();
         let cmd = Twist::new(0.03, 0.0);
         let near = [Vec2::new(0.178 + 0.008, 0.0)];
         assert_eq!(contact(&mut ps, cmd, &near, &p), None);
         p.passive.seen_margin_m = 0.01;
-        assert!(contact(&mut ps, cmd, &near, &p).is_some_and(|c| !c.mover));
-        // 15 mm ahead: 11.55 mm left at rest, beyond the margin.
-        assert_eq!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.015, 0.0)], &p), None);
-        // Moving away from a point inside the margin is not closing.
-        assert_eq!(contact(&mut ps, Twist::new(-0.05, 0.0), &near, &p), None);
+        assert_eq!(contact(&mut ps, cmd, &near, &p), None);
+        // 2 mm ahead of the rim it is reached.
+        assert!(contact(&mut ps, cmd, &[Vec2::new(0.178 + 0.002, 0.0)], &p).is_some());
     }
 
     #[test]
@@ -1306,8 +1303,7 @@ impl PassiveSafety {
         // Only points the body can reach on this path matter: within r of a path
         // no longer than the time it takes at the starting speed.
         let reach = r + cmd.v_mps.abs() * last.t_s + SAMPLE_SPACING_M;
-        let rs = r + p.passive.seen_margin_m;
-        let (r2, reach2) = (rs * rs, (reach + p.passive.seen_margin_m).powi(2));
+        let (r2, reach2) = (r * r, reach * reach);
         let ru = r + UNSEEN_MARGIN_M;
         let (ru2, reach_u2) = (ru * ru, (reach + UNSEEN_MARGIN_M).powi(2));
         // The points this path can reach, with the contact radius of each, once.

@@ -71,9 +71,13 @@ pub struct PassiveParams {
     /// …and grows by this per second of prediction (m/s): unmodelled turns
     /// and accelerations of people.
     pub mover_growth_mps: f64,
-    /// The braking check keeps the body this far from a seen point it moves
-    /// towards (m): a point is one noisy sample of a surface, which may lie
-    /// nearer than read, and between two beams (a corner) nearer than both.
+    /// With a polygon footprint, the braking check keeps the body this far
+    /// from a seen point it moves towards (m): a point is one noisy sample of
+    /// a surface, which may lie nearer than read, and between two beams (a
+    /// corner) nearer than both; near the polygon's corners the feature a
+    /// point is nearest to (an edge, the corner) changes from one point to
+    /// the next. The circle keeps none: its direction to a point is the
+    /// centre's, which does not jump between neighbouring points.
     pub seen_margin_m: f64,
     /// Robot speed towards an obstacle above which a contact is "closing" (m/s).
     pub closing_speed_mps: f64,
