@@ -258,6 +258,10 @@ impl NearPoints {
         let r2 = radius * radius;
         self.points.clear();
         self.points.extend(all.iter().filter(|p| p.norm_squared() <= r2));
+        // Nearest first: a polygon's least signed distance over them then finds
+        // its minimum early, and its bound skips the rest.
+        self.points
+            .sort_unstable_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
         let reach = nearest + 2.0 * max_step + NEAR_MARGIN_M;
         let reach2 = reach * reach;
         self.nearest.clear();

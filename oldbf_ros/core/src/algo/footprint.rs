@@ -66,8 +66,21 @@ impl std::error::Error for PolygonError {}
 #[derive(Debug, Clone, PartialEq)]
 pub struct Polygon {
     vertices: Vec<Vec2>,
+    /// Edge i runs from vertex i to vertex i + 1 (the last back to the first).
+    edges: Vec<Edge>,
     /// The farthest vertex's distance from the origin (m).
     radius_m: f64,
+}
+
+/// One edge, with what every distance to it needs computed once.
+#[derive(Debug, Clone, PartialEq)]
+struct Edge {
+    a: Vec2,
+    b: Vec2,
+    /// b − a.
+    ab: Vec2,
+    /// ‖b − a‖².
+    len2: f64,
 }
 
 /// The closed parameter range of a motion (t or α).
@@ -179,7 +192,23 @@ impl Polygon {
             v.reverse();
         }
         let radius_m = v.iter().map(|p| p.norm_squared()).fold(0.0, f64::max).sqrt();
-        Ok(Self { vertices: v, radius_m })
+        let edges = (0..n)
+            .map(|i| {
+                let (a, b) = (v[i], v[(i + 1) % n]);
+                let ab = b - a;
+                Edge {
+                    a,
+                    b,
+                    ab,
+                    len2: ab.norm_squared(),
+                }
+            })
+            .collect();
+        Ok(Self {
+            vertices: v,
+            edges,
+            radius_m,
+        })
     }
 
     /// An axis-aligned rectangle `length_m` x `width_m` centred on
@@ -200,8 +229,7 @@ impl Polygon {
     }
 
     fn edges(&self) -> impl Iterator<Item = (Vec2, Vec2)> + '_ {
-        let n = self.vertices.len();
-        (0..n).map(move |i| (self.vertices[i], self.vertices[(i + 1) % n]))
+        self.edges.iter().map(|e| (e.a, e.b))
     }
 
     /// Whether `q` lies inside (even-odd rule; a point on the boundary may
@@ -222,13 +250,28 @@ impl Polygon {
     /// Signed distance from `q` to the polygon (m): positive outside,
     /// negative inside.
     pub fn signed_distance(&self, q: Vec2) -> f64 {
-        // The least squared distance to an edge, one root at the end.
-        let d = self
-            .edges()
-            .map(|(a, b)| segment_distance_squared(q, a, b))
-            .fold(f64::INFINITY, f64::min)
-            .sqrt();
-        if self.contains(q) {
+        // One pass over the edges: the least squared distance to an edge (one
+        // root at the end) and the even-odd crossings of [`Self::contains`],
+        // the same arithmetic as `segment_distance_squared` and `contains`.
+        let mut least2 = f64::INFINITY;
+        let mut inside = false;
+        for e in &self.edges {
+            let t = if e.len2 > 0.0 {
+                ((q - e.a).dot(&e.ab) / e.len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            least2 = least2.min((q - (e.a + t * e.ab)).norm_squared());
+            let (a, b) = (e.a, e.b);
+            if (a.y > q.y) != (b.y > q.y) {
+                let x = a.x + (q.y - a.y) / (b.y - a.y) * (b.x - a.x);
+                if q.x < x {
+                    inside = !inside;
+                }
+            }
+        }
+        let d = least2.sqrt();
+        if inside {
             -d
         } else {
             d
