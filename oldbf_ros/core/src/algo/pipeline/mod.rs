@@ -121,6 +121,10 @@ pub struct SafetyPipeline {
     /// Unknown fraction of the front sector of the last scan (blind watch).
     blind_fraction: f64,
     threats: Vec<Threat>,
+    /// Scratch for a polygon's time to collision with a track (events, and
+    /// the spans of the track's line within its radius of the polygon).
+    cone_events: Vec<f64>,
+    cone_entries: Vec<(f64, f64)>,
     /// The last steps' unexplained changes of h: measured h minus the h(k+1)
     /// predicted a step before for the command sent (m), a ring.
     surprise: [f64; SURPRISE_STEPS],
@@ -157,6 +161,10 @@ pub struct SafetyPipeline {
 
 /// Steps over which unexplained falls of h add up (1 s at 10 Hz).
 const SURPRISE_STEPS: usize = 10;
+/// Room for a polygon's time-to-collision events without reallocating: 4
+/// per edge and 2 more (a footprint of up to 32 vertices; more only grows
+/// the buffer once).
+const CONE_EVENTS: usize = 4 * 32 + 2;
 
 /// The unstuck planner leaves out the points of movers at least this fast
 /// (m/s). A slower one moves less than 0.5 m, about a person's width, in
@@ -222,6 +230,8 @@ impl SafetyPipeline {
             perceived: Perceived::Nothing,
             blind_fraction: f64::NAN,
             threats: Vec::with_capacity(max_tracks),
+            cone_events: Vec::with_capacity(CONE_EVENTS),
+            cone_entries: Vec::with_capacity(CONE_EVENTS),
             surprise: [0.0; SURPRISE_STEPS],
             surprise_next: 0,
             last_h_next: f64::NAN,

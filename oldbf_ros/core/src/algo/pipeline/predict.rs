@@ -10,7 +10,7 @@ use crate::algo::clearance::{
     compute_clearances, compute_clearances_faded_polygon, compute_clearances_faded_seeded, compute_clearances_polygon,
     side_crowding, Clearances,
 };
-use crate::algo::collision_cone::collision_cone;
+use crate::algo::collision_cone::{collision_cone, polygon_time_to_collision};
 use crate::algo::doaa::sides_tie;
 use crate::algo::geometry::Vec2;
 use crate::algo::obstacle_tracker::ObstacleTracker;
@@ -95,8 +95,23 @@ impl SafetyPipeline {
             }
             let (pos, vel) = ObstacleTracker::predicted(&track, ahead_s, &robot);
             let cone = collision_cone(pos, Vec2::new(v_now, 0.0) - vel, track.radius_m + r);
+            // A polygon body: the time the track's disc first reaches the polygon, its
+            // centre moving relative to the robot (heading held) along pos + (v_o − v) t:
+            // where that line comes within r_o of the polygon, exactly.
+            let time_to_collision_s = match self.filter.footprint() {
+                None => cone.time_to_collision_s,
+                Some(fp) => polygon_time_to_collision(
+                    fp,
+                    pos,
+                    vel - Vec2::new(v_now, 0.0),
+                    track.radius_m,
+                    o.lookahead_s,
+                    &mut self.cone_events,
+                    &mut self.cone_entries,
+                ),
+            };
             log::trace!(
-                "t {:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}",
+                "t {:.1}: track {} at ({:.2}, {:.2}) v ({:.3}, {:.3}) r {:.2}: cone {:?}, contact in {:?} s",
                 frame.at_s,
                 track.id,
                 pos.x,
@@ -104,10 +119,11 @@ impl SafetyPipeline {
                 vel.x,
                 vel.y,
                 track.radius_m,
-                cone
+                cone,
+                time_to_collision_s
             );
             // Only an imminent collision counts: within the look-ahead.
-            let Some(ttc) = cone.time_to_collision_s.filter(|&t| t <= o.lookahead_s) else {
+            let Some(ttc) = time_to_collision_s.filter(|&t| t <= o.lookahead_s) else {
                 continue;
             };
             let horizon = ttc;
@@ -118,9 +134,14 @@ impl SafetyPipeline {
                 self.any_advanced = true;
             }
             let mut predicted = f64::INFINITY;
+            let fp = self.filter.footprint();
             for i in cluster.indices(n) {
                 self.points_next[i] += vel * dt;
-                predicted = predicted.min((pts[i] + vel * horizon).norm() - r);
+                let at = pts[i] + vel * horizon;
+                predicted = predicted.min(match fp {
+                    None => at.norm() - r,
+                    Some(fp) => fp.signed_distance(at),
+                });
             }
             match &self.derived.fade {
                 Some(fade) => {
