@@ -440,7 +440,7 @@ mod tests {
         // A 0.6 x 0.4 m rectangle grown by 0.1 m: every outline point is 0.1 m
         // from the rectangle (on an edge's offset or an arc about a corner).
         let rect = [v(0.3, 0.2), v(-0.3, 0.2), v(-0.3, -0.2), v(0.3, -0.2)];
-        let hull = convex_hull(&rect);
+        let hull = crate::sim::body::convex_hull(&rect);
         assert_eq!(hull.len(), 4);
         let outline = grown_outline(&hull, 0.1);
         for q in &outline {
@@ -450,7 +450,7 @@ mod tests {
         }
         // A notch (a concave vertex) is inside the hull and left out of it.
         let notched = [v(0.3, 0.2), v(0.0, 0.1), v(-0.3, 0.2), v(-0.3, -0.2), v(0.3, -0.2)];
-        assert_eq!(convex_hull(&notched).len(), 4);
+        assert_eq!(crate::sim::body::convex_hull(&notched).len(), 4);
         let path: Vec<Vec2> = (0..40).map(|i| v(0.1 * i as f64, 0.0)).collect();
         let headings: Vec<f64> = (0..40).map(|i| 0.02 * i as f64).collect();
         let plot = TrajectoryPlot {

@@ -2,6 +2,7 @@
 //! safety perimeter (paper Fig. 4-like).
 
 use super::*;
+use crate::sim::body::convex_hull;
 
 /// Data for the trajectory plot (paper Fig. 4-like top view).
 pub struct TrajectoryPlot<'a> {
@@ -44,34 +45,6 @@ pub struct BodyOutline<'a> {
     /// plus d_safe. Drawn around the polygon's convex hull (for a concave
     /// footprint, a little outside the true outline).
     pub grow_m: f64,
-}
-
-/// The convex hull of `points`, counter-clockwise (Andrew's monotone chain).
-pub(super) fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
-    let mut pts: Vec<Vec2> = points.iter().copied().filter(finite2).collect();
-    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    pts.dedup();
-    if pts.len() < 3 {
-        return pts;
-    }
-    let cross = |o: Vec2, a: Vec2, b: Vec2| (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
-    let mut hull: Vec<Vec2> = Vec::with_capacity(2 * pts.len());
-    for pass in 0..2 {
-        let start = hull.len();
-        let ordered: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 {
-            Box::new(pts.iter())
-        } else {
-            Box::new(pts.iter().rev())
-        };
-        for &q in ordered {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
-                hull.pop();
-            }
-            hull.push(q);
-        }
-        hull.pop();
-    }
-    hull
 }
 
 /// `vertices` (robot frame) posed at `centre` with `heading_rad`, closed.

@@ -64,7 +64,7 @@ fn half_hull(points: impl Iterator<Item = Vec2>) -> Vec<Vec2> {
 }
 
 /// Convex hull of `points`, counter-clockwise, without collinear points.
-fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
+pub(crate) fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
     let mut p = points.to_vec();
     p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     p.dedup();
