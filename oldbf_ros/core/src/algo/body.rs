@@ -110,15 +110,7 @@ pub fn polygon_forbidden_speeds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::algo::footprint::Polygon;
     use proptest::prelude::*;
-
-    fn base_0604() -> PaddedPolygon {
-        PaddedPolygon {
-            polygon: Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        }
-    }
 
     #[test]
     fn a_wall_ahead_forbids_the_speeds_that_bring_the_front_within_need() {
@@ -129,7 +121,7 @@ mod tests {
         let (mut ev, mut out) = (Vec::new(), Vec::new());
         let g = Vec2::new(0.1, 0.0);
         polygon_forbidden_speeds(
-            &base_0604(),
+            &PaddedPolygon::base_0604(),
             &[Vec2::new(0.6, 0.0)],
             g,
             (1.0, 0.0),
@@ -148,7 +140,7 @@ mod tests {
         // A point 0.35 m to the left, beside the long side (0.15 m of room),
         // forbids nothing straight ahead at need 0.1 ...
         polygon_forbidden_speeds(
-            &base_0604(),
+            &PaddedPolygon::base_0604(),
             &[Vec2::new(0.0, 0.35)],
             g,
             (1.0, 0.0),
@@ -162,7 +154,7 @@ mod tests {
         // swings out: standing still (v = 0) is then forbidden too.
         let th: f64 = 0.6;
         polygon_forbidden_speeds(
-            &base_0604(),
+            &PaddedPolygon::base_0604(),
             &[Vec2::new(0.0, 0.35)],
             Vec2::zeros(),
             (th.cos(), th.sin()),
@@ -176,7 +168,7 @@ mod tests {
 
     #[test]
     fn clearance_after_a_step_by_hand() {
-        let fp = base_0604();
+        let fp = PaddedPolygon::base_0604();
         // The point 0.35 m to the left: 0.15 m from the side now.
         let pts = [Vec2::new(0.0, 0.35), Vec2::new(3.0, 0.0)];
         assert!((polygon_clearance_after(&fp, &pts, Vec2::zeros(), (1.0, 0.0)) - 0.15).abs() < 1e-12);
@@ -203,7 +195,7 @@ mod tests {
             th in -0.3..0.3f64, gx in -0.1..0.1f64, gy in -0.02..0.02f64,
             need in 0.0..0.3f64, pad in 0.0..0.05f64,
         ) {
-            let fp = PaddedPolygon { padding_m: pad, ..base_0604() };
+            let fp = PaddedPolygon { padding_m: pad, ..PaddedPolygon::base_0604() };
             let pts: Vec<Vec2> = pts.into_iter().map(|(x, y)| Vec2::new(x, y)).collect();
             let turn = (th.cos(), th.sin());
             let g = Vec2::new(gx, gy);

@@ -188,14 +188,6 @@ pub fn first_polygon_contact(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::algo::footprint::Polygon;
-
-    fn base_0604() -> PaddedPolygon {
-        PaddedPolygon {
-            polygon: Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        }
-    }
 
     fn params() -> Params {
         // Δt 0.1 s, decel 1.0 m/s², angular accel 1.0 rad/s², closing speed 0.05 m/s (default);
@@ -210,7 +202,7 @@ mod tests {
     }
 
     fn contact_with(cmd: Twist, seen: &[Vec2], p: &Params) -> Option<ClosingContact> {
-        let fp = base_0604();
+        let fp = PaddedPolygon::base_0604();
         let mut poses = Vec::new();
         braking_poses(cmd, fp.circumscribed_radius_m(), p, &mut poses);
         first_polygon_contact(&fp, &poses, seen, &[], &[], p)

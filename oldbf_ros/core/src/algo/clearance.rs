@@ -610,10 +610,7 @@ mod tests {
         // The 0.6 x 0.4 m base: a point 0.35 m to the left (and 5 cm ahead) is 0.15 m from the long
         // side (the circumscribed circle, √0.13 = 0.3606 m, would say −0.0106); one
         // 0.5 m ahead is 0.2 m from the front; one 0.5 m behind, 0.2 m from the back.
-        let fp = PaddedPolygon {
-            polygon: crate::algo::footprint::Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        };
+        let fp = PaddedPolygon::base_0604();
         let pts = [Vec2::new(0.05, 0.35), Vec2::new(0.5, 0.0), Vec2::new(-0.5, 0.0)];
         let c = compute_clearances_polygon(&pts, &fp, Sector::new(deg(180.0)), Sector::new(deg(60.0)));
         assert!((c.d_left_m - 0.15).abs() < 1e-12, "{c:?}");

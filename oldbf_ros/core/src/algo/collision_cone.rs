@@ -84,10 +84,7 @@ mod tests {
 
     #[test]
     fn a_rectangle_is_reached_by_its_outline_not_its_circle() {
-        let fp = PaddedPolygon {
-            polygon: crate::algo::footprint::Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        };
+        let fp = PaddedPolygon::base_0604();
         let (mut ev, mut out) = (Vec::new(), Vec::new());
         // Head-on: a person of 0.2 m 2 m ahead at 0.5 m/s reaches the front (x = 0.3)
         // when its centre is at 0.5 m: t = 3 s (the circle of 0.3606 m: 2.879 s).

@@ -83,6 +83,16 @@ struct Edge {
     len2: f64,
 }
 
+impl Edge {
+    /// Whether the ray from `q` towards +x crosses this edge (the even-odd
+    /// rule's count; an edge's lower end counts, its upper end does not).
+    #[inline]
+    fn crossed_rightwards_from(&self, q: Vec2) -> bool {
+        let (a, b) = (self.a, self.b);
+        (a.y > q.y) != (b.y > q.y) && q.x < a.x + (q.y - a.y) / (b.y - a.y) * (b.x - a.x)
+    }
+}
+
 /// The closed parameter range of a motion (t or α).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Span {
@@ -125,13 +135,7 @@ pub fn segments_meet(p0: Vec2, p1: Vec2, q0: Vec2, q1: Vec2) -> bool {
 
 /// Distance from `q` to the closed segment `a b`.
 pub fn segment_distance(q: Vec2, a: Vec2, b: Vec2) -> f64 {
-    segment_distance_squared(q, a, b).sqrt()
-}
-
-/// Squared distance from `q` to the closed segment `a b`.
-#[inline]
-fn segment_distance_squared(q: Vec2, a: Vec2, b: Vec2) -> f64 {
-    (q - closest_on_segment(q, a, b)).norm_squared()
+    (q - closest_on_segment(q, a, b)).norm()
 }
 
 /// The point of the closed segment `a b` nearest to `q`.
@@ -235,24 +239,17 @@ impl Polygon {
     /// Whether `q` lies inside (even-odd rule; a point on the boundary may
     /// go either way: its signed distance is 0 both ways).
     pub fn contains(&self, q: Vec2) -> bool {
-        let mut inside = false;
-        for (a, b) in self.edges() {
-            if (a.y > q.y) != (b.y > q.y) {
-                let x = a.x + (q.y - a.y) / (b.y - a.y) * (b.x - a.x);
-                if q.x < x {
-                    inside = !inside;
-                }
-            }
-        }
-        inside
+        self.edges
+            .iter()
+            .fold(false, |inside, e| inside != e.crossed_rightwards_from(q))
     }
 
     /// Signed distance from `q` to the polygon (m): positive outside,
     /// negative inside.
     pub fn signed_distance(&self, q: Vec2) -> f64 {
         // One pass over the edges: the least squared distance to an edge (one
-        // root at the end) and the even-odd crossings of [`Self::contains`],
-        // the same arithmetic as `segment_distance_squared` and `contains`.
+        // root at the end, the arithmetic of `closest_on_segment`) and the
+        // even-odd crossings of [`Self::contains`].
         let mut least2 = f64::INFINITY;
         let mut inside = false;
         for e in &self.edges {
@@ -262,13 +259,7 @@ impl Polygon {
                 0.0
             };
             least2 = least2.min((q - (e.a + t * e.ab)).norm_squared());
-            let (a, b) = (e.a, e.b);
-            if (a.y > q.y) != (b.y > q.y) {
-                let x = a.x + (q.y - a.y) / (b.y - a.y) * (b.x - a.x);
-                if q.x < x {
-                    inside = !inside;
-                }
-            }
+            inside = inside != e.crossed_rightwards_from(q);
         }
         let d = least2.sqrt();
         if inside {
@@ -505,6 +496,18 @@ fn classify(events: &mut Vec<f64>, span: Span, forbidden: impl Fn(f64) -> bool, 
 }
 
 #[cfg(test)]
+impl PaddedPolygon {
+    /// A 0.6 x 0.4 m base centred on its axle, unpadded: the hand values of
+    /// the tests.
+    pub(crate) fn base_0604() -> Self {
+        Self {
+            polygon: Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
+            padding_m: 0.0,
+        }
+    }
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
@@ -514,13 +517,6 @@ mod tests {
     }
 
     /// The 0.6 x 0.4 m base, centred on the rotation axis.
-    fn base_0604() -> PaddedPolygon {
-        PaddedPolygon {
-            polygon: Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        }
-    }
-
     #[test]
     fn bad_polygons_are_refused_with_the_reason() {
         assert_eq!(
@@ -557,7 +553,7 @@ mod tests {
 
     #[test]
     fn signed_distance_of_the_0604_base_by_hand() {
-        let b = base_0604();
+        let b = PaddedPolygon::base_0604();
         assert!((b.signed_distance(v(0.0, 0.35)) - 0.15).abs() < 1e-12);
         assert!((b.signed_distance(v(0.5, 0.0)) - 0.2).abs() < 1e-12);
         // Beyond a corner: the distance to the corner (0.3, 0.2).
@@ -573,7 +569,7 @@ mod tests {
         // A padding of 0.05 m: 0.05 m less everywhere.
         let p = PaddedPolygon {
             padding_m: 0.05,
-            ..base_0604()
+            ..PaddedPolygon::base_0604()
         };
         assert!((p.signed_distance(v(0.6, 0.6)) - 0.45).abs() < 1e-12);
     }
@@ -586,7 +582,7 @@ mod tests {
         // R(−α)(0, 0.35) = 0.35 (sin α, cos α); the side y = 0.2 comes within
         // 0.1 of it when 0.35 cos α = 0.3, while the point is still beside the
         // long side (0.35 sin α ≤ 0.3): α = acos(0.3/0.35) = 0.5411 rad.
-        let b = base_0604();
+        let b = PaddedPolygon::base_0604();
         let (mut out, mut ev) = (Vec::new(), Vec::new());
         let span = Span { lo: 0.0, hi: 0.5 };
         out.clear();
@@ -620,7 +616,7 @@ mod tests {
         // A point ahead at (1, 0) closing at 1 m per unit t: forbidden from
         // the time it is 0.1 m before the front (x = 0.4: t = 0.6) until it
         // is 0.1 m behind the back (x = −0.4: t = 1.4).
-        let b = base_0604();
+        let b = PaddedPolygon::base_0604();
         let (mut out, mut ev) = (Vec::new(), Vec::new());
         out.clear();
         b.forbidden_on_line(

@@ -1165,10 +1165,7 @@ mod tests {
             velocity: Vec2::new(-0.3, 0.0),
             radius_m: 0.15,
         }));
-        let rectangle = PaddedPolygon {
-            polygon: crate::algo::footprint::Polygon::rectangle(0.6, 0.4, 0.0).unwrap(),
-            padding_m: 0.0,
-        };
+        let rectangle = PaddedPolygon::base_0604();
         ps.set_footprint(Some(rectangle.clone()));
         ps.select_reach(&[], &p);
         // The side is at y = 0.2: the person's centre stays 0.3 m from the body, beyond
