@@ -75,6 +75,32 @@ fn rotate_back(v: Vec2, heading: Vec2) -> Vec2 {
     Vec2::new(heading.x * v.x + heading.y * v.y, -heading.y * v.x + heading.x * v.y)
 }
 
+/// The gap (m) between the body at `pose` (the circle of `r`, or the
+/// polygon `fp`) and a mover's disc of `radius_m` centred at `c`, and
+/// whether `c` is within `grown` of the body (the disc grown for the
+/// prediction's uncertainty). All robot frame now.
+#[inline]
+fn mover_gap(fp: Option<&PaddedPolygon>, r: f64, pose: &PathPose, c: Vec2, radius_m: f64, grown: f64) -> (f64, bool) {
+    match fp {
+        None => {
+            let dist = (c - pose.pos).norm();
+            (dist - r - radius_m, dist < r + grown)
+        }
+        Some(fp) => {
+            let sd = fp.signed_distance(local(c, pose));
+            (sd - radius_m, sd < grown)
+        }
+    }
+}
+
+/// Whether the polygon `fp` at `pose` holds the static point `q` inside
+/// it while closing on it faster than `threshold` (m/s): a closing contact.
+#[inline]
+fn polygon_closes_on(fp: &PaddedPolygon, pose: &PathPose, q: Vec2, threshold: f64) -> bool {
+    let q_local = local(q, pose);
+    fp.signed_distance(q_local) < 0.0 && closing_speed(fp, pose, q, q_local, true) > threshold
+}
+
 /// One sample of a walked path: where the body is, which way it faces
 /// (unit), its velocity (m/s) and yaw rate (rad/s); robot frame now.
 #[derive(Debug, Clone, Copy, Default)]
@@ -882,16 +908,7 @@ impl PassiveSafety {
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
                 // The body's distance to the mover's centre: the circle's, or the posed
                 // polygon's signed distance.
-                let (body_gap, touches) = match fp {
-                    None => {
-                        let dist = d.norm();
-                        (dist - r - m.radius_m, dist < r + grown)
-                    }
-                    Some(fp) => {
-                        let sd = fp.signed_distance(local(c, &pose));
-                        (sd - m.radius_m, sd < grown)
-                    }
-                };
+                let (body_gap, touches) = mover_gap(fp, r, &pose, c, m.radius_m, grown);
                 gap = gap.min(body_gap);
                 if touches {
                     contact = contact.or(Some(t));
@@ -918,11 +935,7 @@ impl PassiveSafety {
                             }
                             match fp {
                                 None => sample.vel.dot(&d) > threshold * d2.sqrt(),
-                                Some(fp) => {
-                                    let q_local = local(*q, &pose);
-                                    fp.signed_distance(q_local) < 0.0
-                                        && closing_speed(fp, &pose, *q, q_local, true) > threshold
-                                }
+                                Some(fp) => polygon_closes_on(fp, &pose, *q, threshold),
                             }
                         });
                         if static_hit {
@@ -1384,16 +1397,7 @@ impl PassiveSafety {
             for m in &self.movers {
                 let c = m.position + m.velocity * t;
                 let grown = m.radius_m + p.passive.mover_margin_m + p.passive.mover_growth_mps * t;
-                let (body_gap, touches) = match fp {
-                    None => {
-                        let dist = (c - pos).norm();
-                        (dist - r - m.radius_m, dist < r + grown)
-                    }
-                    Some(fp) => {
-                        let sd = fp.signed_distance(local(c, &pose));
-                        (sd - m.radius_m, sd < grown)
-                    }
-                };
+                let (body_gap, touches) = mover_gap(fp, r, &pose, c, m.radius_m, grown);
                 gap = gap.min(body_gap);
                 if touches {
                     contact = contact.or(Some(t));
@@ -1411,10 +1415,7 @@ impl PassiveSafety {
                             let d2 = d.norm_squared();
                             d2 < r * r && vel.dot(&d) > threshold * d2.sqrt()
                         }
-                        Some(fp) => {
-                            let q_local = local(*q, &pose);
-                            fp.signed_distance(q_local) < 0.0 && closing_speed(fp, &pose, *q, q_local, true) > threshold
-                        }
+                        Some(fp) => polygon_closes_on(fp, &pose, *q, threshold),
                     });
                     if static_hit {
                         contact = Some(t);

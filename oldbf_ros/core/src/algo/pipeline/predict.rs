@@ -85,6 +85,7 @@ impl SafetyPipeline {
                 }
             }));
         let n = pts.len();
+        let fp = self.filter.footprint();
         for (ci, cluster) in self.clusters.as_slice().iter().enumerate() {
             let Some(ti) = self.tracker.cluster_track().get(ci).copied().flatten() else {
                 continue;
@@ -98,7 +99,7 @@ impl SafetyPipeline {
             // A polygon body: the time the track's disc first reaches the polygon, its
             // centre moving relative to the robot (heading held) along pos + (v_o − v) t:
             // where that line comes within r_o of the polygon, exactly.
-            let time_to_collision_s = match self.filter.footprint() {
+            let time_to_collision_s = match fp {
                 None => cone.time_to_collision_s,
                 Some(fp) => polygon_time_to_collision(
                     fp,
@@ -134,7 +135,6 @@ impl SafetyPipeline {
                 self.any_advanced = true;
             }
             let mut predicted = f64::INFINITY;
-            let fp = self.filter.footprint();
             for i in cluster.indices(n) {
                 self.points_next[i] += vel * dt;
                 let at = pts[i] + vel * horizon;
