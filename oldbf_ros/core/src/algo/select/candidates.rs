@@ -153,7 +153,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
-            guide: true,
+            guide: 1.0,
             doaa_both_sides: false,
             movers_near: false,
         }

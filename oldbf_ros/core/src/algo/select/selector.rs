@@ -37,10 +37,16 @@ use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::params::Params;
 use crate::algo::passive::{EvasionSoFar, Mover, PassiveSafety, Profile};
 
-/// A safe nominal whose clearance critic's (unweighted) cost exceeds this is
-/// heading into something: about half the clearance band given up over the
-/// horizon ((½)² of the band's shortfall).
-const HEADING_IN_SHORTFALL: f64 = 0.25;
+/// A safe nominal heading into something (ALGORITHM.md §5c): the clearance
+/// critic's (unweighted) cost of the nominal held for the horizon. Up to
+/// `GUIDE_FROM` (about a fifth of the band given up, (0.22)²) the nominal
+/// is left alone; from there the steering critics' share rises linearly to
+/// all of it at `GUIDE_FULL` (half the band, (½)²). A share that switched
+/// at once would make the robot swing: the steering turns it off the
+/// nominal's line, the nominal then looks safe again and the yaw rate
+/// swings back at the base's limit, until it heads in once more.
+const GUIDE_FROM: f64 = 0.05;
+const GUIDE_FULL: f64 = 0.25;
 
 /// How far beyond the best total so far a bound must be before a walk is
 /// stopped: far above the rounding of sums of a few costs of order 1-100.
@@ -113,8 +119,9 @@ pub struct Selection {
     pub costs: CriticCosts,
     /// The nominal was sent unchanged.
     pub passed: bool,
-    /// The nominal was not safe as it was: the critics that steer counted.
-    pub guided: bool,
+    /// How much the critics that steer counted (0..1): 1 when the nominal
+    /// was not safe as it was, less as it only headed into something.
+    pub guide: f64,
     /// A mover threatens the upstream command: the mover critic counted.
     pub threatened: bool,
     /// `cmd` goes faster than the upstream or reverses unasked.
@@ -243,7 +250,7 @@ impl Selector {
         let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
         // Is the upstream command safe as it is? Then it is sent unchanged if the base can
         // follow it now, and approached through the window otherwise; the critics that
-        // steer (the DOAA's law, progress, clearance, the side kept) count only when it is not.
+        // steer (the DOAA's law, progress, clearance, the side kept) count as far as it is not.
         let nominal_h_next = h_next_of(g.filter, input.nominal);
         // A person near may step anywhere: the steering critics keep the robot away.
         // Near: within `mover_near_m` of the body (the circle, or the footprint polygon).
@@ -253,17 +260,22 @@ impl Selector {
             Some(fp) => fp.signed_distance(m.position) - m.radius_m,
         };
         let people_near = passive && g.passive.movers().iter().any(|m| body_gap(m) < near_m);
-        // Heading into something: held for the horizon, the nominal gives up room well
-        // inside the clearance band; the steering critics act now, gently, rather than
-        // at the last moment.
-        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p) > HEADING_IN_SHORTFALL;
-        let nominal_ok = !threatened
+        // Heading into something: held for the horizon, the nominal gives up room inside
+        // the clearance band; the steering critics act now, gently and in proportion,
+        // rather than at the last moment.
+        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p);
+        let admissible_now = !threatened
             && !people_near
-            && !heading_in
             && target_of(first, f64::NAN).is_none_or(|t| {
                 braking_room(first, nominal_h_next, input.nominal, self.towards_nearest, p) >= t - TOL_M
             })
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
+        let guide = if admissible_now {
+            ((heading_in - GUIDE_FROM) / (GUIDE_FULL - GUIDE_FROM)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let nominal_ok = guide == 0.0;
         let ctx = Context {
             params: p,
             nominal: input.nominal,
@@ -277,7 +289,7 @@ impl Selector {
             last_change: input.last_change,
             target: input.target,
             side: self.side,
-            guide: !nominal_ok,
+            guide,
         };
         if nominal_ok {
             // Sent unchanged if the base can follow it now; else the command of the window
@@ -307,7 +319,7 @@ impl Selector {
                     tier: first,
                     costs,
                     passed,
-                    guided: false,
+                    guide: 0.0,
                     threatened,
                     added_motion: false,
                     braking_held: true,
@@ -381,7 +393,7 @@ impl Selector {
             tier,
             costs,
             passed: false,
-            guided: ctx.guide,
+            guide: ctx.guide,
             threatened,
             added_motion: cmd.v_mps > hi.max(window.v.0) + WINDOW_TOL || cmd.v_mps < lo.min(window.v.1) - WINDOW_TOL,
             braking_held,
@@ -413,11 +425,11 @@ impl Selector {
 
     /// `costs` with the clearance critic's, when the steering critics count.
     fn with_clearance(&self, ctx: &Context<'_>, look: &Look, mut costs: CriticCosts) -> CriticCosts {
-        if ctx.guide {
+        if ctx.guide > 0.0 {
             let p = ctx.params;
             costs.set(
                 Critic::Clearance,
-                p.select.weights.clearance * self.clearance.cost(look, p),
+                ctx.guide * p.select.weights.clearance * self.clearance.cost(look, p),
             );
         }
         costs
@@ -744,14 +756,65 @@ mod tests {
         let mut sel = Selector::with_capacity(points.len(), &p);
         let s = select_on(&mut sel, &points, &person, &input, &p);
         assert_eq!(sel.side(), Some(-1.0));
-        assert!(s.guided && s.cmd.omega_radps < 0.2, "{s:?}");
+        assert!(s.guide == 1.0 && s.cmd.omega_radps < 0.2, "{s:?}");
         // Following a way round whose waypoint is to the left: no side is kept against
         // it, and the robot speeds up its turn towards it (the window's top sample
         // but for smoothness).
         input.following = true;
         let s = select_on(&mut sel, &points, &person, &input, &p);
         assert_eq!(sel.side(), None);
-        assert!(s.guided && s.cmd.omega_radps > 0.2 && s.cmd.v_mps.abs() < 1e-9, "{s:?}");
+        assert!(
+            s.guide == 1.0 && s.cmd.omega_radps > 0.2 && s.cmd.v_mps.abs() < 1e-9,
+            "{s:?}"
+        );
+    }
+
+    #[test]
+    fn the_steering_takes_over_gradually_as_the_nominal_heads_in() {
+        // A wall along the right, parallel to the heading, moved in from 1.2 m to 0.38 m (h 0.002 m)
+        // by 1 cm; the upstream turns right into it at ω_max (0.15 m/s, −0.3 rad/s) and
+        // the DOAA's law steers away (+0.1 rad/s). The base has had a second since the
+        // last command, so the window spans the whole box. The nominal's clearance cost
+        // grows with the wall's nearness; the steering critics' share with it, from 0
+        // (sent unchanged) to 1, so the command moves from the nominal's yaw rate to the
+        // guided one in small steps, with no jump at a threshold (which would have the
+        // robot swing between the two as the nominal heads in and out).
+        let p = Params::default();
+        let nominal = Twist::new(0.15, -0.3);
+        let input = |last: Twist| SelectInput {
+            nominal,
+            doaa: Twist::new(0.15, 0.1),
+            doaa_both_sides: false,
+            last,
+            last_change: Twist::ZERO,
+            since_s: 1.0,
+            bx: InputBox::from_params(&p),
+            target: None,
+            front_blocked: false,
+            front_clear: true,
+            following: false,
+            clearer_side: 1.0,
+            closing_in: false,
+            mover_closing: false,
+        };
+        let mut omegas = Vec::new();
+        let mut guides = Vec::new();
+        for cm in (38..=120).rev() {
+            let y = -f64::from(cm) / 100.0;
+            let points: Vec<Vec2> = (-40..=40).map(|k| Vec2::new(0.05 * f64::from(k), y)).collect();
+            let mut sel = Selector::with_capacity(points.len(), &p);
+            let s = select_on(&mut sel, &points, &[], &input(nominal), &p);
+            omegas.push(s.cmd.omega_radps);
+            guides.push(s.guide);
+        }
+        // Far off, the nominal goes through; near, the robot is steered off it.
+        assert_eq!(omegas[0], -0.3);
+        assert_eq!(guides[0], 0.0);
+        assert!(*guides.last().unwrap() > 0.8, "{guides:?}");
+        assert!(*omegas.last().unwrap() > -0.1, "{omegas:?}");
+        assert!(guides.iter().any(|&g| g > 0.0 && g < 1.0), "{guides:?}");
+        let steepest = omegas.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+        assert!(steepest < 0.08, "a jump of {steepest} rad/s in {omegas:?}");
     }
 
     proptest::proptest! {

@@ -136,10 +136,12 @@ pub struct Context<'a> {
     pub target: Option<Vec2>,
     /// The side kept for passing an obstacle ahead (+1 left, −1 right).
     pub side: Option<f64>,
-    /// The upstream command is not safe as it is: the critics that steer
-    /// (DOAA, progress, clearance, side) count. Otherwise the selector only
-    /// approaches the upstream command, and they cost 0.
-    pub guide: bool,
+    /// How much the critics that steer (DOAA, progress, clearance, side)
+    /// count, 0..1, and the nominal critic's yaw rate the rest: 1 when the
+    /// upstream command is not safe as it is, rising continuously from 0 as
+    /// it heads into something (§5c). At 0 the selector only approaches the
+    /// upstream command.
+    pub guide: f64,
 }
 
 /// Points where a candidate held from now puts the robot (robot frame, m),
@@ -197,10 +199,11 @@ pub fn cheap_costs(ctx: &Context<'_>, look: &Look) -> CriticCosts {
     c.set(Critic::Nominal, w.nominal * nominal::cost(ctx, cmd));
     c.set(Critic::Smoothness, w.smoothness * smoothness::cost(ctx, cmd));
     c.set(Critic::Oscillation, w.oscillation * oscillation::cost(ctx, cmd));
-    if ctx.guide {
-        c.set(Critic::Doaa, w.doaa * doaa::cost(ctx, cmd));
-        c.set(Critic::Progress, w.progress * progress::cost(ctx, look));
-        c.set(Critic::Side, w.side * side::cost(ctx, cmd));
+    let g = ctx.guide;
+    if g > 0.0 {
+        c.set(Critic::Doaa, g * w.doaa * doaa::cost(ctx, cmd));
+        c.set(Critic::Progress, g * w.progress * progress::cost(ctx, look));
+        c.set(Critic::Side, g * w.side * side::cost(ctx, cmd));
     }
     c
 }

@@ -1,9 +1,10 @@
 //! Closeness to the upstream command: the filter changes a safe command as
 //! little as it can (ALGORITHM.md §5c). The deviation in v and in ω, each
 //! over its full range (v_max, ω_max), squared: 1 for a command a whole
-//! range away; while the steering critics count, only the speed (the DOAA
-//! critic's command already holds the nominal's yaw rate). (A nominal that meets every constraint and lies in the
-//! window is not scored at all: it is sent unchanged.)
+//! range away. The yaw rate counts in proportion to 1 − guide: as far as the
+//! steering critics count, the DOAA critic's command (which already holds the
+//! nominal's yaw rate) stands for it. (A nominal that meets every constraint
+//! and lies in the window is not scored at all: it is sent unchanged.)
 
 use super::{sq, Context};
 use crate::algo::geometry::Twist;
@@ -14,11 +15,7 @@ pub fn cost(ctx: &Context<'_>, cmd: Twist) -> f64 {
     // While the steering critics count, the DOAA's command (the nominal's yaw rate
     // plus the law's avoidance term) stands for the nominal's yaw rate: counting it
     // twice would pull the robot back at what the law steers it from.
-    let turn = if ctx.guide {
-        0.0
-    } else {
-        sq(cmd.omega_radps, ctx.nominal.omega_radps, c.omega_max_radps)
-    };
+    let turn = (1.0 - ctx.guide) * sq(cmd.omega_radps, ctx.nominal.omega_radps, c.omega_max_radps);
     sq(cmd.v_mps, ctx.nominal.v_mps, c.v_max_mps) + turn
 }
 
@@ -38,7 +35,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: None,
-            guide: false,
+            guide: 0.0,
             doaa_both_sides: false,
             movers_near: false,
         };

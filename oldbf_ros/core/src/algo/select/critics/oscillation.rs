@@ -41,7 +41,7 @@ mod tests {
             last_change: Twist::new(-0.05, 0.1),
             target: None,
             side: None,
-            guide: true,
+            guide: 1.0,
             doaa_both_sides: false,
             movers_near: false,
         };

@@ -53,7 +53,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: Some(Vec2::new(3.0, 0.0)),
             side: None,
-            guide: true,
+            guide: 1.0,
             doaa_both_sides: false,
             movers_near: false,
         };

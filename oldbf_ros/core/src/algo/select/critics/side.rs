@@ -40,7 +40,7 @@ mod tests {
             last_change: Twist::ZERO,
             target: None,
             side: Some(1.0),
-            guide: true,
+            guide: 1.0,
             doaa_both_sides: false,
             movers_near: false,
         };
