@@ -75,7 +75,7 @@ impl Default for CriticWeights {
         Self {
             nominal: 1.0,
             smoothness: 0.05,
-            oscillation: 1.0,
+            oscillation: 5.0,
             doaa: 1.0,
             progress: 2.0,
             clearance: 1.0,
