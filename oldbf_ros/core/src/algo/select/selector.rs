@@ -263,7 +263,6 @@ impl Selector {
         // Heading into something: held for the horizon, the nominal gives up room inside
         // the clearance band; the steering critics act now, gently and in proportion,
         // rather than at the last moment.
-        let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p);
         let admissible_now = !threatened
             && !people_near
             && target_of(first, f64::NAN).is_none_or(|t| {
@@ -271,6 +270,7 @@ impl Selector {
             })
             && (!passive || g.passive.closing_contact(input.nominal, p).is_none());
         let guide = if admissible_now {
+            let heading_in = self.clearance.cost(&Look::of(input.nominal, p), p);
             ((heading_in - GUIDE_FROM) / (GUIDE_FULL - GUIDE_FROM)).clamp(0.0, 1.0)
         } else {
             1.0
@@ -776,16 +776,16 @@ mod tests {
         // the DOAA's law steers away (+0.1 rad/s). The base has had a second since the
         // last command, so the window spans the whole box. The nominal's clearance cost
         // grows with the wall's nearness; the steering critics' share with it, from 0
-        // (sent unchanged) to 1, so the command moves from the nominal's yaw rate to the
+        // (sent unchanged) to most of it, so the command moves from the nominal's yaw rate to the
         // guided one in small steps, with no jump at a threshold (which would have the
         // robot swing between the two as the nominal heads in and out).
         let p = Params::default();
         let nominal = Twist::new(0.15, -0.3);
-        let input = |last: Twist| SelectInput {
+        let input = SelectInput {
             nominal,
             doaa: Twist::new(0.15, 0.1),
             doaa_both_sides: false,
-            last,
+            last: nominal,
             last_change: Twist::ZERO,
             since_s: 1.0,
             bx: InputBox::from_params(&p),
@@ -803,7 +803,7 @@ mod tests {
             let y = -f64::from(cm) / 100.0;
             let points: Vec<Vec2> = (-40..=40).map(|k| Vec2::new(0.05 * f64::from(k), y)).collect();
             let mut sel = Selector::with_capacity(points.len(), &p);
-            let s = select_on(&mut sel, &points, &[], &input(nominal), &p);
+            let s = select_on(&mut sel, &points, &[], &input, &p);
             omegas.push(s.cmd.omega_radps);
             guides.push(s.guide);
         }
