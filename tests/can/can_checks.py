@@ -596,15 +596,19 @@ def check_cia402(bins, tmp):
 
     rpdo = [(t, n, u16(d, 0), i32(d, 2)) for t, k, n, d in ev if k == "rpdo1"]
     tpdo1 = [(t, n, u16(d, 0), u16(d, 2), struct.unpack_from("<b", d, 4)[0]) for t, k, n, d in ev if k == "tpdo1"]
-    nmt = [(t, d[0], d[1]) for t, k, _, d in ev if k == "nmt"]
 
     # 2. The first start-up: NMT pre-operational, SDO (each answered before the next), NMT start.
     want = co_expected_writes()
     details, ok = [], True
+    # "Before" and "after" by the order candump read the frames (the bus's causal order), not by their
+    # timestamps: a TCG guest's vCPUs stamp frames from clocks that may disagree by a little.
+    nmt_at = [(i, d[0], d[1]) for i, (t, k, _, d) in enumerate(ev) if k == "nmt"]
+    back = sum(1 for a, b in zip(ev, ev[1:]) if b[0] < a[0])
     for node in CO_NODES:
-        pre = next((t for t, c, n in nmt if c == 0x80 and n == node), None)
-        start = next((t for t, c, n in nmt if c == 0x01 and n == node), None)
-        sdo = [(t, k, d) for t, k, n, d in ev if n == node and k in ("sdo_req", "sdo_resp") and start and t <= start]
+        pre = next((i for i, c, n in nmt_at if c == 0x80 and n == node), None)
+        start = next((i for i, c, n in nmt_at if c == 0x01 and n == node), None)
+        sdo = [(i, k, d) for i, (t, k, n, d) in enumerate(ev)
+               if n == node and k in ("sdo_req", "sdo_resp") and start is not None and i < start]
         writes, unanswered, aborts, upload = {}, 0, [], None
         for j, (t, k, d) in enumerate(sdo):
             addr = (u16(d, 1), d[3])
@@ -612,6 +616,11 @@ def check_cia402(bins, tmp):
                 nxt = sdo[j + 1] if j + 1 < len(sdo) else None
                 if nxt is None or nxt[1] != "sdo_resp" or (u16(nxt[2], 1), nxt[2][3]) != addr:
                     unanswered += 1
+                    # What followed, to tell a lost answer from a reordered one.
+                    later = [(i2 - t, k2, d2.hex()) for i2, (_, k2, n2, d2) in enumerate(ev[t + 1:], t + 1)
+                             if (n2 == node and k2 in ("sdo_req", "sdo_resp")) or k2 == "nmt"][:3]
+                    print(f"cia402: node {node} request {d.hex()} at frame {t} (NMT start at frame {start}); "
+                          f"next of this node: {later}; timestamps going back in the dump: {back}")
                 if d[0] in (0x23, 0x27, 0x2B, 0x2F):
                     size = 4 - ((d[0] >> 2) & 3)
                     writes[addr] = int.from_bytes(d[4:4 + size], "little", signed=addr == (0x6060, 0))
@@ -627,7 +636,7 @@ def check_cia402(bins, tmp):
                        f"aborts {aborts}, mismatches {wrong}, read {None if upload is None else f'0x{upload[0]:04X}:{upload[1]:02X}'}")
     check(ok, "cia402: start-up = NMT pre-operational, read 0x1000, expedited writes (0x1017, 0x1016:01, 0x6060 = 3, "
               "0x6083/4/5 = 9549/9549/19099 rpm/s, PDO mapping and types), each answered by python-canopen, then NMT start",
-          "; ".join(details))
+          "; ".join(details) + f"; timestamps going back in the dump: {back}")
 
     # 3. The python-canopen drives hold what the bridge wrote (their SDO server accepted it).
     ok, details = True, []
