@@ -153,7 +153,10 @@ impl SafetyPipeline {
         let input = SelectInput {
             nominal,
             doaa: doaa_cmd,
-            doaa_both_sides: doaa_state == DoaaState::BothSides,
+            // Following a way round, the route has chosen which way to turn: the DOAA's
+            // both-sides turn (towards the clearer side) counts only as its steering does,
+            // in proportion to speed, or at rest the two turns cancel and hold the robot.
+            doaa_both_sides: doaa_state == DoaaState::BothSides && !heading.following,
             last: self.last_cmd,
             last_change: self.last_change,
             since_s,

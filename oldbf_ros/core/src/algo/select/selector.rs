@@ -769,6 +769,48 @@ mod tests {
         );
     }
 
+    /// One selection at rest with a wall 0.5 m ahead (front blocked), the
+    /// upstream turning left in place, the DOAA's both-sides turn to the right
+    /// (the clearer side) and a way round being followed whose waypoint lies
+    /// to the left; `both_sides`: whether the DOAA's turn counts as its
+    /// both-sides turn (at rest) or only as its steering does (in proportion
+    /// to speed). The yaw rate sent.
+    fn turn_at_rest_following(both_sides: bool) -> f64 {
+        let p = Params::default();
+        let points: Vec<Vec2> = (-10..=10).map(|k| Vec2::new(0.5, 0.05 * f64::from(k))).collect();
+        let input = SelectInput {
+            nominal: Twist::new(0.03, 0.3),
+            doaa: Twist::new(0.0, -0.3),
+            doaa_both_sides: both_sides,
+            last: Twist::ZERO,
+            last_change: Twist::ZERO,
+            since_s: 0.1,
+            bx: InputBox::from_params(&p),
+            target: Some(Vec2::new(0.0, 1.0)),
+            front_blocked: true,
+            front_clear: false,
+            following: true,
+            clearer_side: -1.0,
+            closing_in: false,
+            mover_closing: false,
+        };
+        let mut sel = Selector::with_capacity(points.len(), &p);
+        select_on(&mut sel, &points, &[], &input, &p).cmd.omega_radps
+    }
+
+    #[test]
+    fn following_a_way_round_the_robot_turns_towards_its_waypoint_at_rest() {
+        // The pipeline passes the both-sides turn as such only when no way round is
+        // followed. Counted as the both-sides turn, it pulls right as hard as the
+        // waypoint and the upstream pull left: the costs balance near ω = 0 and the
+        // robot rests there, turning neither way. Counted as steering (nothing at
+        // rest), the robot turns left at the window's top (α Δt = 0.1 rad/s) or near it.
+        let held = turn_at_rest_following(true);
+        let turned = turn_at_rest_following(false);
+        assert!(turned > 0.08, "turned {turned} (held {held})");
+        assert!(held.abs() < turned, "held {held}, turned {turned}");
+    }
+
     #[test]
     fn the_steering_takes_over_gradually_as_the_nominal_heads_in() {
         // A wall along the right, parallel to the heading, moved in from 1.2 m to 0.38 m (h 0.002 m)
