@@ -98,14 +98,6 @@ pub const GHOST_MEMORY_S: f64 = 6.0;
 /// those the travel proof holds back longest.
 pub const GHOST_SPREAD_MPS: f64 = 0.1;
 
-/// How far a static object's centre estimate can slide per metre its
-/// apparent radius changes. An object first seen in part (the end of a bench,
-/// one face of a box, far off through few beams) looks smaller than it is;
-/// as more of it comes into view its centroid moves by up to the growth of
-/// its radius, and the depth added behind the centroid (about as much) with
-/// it. Travel within that is no proof of motion; a person keeps their size.
-pub const SIZE_SLIDE: f64 = 2.0;
-
 /// What a deleted moving track leaves behind: proof that something moved there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Ghost {
@@ -148,15 +140,12 @@ pub struct Track {
     /// Where the centre of the object it sees was first estimated, tracking
     /// frame (m): the centroid pushed back by its depth (`Cluster::centre`).
     pub born_at: Vec2,
-    /// The farthest the centre estimate has been from `born_at` so far,
-    /// less what the change of the object's apparent size explains (m,
-    /// [`SIZE_SLIDE`]): proof that it really moves, kept when it turns round
-    /// (a pacing person stays a mover). The centre, not the centroid: the
-    /// centroid of the visible side of a post slides round it as the robot
-    /// drives by (as far as the post is wide), its centre estimate much less.
+    /// The farthest the centre estimate has been from `born_at` so far (m):
+    /// proof that it really moves, kept when it turns round (a pacing person
+    /// stays a mover). The centre, not the centroid: the centroid of the
+    /// visible side of a post slides round it as the robot drives by (as far
+    /// as the post is wide), its centre estimate much less.
     pub max_travel_m: f64,
-    /// The radius of the cluster it was born from (m).
-    pub born_radius_m: f64,
     /// Born at a ghost: the same mover seen again, with no travel to prove.
     pub reacquired: bool,
     fx: CvFilter,
@@ -379,8 +368,7 @@ impl ObstacleTracker {
             t.depth_m = 0.8 * t.depth_m + 0.2 * depth_of(&clusters[ci]);
             if !clusters[ci].partial {
                 let centre = Self::centre_of(t, self.robot_pose.position());
-                let slide = SIZE_SLIDE * (t.radius_m - t.born_radius_m).abs();
-                t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm() - slide);
+                t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
             }
             t.hits += 1;
             t.misses = 0;
@@ -460,7 +448,6 @@ impl ObstacleTracker {
                 misses: 0,
                 born_at: to_tracking.point(c.centre),
                 max_travel_m: 0.0,
-                born_radius_m: c.radius_m,
                 reacquired,
                 fx: CvFilter::new(z.x, r),
                 fy: CvFilter::new(z.y, r),
@@ -703,54 +690,6 @@ mod tests {
         assert_eq!(moving_again_after(16.0, 1.0, 1.0), None);
         // Seen again after the ghost is forgotten (6 s): the same.
         assert_eq!(moving_again_after(16.0, 7.0, 0.0), None);
-    }
-
-    /// A cluster of radius `r` whose centroid is at (x, y), its centre
-    /// estimate `r` farther along the bearing (as `Cluster::centre` puts it).
-    fn seen(x: f64, y: f64, r: f64) -> Cluster {
-        let centroid = Vec2::new(x, y);
-        Cluster {
-            radius_m: r,
-            centre: centroid * (1.0 + r / centroid.norm()),
-            ..cluster_at(x, y)
-        }
-    }
-
-    #[test]
-    fn an_object_that_grows_into_view_is_not_a_mover() {
-        // The end of a bench 3 m ahead, first seen as a stub (radius 0.05 m), then over
-        // 3 s more of it: radius 0.35 m, the centroid 0.3 m to the side, the centre
-        // estimate 0.3 m deeper. The centre estimate travels √(0.3² + 0.3²) = 0.42 m,
-        // beyond min_travel_m (0.3 m), all of it explained by the growth (2 × 0.3 m).
-        let p = ObstacleParams::default();
-        let mut tr = ObstacleTracker::default();
-        for k in 0..=60 {
-            let f = (k as f64 / 30.0).min(1.0);
-            tr.update(
-                &[seen(3.0, 0.3 * f, 0.05 + 0.3 * f)],
-                0.1 * k as f64,
-                Pose2::default(),
-                &p,
-            );
-            let t = tr.tracks()[0];
-            assert!(!t.is_moving(&p), "scan {k}: {t:?}");
-        }
-        let t = tr.tracks()[0];
-        let born = Vec2::new(3.05, 0.0);
-        let centre = ObstacleTracker::centre_of(&t, Vec2::zeros());
-        assert!((centre - born).norm() > p.min_travel_m + 0.1, "{centre:?}");
-        // A person of constant size (0.2 m) walking the same 0.42 m is one.
-        let mut tr = ObstacleTracker::default();
-        for k in 0..=60 {
-            let f = (k as f64 / 30.0).min(1.0);
-            tr.update(
-                &[seen(3.0 + 0.3 * f, 0.3 * f, 0.2)],
-                0.1 * k as f64,
-                Pose2::default(),
-                &p,
-            );
-        }
-        assert!(tr.tracks()[0].max_travel_m > p.min_travel_m, "{:?}", tr.tracks()[0]);
     }
 
     #[test]

@@ -26,8 +26,7 @@ pub struct ObstacleParams {
     pub measurement_noise_m: f64,
     /// A confirmed track faster than this is moving (m/s)…
     pub moving_speed_mps: f64,
-    /// …once it has been this far from where it was first seen, less twice the
-    /// change of its radius since (m; kept when it turns round; `SIZE_SLIDE`).
+    /// …once it has been this far from where it was first seen (m; kept when it turns round).
     pub min_travel_m: f64,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
     /// 6 s: a robot turning at 0.3 rad/s needs 8-9 s to step 0.6 m off a person's line
