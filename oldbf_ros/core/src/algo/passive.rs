@@ -47,16 +47,6 @@ const MAX_BRAKE_SAMPLES: usize = 48;
 const EVASION_SAMPLE_S: f64 = 0.2;
 /// Movers slower than this have no line to step out of (m/s).
 const LINE_MIN_SPEED_MPS: f64 = 0.05;
-/// A mover's line counts in full while it heads within 35° of straight at
-/// the robot (cos 35°), not at all beyond 55° (cos 55°), and in proportion
-/// between: its heading is an estimate that wanders by several degrees from
-/// scan to scan, and a term that switched on and off with it made the
-/// choice between stepping left and right flip with every scan.
-const LINE_COS_FULL: f64 = 0.819_152_044_288_992;
-const LINE_COS_NONE: f64 = 0.573_576_436_351_046;
-/// Likewise, a mover's line fades out over the last this much (m) of the
-/// distance it can close within the look-ahead.
-const LINE_FADE_M: f64 = 0.5;
 
 /// A unicycle on a constant (v, ω) from the origin, walked in equal time
 /// steps: each step is the exact arc (its chord along the mid-step heading),
@@ -736,30 +726,20 @@ impl PassiveSafety {
         self.evasion_memo.put(cmd, score)
     }
 
-    /// Sidestep (§5b): how far inside the swept line of a mover coming at
-    /// the robot its path ends at `end` (robot frame, m), weighed by how
-    /// surely the mover comes: in full within 35° of straight at the robot
-    /// and able to reach it within the look-ahead, fading to nothing by 55°
-    /// and over the last [`LINE_FADE_M`] of that reach. A path that ends
-    /// beside the line has no deficit, and none is deeper than the robot
-    /// stands in the line now: from beside it there is nothing to step out
-    /// of, and the deficit falls to 0 as the robot reaches its edge, without
-    /// a jump.
+    /// Sidestep (§5b): how far inside the swept line of a mover coming head-on
+    /// (within 45° of straight at the robot, and able to reach it within the
+    /// look-ahead) the robot still is when its path ends at `end` (robot
+    /// frame, m).
     fn line_deficit(&self, end: Vec2, end_heading: Vec2, p: &Params) -> f64 {
         let r = p.robot_radius_m();
         let fp = self.footprint.as_ref();
         let mut line_deficit_m: f64 = 0.0;
         for m in &self.movers {
             let speed = m.velocity.norm();
-            let dist = m.position.norm();
-            if speed < LINE_MIN_SPEED_MPS || dist == 0.0 {
-                continue;
-            }
-            // Coming at the robot, from ahead (head-on) or from behind (overtaking):
-            // either way the robot is in its line.
-            let cos_at = -m.velocity.dot(&m.position) / (speed * dist);
-            let aim = ((cos_at - LINE_COS_NONE) / (LINE_COS_FULL - LINE_COS_NONE)).clamp(0.0, 1.0);
-            if aim == 0.0 {
+            // Coming at the robot: within 45° of straight at it, from ahead (head-on) or
+            // from behind (overtaking): either way the robot is in its line.
+            let at_robot = -m.velocity.dot(&m.position) > std::f64::consts::FRAC_1_SQRT_2 * speed * m.position.norm();
+            if speed < LINE_MIN_SPEED_MPS || !at_robot {
                 continue;
             }
             // How far the body reaches across the mover's line from its origin: the
@@ -770,19 +750,18 @@ impl PassiveSafety {
                 across + m.radius_m + p.passive.mover_margin_m
             };
             let need = need_at(Vec2::new(1.0, 0.0));
-            let reach = (speed + p.control.v_max_mps) * p.obstacles.lookahead_s;
-            let near = ((reach - (dist - need)) / LINE_FADE_M).clamp(0.0, 1.0);
-            if near == 0.0 {
+            if m.position.norm() - need > (speed + p.control.v_max_mps) * p.obstacles.lookahead_s {
                 continue;
             }
             let lateral_of = |q: Vec2| {
                 let d = q - m.position;
                 (m.velocity.x * d.y - m.velocity.y * d.x).abs() / speed
             };
-            // Stepping out of the line counts, no deeper than the robot stands in it now:
-            // from beside it there is nothing to step out of.
-            let deficit = (need_at(end_heading) - lateral_of(end)).min(need - lateral_of(Vec2::zeros()));
-            line_deficit_m = line_deficit_m.max(aim * near * deficit);
+            // Already beside its line: nothing to step out of.
+            if lateral_of(Vec2::zeros()) >= need {
+                continue;
+            }
+            line_deficit_m = line_deficit_m.max(need_at(end_heading) - lateral_of(end));
         }
         line_deficit_m
     }
@@ -1317,41 +1296,6 @@ mod tests {
             let s = ps.evasion_score(Twist::ZERO, &p);
             assert_eq!(s.line_deficit_m, 0.0, "{pos:?} {vel:?} {s:?}");
         }
-    }
-
-    #[test]
-    fn the_line_term_changes_little_with_a_small_turn_of_the_movers_heading() {
-        // A person 1.5 m ahead at 0.15 m/s, heading a° off straight at the robot towards
-        // its right; the path ends 0.3 m to the right. Its line passes the robot's
-        // origin a lateral 1.5 sin a off, and the end |0.3 cos a − 1.5 sin a| off;
-        // room needed 0.428 m. At a = 16.6° the origin leaves the line while the end
-        // is still 0.29 m inside it, and at 45° the person stops counting as coming
-        // at the robot: neither may make the deficit jump. Its slope in a is at most
-        // 0.3 sin a + 1.5 cos a ≤ 1.53 m/rad (0.0027 m per 0.1°), plus the fade of
-        // a deficit ≤ 0.43 m over 20° (0.0022 m per 0.1°).
-        let p = params();
-        let mut ps = PassiveSafety::default();
-        let end = Vec2::new(0.0, -0.3);
-        let mut last: Option<f64> = None;
-        let mut most: f64 = 0.0;
-        for k in 0..=600 {
-            let a = (0.1 * k as f64).to_radians();
-            ps.set_movers(std::iter::once(Mover {
-                position: Vec2::new(1.5, 0.0),
-                velocity: Vec2::new(-a.cos(), -a.sin()) * 0.15,
-                radius_m: 0.2,
-            }));
-            let d = ps.line_deficit(end, Vec2::new(1.0, 0.0), &p);
-            if k == 0 {
-                assert!((d - (0.428 - 0.3)).abs() < 1e-9, "{d}");
-            }
-            if let Some(l) = last {
-                most = most.max((d - l).abs());
-            }
-            last = Some(d);
-        }
-        assert!(most < 0.005, "largest change per 0.1°: {most} m");
-        assert_eq!(last, Some(0.0), "60° off straight: not coming at the robot");
     }
 }
 
