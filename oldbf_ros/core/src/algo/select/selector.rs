@@ -30,6 +30,7 @@
 
 use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
+use super::h_mean::HMean;
 use super::tiers::{escape_target, Tier};
 use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, DtcbfFilter, InputBox, TOL_M};
@@ -148,6 +149,8 @@ pub struct Selector {
     towards_nearest: f64,
     /// This step's rates of the window.
     limits: Limits,
+    /// h averaged over recent steps (the margin level's).
+    h_mean: HMean,
     /// Tests: weigh every candidate in full, in the cheap order (the plain
     /// reference the bounds of [`Self::best_meeting`] are checked against).
     #[cfg(test)]
@@ -167,6 +170,7 @@ impl Selector {
             last: Twist::ZERO,
             towards_nearest: 0.0,
             limits: Limits::driving(p),
+            h_mean: HMean::default(),
             #[cfg(test)]
             plain: false,
         }
@@ -180,9 +184,10 @@ impl Selector {
         false
     }
 
-    /// Forgets the side kept.
+    /// Forgets the side kept and h's average.
     pub fn reset(&mut self) {
         self.side = None;
+        self.h_mean.reset();
     }
 
     /// The side kept (+1 left, −1 right).
@@ -192,6 +197,12 @@ impl Selector {
 
     /// One decision.
     pub fn select(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
+        let s = self.decide(input, g, p);
+        self.h_mean.sent(s.h_m, s.h_next_m);
+        s
+    }
+
+    fn decide(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
         // With a tracked mover on a collision course, the command to make safe is the
         // DOAA's: its law steers from the mover's predicted clearance (§6), the paper's
         // answer to a person coming, and evasion (the mover critic) takes over only when
@@ -208,6 +219,7 @@ impl Selector {
         };
         let bx = input.bx;
         let h = g.filter.prepare(g.points, g.points_next, p, &bx);
+        let h_avg = self.h_mean.update(h, input.since_s, p.dtcbf.noise_margin_m);
         self.towards_nearest = g
             .points
             .iter()
@@ -247,7 +259,7 @@ impl Selector {
         self.clearance.prepare(g.points, g.filter.footprint(), p);
         let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
         let h_next_of = |f: &DtcbfFilter, u: Twist| f.h_next(g.points_next, u, p);
-        let target_of = |tier: Tier, escape: f64| tier.target(h, escape, p).filter(|_| h.is_finite());
+        let target_of = |tier: Tier, escape: f64| tier.target(h, h_avg, escape, p).filter(|_| h.is_finite());
         // Is the upstream command safe as it is? Then it is sent unchanged if the base can
         // follow it now, and approached through the window otherwise; the critics that
         // steer (the DOAA's law, progress, clearance, the side kept) count as far as it is not.
@@ -857,6 +869,79 @@ mod tests {
         assert!(guides.iter().any(|&g| g > 0.0 && g < 1.0), "{guides:?}");
         let steepest = omegas.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
         assert!(steepest < 0.08, "a jump of {steepest} rad/s in {omegas:?}");
+    }
+
+    /// A robot driven at a wall 1 m ahead (points every 5 cm across 3 m)
+    /// for 30 s by an upstream asking 0.15 m/s straight on, with range noise
+    /// of ±`noise_m` in turn on alternate scans. The robot's true h at the
+    /// end, and how many steps it reversed.
+    fn driven_at_a_wall_with_noise(noise_m: f64) -> (f64, usize) {
+        let mut p = Params::default();
+        // Nothing but the constraints holds the robot back: no clearance kept.
+        p.select.weights.clearance = 0.0;
+        let dt = 0.1;
+        let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
+        let mut last = Twist::ZERO;
+        let mut sel = Selector::with_capacity(61, &p);
+        let mut reversed = 0;
+        let wall = |x: f64, y: f64, th: f64, noise: f64| -> Vec<Vec2> {
+            (-30..=30)
+                .map(|k| {
+                    let (dx, dy) = (1.0 - x, 0.05 * f64::from(k) - y);
+                    let q = Vec2::new(dx * th.cos() + dy * th.sin(), -dx * th.sin() + dy * th.cos());
+                    q * ((q.norm() + noise) / q.norm())
+                })
+                .collect()
+        };
+        for k in 0..300 {
+            let noise = if k % 2 == 0 { noise_m } else { -noise_m };
+            let points = wall(x, y, th, noise);
+            let input = SelectInput {
+                nominal: Twist::new(0.15, 0.0),
+                doaa: Twist::new(0.15, 0.0),
+                doaa_both_sides: false,
+                last,
+                last_change: Twist::ZERO,
+                since_s: dt,
+                bx: InputBox::from_params(&p),
+                target: Some(Vec2::new(3.0, 0.0)),
+                front_blocked: false,
+                front_clear: true,
+                following: false,
+                clearer_side: -1.0,
+                closing_in: false,
+                mover_closing: false,
+            };
+            let s = select_on(&mut sel, &points, &[], &input, &p);
+            if s.cmd.v_mps < -1e-9 {
+                reversed += 1;
+            }
+            last = s.cmd;
+            x += s.cmd.v_mps * th.cos() * dt;
+            y += s.cmd.v_mps * th.sin() * dt;
+            th += s.cmd.omega_radps * dt;
+        }
+        let mut f = DtcbfFilter::new();
+        let truth = wall(x, y, th, 0.0);
+        (f.prepare(&truth, &truth, &p, &InputBox::from_params(&p)), reversed)
+    }
+
+    #[test]
+    fn range_noise_does_not_ratchet_a_robot_towards_a_wall() {
+        // δ = 0.03 m: without noise the robot closes in on h = δ as §5's condition on
+        // h − δ lets it (γ of what is left a step) and rests just short of it.
+        let (h0, reversed0) = driven_at_a_wall_with_noise(0.0);
+        assert_eq!(reversed0, 0);
+        assert!(h0 > 0.03 && h0 < 0.04, "true h {h0} without noise");
+        // Noise of ±0.02 m on alternate scans. Judged on each scan alone, every high
+        // reading lets the robot come closer and a low one never sends it back, until
+        // the low readings read h below 0: the escape level backs it out, and it comes
+        // in again (true h 0.016 with reversals, so judged). Judged at h averaged over
+        // the last second too (the true h, to a millimetre), it rests where it would
+        // without noise and never reverses.
+        let (h, reversed) = driven_at_a_wall_with_noise(0.02);
+        assert_eq!(reversed, 0, "true h {h}");
+        assert!((h - h0).abs() < 0.003, "true h {h} against {h0} without noise");
     }
 
     proptest::proptest! {

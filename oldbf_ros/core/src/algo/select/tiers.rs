@@ -6,7 +6,8 @@
 //!
 //! 1. [`Tier::Margin`]: §5's condition on h − δ (the noise margin), or
 //!    inside the margin band at most 1 mm closer a step, not below 0.9δ:
-//!    outside the unsafe set only.
+//!    outside the unsafe set only; no closer than that allows at h averaged
+//!    over recent steps either ([`super::h_mean`]).
 //! 2. [`Tier::Condition`]: §5's condition itself, h(k+1) ≥ (1 − γ) h(k).
 //! 3. [`Tier::Escape`]: inside the unsafe set, h rises by at least ε (or,
 //!    while h falls faster than the predictions explain, by half the best
@@ -16,7 +17,8 @@
 //!    towards rest at the braking check's deceleration, which the window
 //!    always holds.
 
-use crate::algo::dtcbf::{condition_target, margin_target};
+use super::h_mean::allowed_approach;
+use crate::algo::dtcbf::condition_target;
 use crate::algo::params::Params;
 use crate::algo::record::Infeasibility;
 use serde::Serialize;
@@ -69,12 +71,14 @@ impl Tier {
     }
 
     /// The requirement on h(k+1) at this level (m), or `None` for the
-    /// levels that have none (least-bad, brake). `escape_target_m` is the
-    /// escape level's, which depends on the step ([`escape_target`]).
-    pub fn target(&self, h_m: f64, escape_target_m: f64, p: &Params) -> Option<f64> {
+    /// levels that have none (least-bad, brake). `mean_m` is h averaged over
+    /// recent steps ([`super::h_mean`]): the margin level lets h come closer
+    /// only by what it allows there too. `escape_target_m`
+    /// is the escape level's, which depends on the step ([`escape_target`]).
+    pub fn target(&self, h_m: f64, mean_m: f64, escape_target_m: f64, p: &Params) -> Option<f64> {
         let gamma = p.dtcbf.gamma;
         match self {
-            Self::Margin => Some(margin_target(h_m, gamma, p.dtcbf.noise_margin_m)),
+            Self::Margin => Some(h_m - allowed_approach(h_m, mean_m, gamma, p.dtcbf.noise_margin_m)),
             Self::Condition => Some(condition_target(h_m, gamma)),
             Self::Escape => Some(escape_target_m),
             Self::LeastBad | Self::Brake => None,
@@ -129,20 +133,20 @@ mod tests {
         // γ = 0.2, δ = 0.03, ε = 0.001.
         let p = Params::default();
         // h = 0.1: margin 0.8·0.07 + 0.03 = 0.086; condition 0.08.
-        assert!((Tier::Margin.target(0.1, 0.0, &p).unwrap() - 0.086).abs() < 1e-12);
-        assert!((Tier::Condition.target(0.1, 0.0, &p).unwrap() - 0.08).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.1, 0.1, 0.0, &p).unwrap() - 0.086).abs() < 1e-12);
+        assert!((Tier::Condition.target(0.1, 0.1, 0.0, &p).unwrap() - 0.08).abs() < 1e-12);
         // h = 0.029, inside the margin band (0.8·(−0.001) + 0.03 = 0.0292 would ask h to
         // rise): 1 mm closer at most, 0.028 (above the condition's 0.0232); h = 0.0275:
         // down to the floor 0.9δ = 0.027; h = 0.02, below the floor: no closer.
-        assert!((Tier::Margin.target(0.029, 0.0, &p).unwrap() - 0.028).abs() < 1e-12);
-        assert!((Tier::Margin.target(0.0275, 0.0, &p).unwrap() - 0.027).abs() < 1e-12);
-        assert!((Tier::Margin.target(0.02, 0.0, &p).unwrap() - 0.02).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.029, 0.029, 0.0, &p).unwrap() - 0.028).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.0275, 0.0275, 0.0, &p).unwrap() - 0.027).abs() < 1e-12);
+        assert!((Tier::Margin.target(0.02, 0.02, 0.0, &p).unwrap() - 0.02).abs() < 1e-12);
         // h = −0.05: the condition asks a rise of γ|h| = 0.01; escape ε, or half the best rise.
-        assert!((Tier::Condition.target(-0.05, 0.0, &p).unwrap() + 0.04).abs() < 1e-12);
+        assert!((Tier::Condition.target(-0.05, -0.05, 0.0, &p).unwrap() + 0.04).abs() < 1e-12);
         assert!((escape_target(-0.05, 0.05, false, &p) + 0.049).abs() < 1e-12);
         assert!((escape_target(-0.05, 0.05, true, &p) - 0.0).abs() < 1e-12);
         assert!(!Tier::Margin.applies(-0.05) && Tier::Escape.applies(-0.05) && !Tier::Escape.applies(0.0));
-        assert_eq!(Tier::LeastBad.target(0.1, 0.0, &p), None);
+        assert_eq!(Tier::LeastBad.target(0.1, 0.1, 0.0, &p), None);
     }
 
     #[test]
