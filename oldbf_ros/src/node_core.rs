@@ -1901,7 +1901,7 @@ mod tests {
             }
         }
         let (k, _) = first_threat.expect("the person became a threat");
-        // Confirmed, and moving once it has travelled min_travel_m (0.3 m): 0.6 s of walking.
+        // Confirmed, and moving once it stands where earlier scans saw free (§6).
         assert!(k < 20, "a threat from scan {k} on");
         assert!(checked > 25, "{checked} scans checked");
     }

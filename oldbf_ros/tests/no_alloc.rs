@@ -139,8 +139,8 @@ fn ten_movers(ranges: &mut [f32], t_s: f64) {
         let phase = (t_s + i as f64).sin(); // 1 rad/s
                                             // Even legs swing ±0.45 m across the line of sight (0.45 m/s peak), odd legs
                                             // ±0.5 m towards and away from the robot (0.5 m/s peak, on a collision
-                                            // course half the time). None touches or hides another; all travel more than
-                                            // `min_travel_m` from wherever they are first seen.
+                                            // course half the time). None touches or hides another; all come where
+                                            // earlier scans saw free (proof that they move, §6).
         let (s, c) = bearing.sin_cos();
         if i % 2 == 0 {
             let swing = 0.45 * phase;

@@ -27,6 +27,7 @@ pub mod reference;
 pub mod route;
 pub mod scan;
 pub mod scan_merge;
+pub mod seen_free;
 pub mod select;
 pub mod tracking;
 pub mod unicycle;

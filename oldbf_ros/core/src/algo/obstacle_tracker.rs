@@ -21,11 +21,14 @@
 //!   is deleted after more than `max_misses` misses in a row;
 //! * a tentative track that misses a scan is deleted;
 //! * a confirmed track counts as moving once it is faster than
-//!   `moving_speed_mps` *and* has travelled `min_travel_m` from where it was
-//!   first seen. The centroid of a static object's visible part jitters and
-//!   jumps as the robot's view of it changes (up to about half its size), which
-//!   the filter reads as speed; only a real mover keeps getting farther from
-//!   where it started.
+//!   `moving_speed_mps` *and* its motion is proven: its object stood where
+//!   an earlier scan saw free on [`THROUGH_SCANS`] scans
+//!   ([`super::seen_free`]), or its centre estimate has been `min_travel_m`
+//!   (more than `max_cluster_diameter_m`) from where it was first seen. The centroid of
+//!   a static object's visible part jitters and jumps as the robot's view of
+//!   it changes (up to about its size, as more of it comes into view), which
+//!   the filter reads as speed; but no view change puts a static object where
+//!   a ray went past, nor moves its centre estimate farther than it is wide.
 //! * a moving track that dies (two people walking side by side merge into one
 //!   cluster too wide to track, a person brushes past a box) leaves a *ghost*
 //!   where it was for [`GHOST_MEMORY_S`], if it travelled farther than
@@ -98,6 +101,10 @@ pub const GHOST_MEMORY_S: f64 = 6.0;
 /// those the travel proof holds back longest.
 pub const GHOST_SPREAD_MPS: f64 = 0.1;
 
+/// Scans on which a track's object must have stood where an earlier scan
+/// saw free before that proves it moves (one could be a dropout's doing).
+pub const THROUGH_SCANS: u32 = 2;
+
 /// What a deleted moving track leaves behind: proof that something moved there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Ghost {
@@ -146,6 +153,9 @@ pub struct Track {
     /// visible side of a post slides round it as the robot drives by (as far
     /// as the post is wide), its centre estimate much less.
     pub max_travel_m: f64,
+    /// Scans on which its object stood where an earlier scan saw free
+    /// ([`ObstacleTracker::note_seen_through`]), counted up to [`THROUGH_SCANS`].
+    pub through_scans: u32,
     /// Born at a ghost: the same mover seen again, with no travel to prove.
     pub reacquired: bool,
     fx: CvFilter,
@@ -168,14 +178,16 @@ impl Track {
         self.status != TrackStatus::Tentative
     }
 
-    /// Confirmed, faster than `moving_speed_mps`, and once at least
-    /// `min_travel_m` away from where it was first seen unless reacquired at
-    /// a ghost (centroid jitter on a
-    /// static object never adds up to that).
+    /// Confirmed, faster than `moving_speed_mps`, and proven to move: seen
+    /// where an earlier scan saw free ([`THROUGH_SCANS`] scans), or once
+    /// `min_travel_m` from where it was first seen, or reacquired at a ghost.
     pub fn is_moving(&self, p: &ObstacleParams) -> bool {
-        self.is_confirmed()
-            && self.velocity().norm() > p.moving_speed_mps
-            && (self.reacquired || self.max_travel_m >= p.min_travel_m)
+        self.is_confirmed() && self.velocity().norm() > p.moving_speed_mps && (self.reacquired || self.motion_proven(p))
+    }
+
+    /// Its motion is proven (see [`Self::is_moving`]), reacquisition aside.
+    pub fn motion_proven(&self, p: &ObstacleParams) -> bool {
+        self.through_scans >= THROUGH_SCANS || self.max_travel_m >= p.min_travel_m
     }
 }
 
@@ -272,6 +284,14 @@ impl ObstacleTracker {
         let d = pos.norm();
         let centre = if d > 0.0 { pos * ((d + t.depth_m) / d) } else { pos };
         (centre, vel)
+    }
+
+    /// Records that track `ti`'s object stood, at this scan, where an earlier
+    /// scan saw free ([`super::seen_free`]).
+    pub fn note_seen_through(&mut self, ti: usize) {
+        if let Some(t) = self.tracks.get_mut(ti) {
+            t.through_scans = (t.through_scans + 1).min(THROUGH_SCANS);
+        }
     }
 
     /// Drops every track (e.g. when the frame source changes).
@@ -448,6 +468,7 @@ impl ObstacleTracker {
                 misses: 0,
                 born_at: to_tracking.point(c.centre),
                 max_travel_m: 0.0,
+                through_scans: 0,
                 reacquired,
                 fx: CvFilter::new(z.x, r),
                 fy: CvFilter::new(z.y, r),
@@ -509,22 +530,22 @@ mod tests {
 
     #[test]
     fn a_partial_view_keeps_a_track_alive_but_neither_starts_one_nor_proves_motion() {
-        let p = ObstacleParams::default(); // confirm 3, max misses 5, moving 0.02 m/s once 0.3 m travelled
+        let p = ObstacleParams::default(); // confirm 3, max misses 5, moving 0.02 m/s once 0.75 m travelled
         let pose = Pose2::default();
         let partial = |x: f64, y: f64| Cluster {
             partial: true,
             ..cluster_at(x, y)
         };
-        // A person at 0.3 m/s across x = 2 m, seen whole for 2 s (0.6 m): a mover.
+        // A person at 0.3 m/s across x = 2 m, seen whole for 3 s (0.9 m): a mover.
         let mut tr = ObstacleTracker::default();
-        for k in 0..=20 {
+        for k in 0..=30 {
             tr.update(&[cluster_at(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
         }
         assert!(tr.tracks()[0].is_moving(&p));
         let travelled = tr.tracks()[0].max_travel_m;
         // Then half hidden for 1 s (longer than 5 missed scans): the same track, updated
         // every scan, still a mover; its travel is not added to.
-        for k in 21..=30 {
+        for k in 31..=40 {
             tr.update(&[partial(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
             assert_eq!(tr.cluster_track(), [Some(0)], "scan {k}");
         }
@@ -537,13 +558,13 @@ mod tests {
             tr.update(&[partial(2.0, 0.03 * k as f64)], 0.1 * k as f64, pose, &p);
         }
         assert!(tr.tracks().is_empty());
-        // A post seen whole, then only in part while its visible piece slides 0.6 m:
+        // A post seen whole, then only in part while its visible piece slides 0.9 m:
         // never proven to move.
         let mut tr = ObstacleTracker::default();
         for k in 0..3 {
             tr.update(&[cluster_at(2.0, 0.0)], 0.1 * k as f64, pose, &p);
         }
-        for k in 3..=23 {
+        for k in 3..=33 {
             tr.update(&[partial(2.0, 0.03 * (k - 3) as f64)], 0.1 * k as f64, pose, &p);
         }
         assert!(!tr.tracks()[0].is_moving(&p), "{:?}", tr.tracks()[0]);
@@ -610,7 +631,7 @@ mod tests {
     #[test]
     fn jitter_in_place_is_not_motion() {
         // A static object whose centroid jumps ±0.1 m between views (the robot's view of
-        // it changes): speed estimates spike, but it never travels 0.3 m from its birth.
+        // it changes): speed estimates spike, but it never travels 0.75 m from its birth.
         let p = ObstacleParams::default();
         let mut tr = ObstacleTracker::default();
         for k in 0..60 {
@@ -622,35 +643,51 @@ mod tests {
                 tr.tracks()[0].velocity()
             );
         }
-        // A walker at 0.15 m/s has travelled 0.3 m after 2 s (scan 20); the filtered
+        // A walker at 0.15 m/s has travelled 0.75 m after 5 s (scan 50); the filtered
         // position trails the measurements by about a scan.
+        let by_travel = walker_first_moving(&[]);
+        assert!(matches!(by_travel, Some(50..=52)), "{by_travel:?}");
+        // Seen where earlier scans saw free on two scans (the pipeline's proof,
+        // `seen_free`): a mover as soon as its speed estimate passes 0.02 m/s.
+        let by_sight = walker_first_moving(&[3, 4]);
+        assert!(matches!(by_sight, Some(4..=6)), "{by_sight:?}");
+    }
+
+    /// A walker at 0.15 m/s across x = 2 m, scanned every 0.1 s for 8 s and
+    /// seen where earlier scans saw free at the scans `seen_through`: the
+    /// first scan at which its track counts as moving.
+    fn walker_first_moving(seen_through: &[usize]) -> Option<usize> {
+        let p = ObstacleParams::default();
         let mut tr = ObstacleTracker::default();
-        let mut first_moving = None;
-        for k in 0..40 {
+        (0..80).find(|&k| {
             tr.update(
                 &[cluster_at(2.0, 0.015 * k as f64)],
                 k as f64 * 0.1,
                 Pose2::default(),
                 &p,
             );
-            if first_moving.is_none() && tr.tracks()[0].is_moving(&p) {
-                first_moving = Some(k);
+            if seen_through.contains(&k) {
+                tr.note_seen_through(0);
             }
-        }
-        assert!(matches!(first_moving, Some(20..=22)), "{first_moving:?}");
+            tr.tracks()[0].is_moving(&p)
+        })
     }
 
     /// A walker at 0.05 m/s along x from x = 2 m, scanned every 0.1 s for
-    /// `walk_s`, lost for `gap_s` (merged with something too wide to track),
+    /// `walk_s` (`seen_through`: proven to move by sight at once, else by
+    /// travel), lost for `gap_s` (merged with something too wide to track),
     /// seen again `offset_m` off its line: the scan after which its new track
     /// counts as moving, if it does within 6 s of being seen again.
-    fn moving_again_after(walk_s: f64, gap_s: f64, offset_m: f64) -> Option<usize> {
+    fn moving_again_after(walk_s: f64, seen_through: bool, gap_s: f64, offset_m: f64) -> Option<usize> {
         let p = ObstacleParams::default();
         let mut tr = ObstacleTracker::default();
         let at = |t: f64| cluster_at(2.0 + 0.05 * t, 0.0);
         let lost = (walk_s / 0.1).round() as usize;
         for k in 0..=lost {
             tr.update(&[at(0.1 * k as f64)], 0.1 * k as f64, Pose2::default(), &p);
+            if seen_through && k < 2 {
+                tr.note_seen_through(0);
+            }
         }
         assert!(
             tr.tracks()[0].is_moving(&p),
@@ -683,21 +720,21 @@ mod tests {
         // centroid could have jumped. Seen again 1 s later where it walked on, its ghost
         // (died at 16.6 s, claiming 0.5 + 0.1 · 0.5 m) makes the new track a mover once
         // confirmed (3 scans) and its velocity estimate passes 0.02 m/s, not after
-        // 0.3 m of travel (6 s).
-        let again = moving_again_after(16.0, 1.0, 0.0);
+        // 0.75 m of travel (15 s).
+        let again = moving_again_after(16.0, false, 1.0, 0.0);
         assert!(matches!(again, Some(2..=8)), "{again:?}");
-        // Seen 1 m off the line: not at the ghost, a new object, 6 s to prove.
-        assert_eq!(moving_again_after(16.0, 1.0, 1.0), None);
+        // Seen 1 m off the line: not at the ghost, a new object, 15 s to prove.
+        assert_eq!(moving_again_after(16.0, false, 1.0, 1.0), None);
         // Seen again after the ghost is forgotten (6 s): the same.
-        assert_eq!(moving_again_after(16.0, 7.0, 0.0), None);
+        assert_eq!(moving_again_after(16.0, false, 7.0, 0.0), None);
     }
 
     #[test]
     fn a_track_that_moved_less_than_an_object_is_wide_leaves_no_ghost() {
-        // 8 s: 0.4 m, a mover by min_travel_m (0.3 m), but a door post's centroid can
-        // slide that far as the robot's view of it changes. With such tracks leaving
-        // ghosts, a post misread once stays a mover from track to track, and a robot
-        // evades door posts (docs/DECISIONS.md).
-        assert_eq!(moving_again_after(8.0, 1.0, 0.0), None);
+        // 8 s: 0.4 m, a mover by sight, but a door post's centroid can slide that far
+        // as the robot's view of it changes. With such tracks leaving ghosts, a post
+        // misread once stays a mover from track to track, and a robot evades door
+        // posts (docs/DECISIONS.md).
+        assert_eq!(moving_again_after(8.0, true, 1.0, 0.0), None);
     }
 }

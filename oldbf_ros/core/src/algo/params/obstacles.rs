@@ -26,7 +26,9 @@ pub struct ObstacleParams {
     pub measurement_noise_m: f64,
     /// A confirmed track faster than this is moving (m/s)…
     pub moving_speed_mps: f64,
-    /// …once it has been this far from where it was first seen (m; kept when it turns round).
+    /// …once seen where an earlier scan saw free, or once this far from where it was
+    /// first seen (m; kept when it turns round): more than `max_cluster_diameter_m`,
+    /// farther than a view change slides a static object's centre estimate.
     pub min_travel_m: f64,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
     /// 6 s: a robot turning at 0.3 rad/s needs 8-9 s to step 0.6 m off a person's line
@@ -53,7 +55,7 @@ impl Default for ObstacleParams {
             accel_noise_mps2: 1.0,
             measurement_noise_m: 0.05,
             moving_speed_mps: 0.02,
-            min_travel_m: 0.3,
+            min_travel_m: 0.75,
             lookahead_s: 6.0,
             max_tracks: 32,
         }

@@ -32,6 +32,7 @@ use super::params::Params;
 use super::passive::{ClosingContact, Mover, PassiveSafety};
 use super::record::{Infeasibility, StepRecord, StopCause};
 use super::scan::{LaserMount, LaserScan, ScanPoints, ScanRejection};
+use super::seen_free::SeenFree;
 use super::select::{CriticCosts, Selector, Tier};
 use super::unstuck::{Guidance, Unstuck};
 use super::way_round::{MapScan, RouteAsk, RouteUpdate, WayRound};
@@ -105,6 +106,10 @@ pub struct SafetyPipeline {
     /// baseline reads them); with tracking on they are always built.
     keep_clusters: bool,
     tracker: ObstacleTracker,
+    /// Recent scans' free space: proof that a track moves (§6).
+    seen_free: SeenFree,
+    /// Scratch: the tracks proven to move this scan.
+    seen_through: Vec<usize>,
     /// Where the points will be after one step (moving clusters advanced),
     /// when [`Self::any_advanced`]; else they are the scan's points.
     points_next: Vec<Vec2>,
@@ -223,6 +228,8 @@ impl SafetyPipeline {
             clusters: Clusters::with_capacity(cap),
             keep_clusters: false,
             tracker: ObstacleTracker::with_capacity(max_tracks, cap),
+            seen_free: SeenFree::with_capacity(cap),
+            seen_through: Vec::with_capacity(max_tracks),
             points_next: Vec::with_capacity(cap),
             any_advanced: false,
             minimiser_beams: [u32::MAX; 4],

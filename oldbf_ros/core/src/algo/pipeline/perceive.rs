@@ -151,6 +151,7 @@ impl SafetyPipeline {
         if frame_changed {
             // Old tracks, beam memory, map and route are meaningless in the new frame.
             self.tracker.reset();
+            self.seen_free.reset();
             self.memory.reset();
             self.way_round.reset(&self.params);
             self.route = None;
@@ -200,6 +201,38 @@ impl SafetyPipeline {
         }
         self.tracker
             .update(self.clusters.as_slice(), stamp_s, pose, &self.params.obstacles);
+        // Proof of motion (§6): a tracked object standing where earlier scans saw
+        // free. A few points spread over the cluster, two of them seen through by
+        // two snapshots each.
+        let to_tracking = pose.frame_map();
+        for (k, slot) in self.tracker.cluster_track().iter().enumerate() {
+            let Some(ti) = *slot else {
+                continue;
+            };
+            if self.tracker.tracks()[ti].motion_proven(&self.params.obstacles) {
+                continue;
+            }
+            let cluster = self.clusters.as_slice()[k];
+            let stride = cluster.len.div_ceil(THROUGH_PROBES).max(1);
+            let through = cluster
+                .indices(n_points)
+                .step_by(stride)
+                .filter(|&i| {
+                    self.seen_free
+                        .seen_through(to_tracking.point(self.points.points[i]), stamp_s)
+                        >= 2
+                })
+                .count();
+            if through >= 2 {
+                self.seen_through.push(ti);
+            }
+        }
+        for ti in self.seen_through.drain(..) {
+            self.tracker.note_seen_through(ti);
+        }
+        let origin = self.derived.mount.pose.position();
+        self.seen_free
+            .record(&self.points, origin, pose, stamp_s, range_max_m, full_circle);
     }
 
     /// Whether the scan lets the robot back up: its rear sector is covered
@@ -267,6 +300,10 @@ impl SafetyPipeline {
 
 /// A cluster reaching within this of range_max may go on beyond it (m).
 const RANGE_EDGE_M: f64 = 0.25;
+
+/// Points of a tracked cluster (spread over it) tried against the scans'
+/// free space for proof of motion.
+const THROUGH_PROBES: usize = 6;
 
 /// Whether `cluster` (of `points`, robot frame, beam order) may be only part
 /// of what it sees: a point of it within [`RANGE_EDGE_M`] of the range limit
