@@ -53,7 +53,10 @@ pub struct UnstuckParams {
     pub memory_s: f64,
     /// The way round is planned again this often (s).
     pub plan_period_s: f64,
-    /// The route keeps r + d_safe + this from everything seen (m).
+    /// The route keeps r + d_safe + this from everything seen (m), where it
+    /// can (gaps of 2 (r + d_safe) are taken when nothing wider reaches the
+    /// goal): more than the filter's noise margin δ, the range noise and half
+    /// a cell, or the route leads where the filter will not let the robot go.
     pub margin_m: f64,
     /// The way round heads for the point this far further along the
     /// reference's path than the (governed) reference point (m).
@@ -69,7 +72,7 @@ impl Default for UnstuckParams {
             window_m: 12.0,
             memory_s: 30.0,
             plan_period_s: 0.5,
-            margin_m: 0.05,
+            margin_m: 0.08,
             ahead_m: 1.5,
         }
     }
