@@ -159,22 +159,98 @@ impl SeenFree {
     pub fn seen_through(&self, q: Vec2, now_s: f64) -> usize {
         self.snaps[..self.used]
             .iter()
-            .filter(|s| s.stamp_s < now_s)
-            .filter(|s| {
-                let n = s.free_m.len() as i64;
-                if n < 3 || s.step_rad == 0.0 {
-                    return false;
-                }
-                let rel = s.robot.inverse_point(q) - s.origin;
-                let d = rel.norm();
-                let beam = (wrap_angle(rel.y.atan2(rel.x) - s.first_rad) / s.step_rad).round() as i64;
-                let beyond = (d + SEEN_THROUGH_M) as f32;
-                (beam - NEIGHBOURS..=beam + NEIGHBOURS).all(|j| {
-                    let j = if s.full_circle { j.rem_euclid(n) } else { j };
-                    (0..n).contains(&j) && s.free_m[j as usize] > beyond
-                })
-            })
+            .filter(|s| s.stamp_s < now_s && s.through_bearing(q).is_some())
             .count()
+    }
+
+    /// Adds the point `q` (tracking frame, m) of one object to `spread`: for
+    /// each snapshot older than `now_s` that saw through it, where it lay in
+    /// that snapshot's view.
+    pub fn add_to(&self, spread: &mut Spread, q: Vec2, now_s: f64) {
+        for (k, s) in self.snaps[..self.used].iter().enumerate() {
+            if s.stamp_s >= now_s {
+                continue;
+            }
+            if let Some(b) = s.through_bearing(q) {
+                spread.add(k, b, s.step_rad.abs());
+            }
+        }
+    }
+}
+
+/// Where the points of one object that snapshots saw through lay in each
+/// snapshot's view: fixed-size, no allocation.
+///
+/// A snapshot proves that the object was not there only if the points it saw
+/// through spread over at least one step between its beams. Every beam that
+/// falls inside the angle a static surface spans ends on it (or on something
+/// nearer); so a static surface whose points all lie where beams went on
+/// beyond spans less than one step in that view: a thin wall seen end-on, a
+/// pole narrower than the beams' spacing. Seen later from the side, its
+/// points stand where that snapshot saw free, but all within one step.
+#[derive(Debug, Clone, Copy)]
+pub struct Spread {
+    /// Per snapshot: the first such point's bearing, then the least and the
+    /// greatest offset from it of any (rad), and the step between beams (rad);
+    /// `step_rad` 0 when none.
+    first_rad: [f64; SNAPSHOTS],
+    lo_rad: [f64; SNAPSHOTS],
+    hi_rad: [f64; SNAPSHOTS],
+    step_rad: [f64; SNAPSHOTS],
+}
+
+impl Default for Spread {
+    fn default() -> Self {
+        Self {
+            first_rad: [0.0; SNAPSHOTS],
+            lo_rad: [0.0; SNAPSHOTS],
+            hi_rad: [0.0; SNAPSHOTS],
+            step_rad: [0.0; SNAPSHOTS],
+        }
+    }
+}
+
+impl Spread {
+    fn add(&mut self, k: usize, bearing_rad: f64, step_rad: f64) {
+        if self.step_rad[k] == 0.0 {
+            self.first_rad[k] = bearing_rad;
+            self.step_rad[k] = step_rad;
+            return;
+        }
+        let off = wrap_angle(bearing_rad - self.first_rad[k]);
+        self.lo_rad[k] = self.lo_rad[k].min(off);
+        self.hi_rad[k] = self.hi_rad[k].max(off);
+    }
+
+    /// Snapshots whose seen-through points spread over one step between
+    /// beams or more: each proves the object stands where it saw free.
+    pub fn snapshots_through(&self) -> usize {
+        (0..SNAPSHOTS)
+            .filter(|&k| self.step_rad[k] > 0.0 && self.hi_rad[k] - self.lo_rad[k] >= self.step_rad[k])
+            .count()
+    }
+}
+
+impl Snapshot {
+    /// `q`'s bearing in this snapshot's robot frame (rad) if the beam
+    /// through it and its [`NEIGHBOURS`] all went on more than
+    /// [`SEEN_THROUGH_M`] beyond it.
+    fn through_bearing(&self, q: Vec2) -> Option<f64> {
+        let n = self.free_m.len() as i64;
+        if n < 3 || self.step_rad == 0.0 {
+            return None;
+        }
+        let rel = self.robot.inverse_point(q) - self.origin;
+        let d = rel.norm();
+        let bearing = rel.y.atan2(rel.x);
+        let beam = (wrap_angle(bearing - self.first_rad) / self.step_rad).round() as i64;
+        let beyond = (d + SEEN_THROUGH_M) as f32;
+        (beam - NEIGHBOURS..=beam + NEIGHBOURS)
+            .all(|j| {
+                let j = if self.full_circle { j.rem_euclid(n) } else { j };
+                (0..n).contains(&j) && self.free_m[j as usize] > beyond
+            })
+            .then_some(bearing)
     }
 }
 
@@ -265,8 +341,11 @@ mod tests {
             world.push(person);
             let pts = scan_of(Pose2::default(), &world, 3.5);
             let on_person = pts.points.iter().filter(|q| (**q - person.0).norm() < 0.25);
-            let through = on_person.filter(|q| seen.seen_through(**q, t) >= 2).count();
-            if first.is_none() && through >= 2 {
+            let mut spread = Spread::default();
+            for q in on_person {
+                seen.add_to(&mut spread, *q, t);
+            }
+            if first.is_none() && spread.snapshots_through() >= 2 {
                 first = Some(k);
             }
             seen.record(&pts, Vec2::zeros(), Pose2::default(), t, 3.5, true);
@@ -275,6 +354,38 @@ mod tests {
         // five beams (±2°, ±7 cm at 2 m) to the wall 1.2 m beyond: by scan 13-15
         // the leading edge stands 0.15-0.25 m clear of where it was at scan 10.
         assert!(matches!(first, Some(13..=15)), "{first:?}");
+    }
+
+    #[test]
+    fn a_thin_wall_seen_end_on_then_from_the_side_is_not_proven_to_move() {
+        // A wall 1 cm thick from 2 to 3 m along the bearing 0.5°, between the
+        // beams at 0° and 1° (1° apart) seen from the origin: each of those
+        // beams and their neighbours misses it (it spans 0.5° ± 0.14°). The robot
+        // rests at the origin for snapshots at 0, 1 and 2 s, then sees the wall
+        // broadside from (2.5, −1.5). Its points stand where three snapshots saw
+        // free, yet in their view they spread over less than one step between
+        // beams: no proof.
+        let dir = Vec2::new(0.5f64.to_radians().cos(), 0.5f64.to_radians().sin());
+        let wall: Vec<(Vec2, f64)> = (0..=100).map(|k| (dir * (2.0 + 0.01 * f64::from(k)), 0.005)).collect();
+        let mut seen = SeenFree::with_capacity(360);
+        for k in 0..25 {
+            let pts = scan_of(Pose2::default(), &wall, 3.5);
+            seen.record(&pts, Vec2::zeros(), Pose2::default(), 0.1 * k as f64, 3.5, true);
+        }
+        let side = Pose2::new(2.5, -1.5, std::f64::consts::FRAC_PI_2);
+        let pts = scan_of(side, &wall, 3.5);
+        let map = side.frame_map();
+        let on_wall: Vec<Vec2> = pts.points.iter().map(|q| map.point(*q)).collect();
+        assert!(on_wall.len() > 20, "{}", on_wall.len());
+        // Each point, alone, was seen through by all three snapshots…
+        let through = on_wall.iter().filter(|q| seen.seen_through(**q, 3.0) == 3).count();
+        assert!(through > 20, "{through}");
+        // …but together they span less than a step in each: no snapshot counts.
+        let mut spread = Spread::default();
+        for q in &on_wall {
+            seen.add_to(&mut spread, *q, 3.0);
+        }
+        assert_eq!(spread.snapshots_through(), 0);
     }
 
     #[test]

@@ -70,7 +70,9 @@ impl Params {
     /// command, then the DTCBF filter's own search, no window, no critics),
     /// `unstuck.enabled: false`, `passive.enabled: false` (no braking check
     /// or evasion), `control.allow_reverse: false` and
-    /// `obstacles.lookahead_s: 2` (the look-ahead it had), and a polygon
+    /// `obstacles.lookahead_s: 2` (the look-ahead it had), motion proven by
+    /// travel alone (`obstacles.motion_by_sight: false`, `min_travel_m: 0.3`:
+    /// the proof it had), and a polygon
     /// footprint kept as its circumscribed circle (the paper's robot is a
     /// circle). Everything else,
     /// obstacle tracking included, is left as given. This is the
@@ -87,6 +89,8 @@ impl Params {
         self.select.enabled = false;
         self.control.allow_reverse = false;
         self.obstacles.lookahead_s = obstacles::PAPER_LOOKAHEAD_S;
+        self.obstacles.motion_by_sight = false;
+        self.obstacles.min_travel_m = obstacles::PAPER_MIN_TRAVEL_M;
         // The paper's robot is a circle: a polygon footprint becomes its
         // circumscribed circle (the radius every circle check used already).
         if !self.footprint.polygon_m.is_empty() {

@@ -26,10 +26,15 @@ pub struct ObstacleParams {
     pub measurement_noise_m: f64,
     /// A confirmed track faster than this is moving (m/s)…
     pub moving_speed_mps: f64,
-    /// …once seen where an earlier scan saw free, or once this far from where it was
-    /// first seen (m; kept when it turns round): more than `max_cluster_diameter_m`,
-    /// farther than a view change slides a static object's centre estimate.
+    /// …once seen where an earlier scan saw free (with `motion_by_sight`), or once
+    /// this far from where it was first seen (m; kept when it turns round): more
+    /// than `max_cluster_diameter_m`, farther than a view change slides a static
+    /// object's centre estimate.
     pub min_travel_m: f64,
+    /// Prove a track's motion by sight: its object stands where earlier scans saw
+    /// free (ALGORITHM.md §6). false = by travel alone (the paper method, with
+    /// [`PAPER_MIN_TRAVEL_M`]).
+    pub motion_by_sight: bool,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).
     /// 6 s: a robot turning at 0.3 rad/s needs 8-9 s to step 0.6 m off a person's line
     /// (ALGORITHM.md §6); the paper method keeps [`PAPER_LOOKAHEAD_S`].
@@ -41,6 +46,10 @@ pub struct ObstacleParams {
 /// The look-ahead the filter had before passive motion safety (s): the paper
 /// method's ([`super::Params::paper_method`]).
 pub const PAPER_LOOKAHEAD_S: f64 = 2.0;
+
+/// The travel that proved a track's motion before motion was proven by sight
+/// (m): the paper method's ([`super::Params::paper_method`]).
+pub const PAPER_MIN_TRAVEL_M: f64 = 0.3;
 
 impl Default for ObstacleParams {
     fn default() -> Self {
@@ -56,6 +65,7 @@ impl Default for ObstacleParams {
             measurement_noise_m: 0.05,
             moving_speed_mps: 0.02,
             min_travel_m: 0.75,
+            motion_by_sight: true,
             lookahead_s: 6.0,
             max_tracks: 32,
         }

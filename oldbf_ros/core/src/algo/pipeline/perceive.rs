@@ -17,6 +17,7 @@ use crate::algo::obstacle_tracker::ObstacleTracker;
 use crate::algo::params::RangeSemantics;
 use crate::algo::record::StopCause;
 use crate::algo::scan::{check_scan, fill_points, BeamStatus, LaserScan};
+use crate::algo::seen_free::Spread;
 use crate::algo::unicycle::arc_step;
 
 /// What the last scan gave the pipeline.
@@ -201,9 +202,13 @@ impl SafetyPipeline {
         }
         self.tracker
             .update(self.clusters.as_slice(), stamp_s, pose, &self.params.obstacles);
+        if !self.params.obstacles.motion_by_sight {
+            return;
+        }
         // Proof of motion (§6): a tracked object standing where earlier scans saw
-        // free. A few points spread over the cluster, two of them seen through by
-        // two snapshots each.
+        // free. A few points spread over the cluster; two snapshots each saw
+        // through points of it that spread over one step between their beams
+        // or more (what all of a snapshot's beams missed spans less).
         let to_tracking = pose.frame_map();
         for (k, slot) in self.tracker.cluster_track().iter().enumerate() {
             let Some(ti) = *slot else {
@@ -214,16 +219,12 @@ impl SafetyPipeline {
             }
             let cluster = self.clusters.as_slice()[k];
             let stride = cluster.len.div_ceil(THROUGH_PROBES).max(1);
-            let through = cluster
-                .indices(n_points)
-                .step_by(stride)
-                .filter(|&i| {
-                    self.seen_free
-                        .seen_through(to_tracking.point(self.points.points[i]), stamp_s)
-                        >= 2
-                })
-                .count();
-            if through >= 2 {
+            let mut spread = Spread::default();
+            for i in cluster.indices(n_points).step_by(stride) {
+                self.seen_free
+                    .add_to(&mut spread, to_tracking.point(self.points.points[i]), stamp_s);
+            }
+            if spread.snapshots_through() >= 2 {
                 self.seen_through.push(ti);
             }
         }
