@@ -129,6 +129,9 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
             r.figures.steps_by_state.avoid > 0 && r.figures.max_tracking_error_m.unwrap() > 0.3,
             "{r:?}"
         );
+        // The upstream never reverses, and nothing here is a reason to: v never
+        // changes sign, not even by a rounding residue sent as a speed of -1e-9.
+        assert_eq!(r.figures.motion.v_sign_changes, 0, "seed {seed}: {r:?}");
     }
 }
 

@@ -197,7 +197,8 @@ impl Selector {
 
     /// One decision.
     pub fn select(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
-        let s = self.decide(input, g, p);
+        let mut s = self.decide(input, g, p);
+        s.cmd = Twist::new(at_rest(s.cmd.v_mps), at_rest(s.cmd.omega_radps));
         self.h_mean.sent(s.h_m, s.h_next_m);
         s
     }
@@ -707,6 +708,20 @@ fn brake(last: Twist, window: &Window) -> Twist {
         0.0
     };
     Twist::new(v, omega.clamp(window.omega.0, window.omega.1))
+}
+
+/// Speeds smaller than this are sent as 0 (m/s, rad/s): the rounding residue
+/// of a braking step or of an exact speed bound, not a command. Sent with its
+/// sign it would read, to the base and to the measures, as a reversal.
+pub const REST_TOL: f64 = 1e-6;
+
+/// `x`, or 0 within [`REST_TOL`] of it.
+fn at_rest(x: f64) -> f64 {
+    if x.abs() < REST_TOL {
+        0.0
+    } else {
+        x
+    }
 }
 
 #[cfg(test)]
