@@ -176,6 +176,26 @@ fn a_person_drifting_at_three_centimetres_a_second_is_a_mover() {
     assert!((last_speed - 0.03).abs() < 0.015, "speed {last_speed} m/s");
 }
 
+/// The paper method keeps the proof of motion it had (`oldbf-paper` must
+/// behave as it did): travel of 0.3 m alone, no proof by sight. The same
+/// drifter is a mover only once its centre estimate has moved 0.3 m, 10 s
+/// at 0.03 m/s, not after the 3-8 s sight takes.
+#[test]
+fn the_paper_method_proves_the_drifter_by_travel_alone() {
+    let mut s = Scenario::from_str(A_DRIFTER, "a_drifter.yaml", None).unwrap();
+    s.params = s.params.clone().paper_method();
+    let mut first_moving_s = None;
+    drive(&s, 15.0, Twist::ZERO, |t, _, pipe| {
+        let o = &pipe.params().obstacles;
+        if pipe.tracker().tracks().iter().any(|tr| tr.is_moving(o)) {
+            first_moving_s.get_or_insert(t);
+        }
+    });
+    let t = first_moving_s.expect("the drifter never became a mover in 15 s");
+    println!("paper method: a mover after {t:.1} s");
+    assert!((9.0..13.0).contains(&t), "first moving at {t} s");
+}
+
 /// The disc the braking check keeps clear of is centred where the mover is,
 /// not on the centroid of the arc the LiDAR sees of it, which lies about
 /// 0.7 R nearer the robot (R sin α / α in front of the centre for an arc of
