@@ -64,7 +64,7 @@ def pool(out, template, seeds, controller):
         r = rows[0]
         if acc is None:
             acc = {k: 0.0 for k in ("worlds", "contact_worlds", "closing", "passive", "reached", "with_path", "in_budget",
-                                    "tv_v", "tv_w", "rev_w", "rev_v", "steps", "window", "switch_min",
+                                    "tv_v", "tv_w", "tv_w_up", "rev_w", "rev_v", "steps", "window", "switch_min",
                                     "above", "rev_escape", "rev_evade", "rev_other", "sign", "moving", "evade",
                                     "clear_med", "p99", "max_us", "infeasible", "cbf_feasible", "brake_feasible")}
         w, n = r["worlds"], r["steps_total"]
@@ -80,6 +80,10 @@ def pool(out, template, seeds, controller):
             acc["has_budget"] = True
         acc["tv_v"] += r["mean_variation_v_per_s"] * w
         acc["tv_w"] += r["mean_variation_omega_per_s"] * w
+        # The upstream command's own variation (absent in older JSON).
+        if r.get("mean_upstream_variation_omega_per_s") is not None:
+            acc["tv_w_up"] += r["mean_upstream_variation_omega_per_s"] * w
+            acc["up_worlds"] = acc.get("up_worlds", 0) + w
         acc["rev_w"] += r["omega_reversal_rate"] * n
         acc["rev_v"] += r["v_reversal_rate"] * n
         acc["steps"] += n
@@ -108,6 +112,7 @@ def pool(out, template, seeds, controller):
                            if acc.get("has_budget") else "–"),
         "TV v": f"{acc['tv_v'] / w:.3f}",
         "TV ω": f"{acc['tv_w'] / w:.3f}",
+        "upstream's TV ω": (f"{acc['tv_w_up'] / acc['up_worlds']:.3f}" if acc.get("up_worlds") == w else "–"),
         "rev Δv": f"{100 * acc['rev_v'] / n:.2f} %",
         "rev Δω": f"{100 * acc['rev_w'] / n:.2f} %",
         "outside window": int(acc["window"]),

@@ -4,12 +4,44 @@
 
 use crate::algo::select::Critic;
 use crate::plot::{plot_time_series, plot_trajectory, Series, TimePanel, TrajectoryPlot};
+use crate::sim::figures::MotionQuality;
 use crate::sim::run::{RunResult, RunSummary, StepRow};
 use crate::sim::scenario::Scenario;
 use anyhow::Context;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
+
+/// The two lines of motion figures ([`MotionQuality`]) of a run or of many
+/// summed: the command's variation against the upstream's, its reversals,
+/// state switches and steps outside the window, the time stalled when
+/// given; then what the layer added to the upstream command.
+pub fn motion_lines(m: &MotionQuality, stalled_s: Option<f64>) -> String {
+    let stalled = stalled_s.map_or(String::new(), |t| format!(" | stalled {t:.1} s"));
+    format!(
+        "  motion: variation v {:.3} m/s per s, ω {:.3} rad/s per s (upstream {:.3}, {:.3}) | reversals Δv {} ({:.2} %), \
+         Δω {} ({:.2} %) | state switches {:.1}/min | outside the window {}{stalled}\n  \
+         added to the upstream: faster {} steps | reversing {} (escape {}, evasion {}, other {}) | v sign changes {} | \
+         moving tracks on {:.1} % of steps\n",
+        m.variation_v_per_s(),
+        m.variation_omega_per_s(),
+        m.upstream_variation_v_per_s(),
+        m.upstream_variation_omega_per_s(),
+        m.v_reversals,
+        100.0 * m.per_step(m.v_reversals),
+        m.omega_reversals,
+        100.0 * m.per_step(m.omega_reversals),
+        m.per_minute(m.state_switches),
+        m.window_exceeded,
+        m.above_upstream_steps,
+        m.reverse_unasked_steps(),
+        m.reverse_escape_steps,
+        m.reverse_evade_steps,
+        m.reverse_other_steps,
+        m.v_sign_changes,
+        100.0 * m.per_step(m.moving_track_steps)
+    )
+}
 
 /// A human-readable summary (several lines).
 pub fn summary_text(s: &RunSummary) -> String {
@@ -53,33 +85,7 @@ pub fn summary_text(s: &RunSummary) -> String {
         s.figures.blind_steps,
         s.figures.driven_blind_steps
     );
-    let m = &s.figures.motion;
-    let _ = writeln!(
-        out,
-        "  motion: variation v {:.3} m/s per s, ω {:.3} rad/s per s | reversals Δv {} ({:.2} %), Δω {} ({:.2} %) | \
-         state switches {:.1}/min | outside the window {} | stalled {:.1} s",
-        m.variation_v_per_s(),
-        m.variation_omega_per_s(),
-        m.v_reversals,
-        100.0 * m.per_step(m.v_reversals),
-        m.omega_reversals,
-        100.0 * m.per_step(m.omega_reversals),
-        m.per_minute(m.state_switches),
-        m.window_exceeded,
-        s.figures.stalled_s
-    );
-    let _ = writeln!(
-        out,
-        "  added to the upstream: faster {} steps | reversing {} (escape {}, evasion {}, other {}) | v sign changes {} | \
-         moving tracks on {:.1} % of steps",
-        m.above_upstream_steps,
-        m.reverse_unasked_steps(),
-        m.reverse_escape_steps,
-        m.reverse_evade_steps,
-        m.reverse_other_steps,
-        m.v_sign_changes,
-        100.0 * m.per_step(m.moving_track_steps)
-    );
+    out.push_str(&motion_lines(&s.figures.motion, Some(s.figures.stalled_s)));
     let _ = writeln!(
         out,
         "  tracking error max {} mean {} | filter changed {} steps",

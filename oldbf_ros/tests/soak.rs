@@ -49,6 +49,23 @@ fn static_soak_passes_every_gate_and_reports_memory() {
     assert!(v["heap_end_kib"].as_u64().unwrap() > 16, "live heap counted: {v}");
     assert!(v["rss_anon_end_kib"].as_u64().unwrap() > 1024, "RssAnon read: {v}");
     assert!(!v["memory_samples"].as_array().unwrap().is_empty());
+    // The motion figures cover every step. Among static things the layer adds
+    // nothing to the upstream command: no moving track, no evasion, never
+    // faster than asked, no reversing outside escape (issue criteria for
+    // static worlds, ALGORITHM §5c).
+    let m = &v["motion"];
+    assert_eq!(m["steps"], v["steps"], "{m}");
+    for key in [
+        "moving_track_steps",
+        "evade_steps",
+        "above_upstream_steps",
+        "reverse_evade_steps",
+        "reverse_other_steps",
+        "window_exceeded",
+    ] {
+        assert_eq!(m[key], 0, "{key}: {m}");
+    }
+    assert!(m["upstream_variation_omega_radps"].as_f64().unwrap() > 0.0, "{m}");
 }
 
 #[test]

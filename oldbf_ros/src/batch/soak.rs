@@ -20,7 +20,7 @@
 //! its message; the soak goes on.
 
 use super::template::Template;
-use crate::sim::figures::RunFigures;
+use crate::sim::figures::{MotionQuality, RunFigures};
 use crate::sim::run::{run_scenario, Controller, RunResult};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
@@ -111,6 +111,8 @@ pub struct SoakReport {
     /// Least body-to-obstacle distance over all worlds (m; negative = penetration).
     pub min_clearance_m: f64,
     pub worlds_reached_goal: usize,
+    /// The motion figures of every world, summed.
+    pub motion: MotionQuality,
     /// Live heap once warm (after the first chunk that reached 10 % of the
     /// target), at the end, and the largest sample (KiB); `None` when this
     /// binary does not count its heap.
@@ -240,6 +242,7 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
         worlds_with_violation: 0,
         min_clearance_m: f64::INFINITY,
         worlds_reached_goal: 0,
+        motion: MotionQuality::default(),
         heap_warm_kib: None,
         heap_end_kib: None,
         heap_max_kib: None,
@@ -288,6 +291,7 @@ pub fn run_soak(template: &Template, options: &SoakOptions, progress: &ProgressB
                         usize::from(f.figures.cbf_violations + f.figures.true_cbf_violations > 0);
                     r.min_clearance_m = r.min_clearance_m.min(f.figures.min_clearance_m);
                     r.worlds_reached_goal += usize::from(f.figures.reached_goal);
+                    r.motion = r.motion.sum(&f.figures.motion);
                 }
             }
         }
@@ -407,6 +411,7 @@ pub fn text(r: &SoakReport) -> String {
         "  goal reached in {}/{} worlds\n",
         r.worlds_reached_goal, r.worlds
     ));
+    s.push_str(&crate::report::motion_lines(&r.motion, None));
     match (r.heap_warm_kib, r.heap_end_kib, r.heap_max_kib) {
         (Some(warm), Some(end), Some(max)) => s.push_str(&format!(
             "  live heap: warm {warm} KiB, end {end} KiB, max {max} KiB, growth {:+} KiB (allowed {} KiB)\n",
@@ -474,6 +479,7 @@ mod tests {
             worlds_with_violation: 1,
             min_clearance_m: 0.1,
             worlds_reached_goal: 10,
+            motion: MotionQuality::default(),
             heap_warm_kib: Some(7000),
             heap_end_kib: Some(7000 + 4096),
             heap_max_kib: Some(7000 + 4096),

@@ -118,6 +118,9 @@ pub struct ControllerStats {
     /// (m/s per s, rad/s per s; [`MotionQuality`](crate::sim::figures::MotionQuality)).
     pub mean_variation_v_per_s: Option<f64>,
     pub mean_variation_omega_per_s: Option<f64>,
+    /// The same of the upstream command (what the controller's is read against).
+    pub mean_upstream_variation_v_per_s: Option<f64>,
+    pub mean_upstream_variation_omega_per_s: Option<f64>,
     /// Sign reversals of Δω (both steps above ω_max/6) and of Δv (both above
     /// 0.02 m/s), as fractions of all steps.
     pub omega_reversal_rate: f64,
@@ -211,6 +214,14 @@ impl ControllerStats {
             blind_steps_total: outcomes.iter().map(|o| o.figures.blind_steps).sum(),
             mean_variation_v_per_s: mean(outcomes.iter().map(|o| o.figures.motion.variation_v_per_s())),
             mean_variation_omega_per_s: mean(outcomes.iter().map(|o| o.figures.motion.variation_omega_per_s())),
+            mean_upstream_variation_v_per_s: mean(
+                outcomes.iter().map(|o| o.figures.motion.upstream_variation_v_per_s()),
+            ),
+            mean_upstream_variation_omega_per_s: mean(
+                outcomes
+                    .iter()
+                    .map(|o| o.figures.motion.upstream_variation_omega_per_s()),
+            ),
             omega_reversal_rate: motion.per_step(motion.omega_reversals),
             v_reversal_rate: motion.per_step(motion.v_reversals),
             window_exceeded_total: motion.window_exceeded,

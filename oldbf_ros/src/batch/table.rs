@@ -56,9 +56,11 @@ fn text_cells(r: &ControllerStats) -> [String; 16] {
         opt(r.mean_time_to_goal_s, 1),
         opt(r.mean_stalled_s, 1),
         format!(
-            "{} / {}",
+            "{} / {} ({} / {})",
             opt(r.mean_variation_v_per_s, 3),
-            opt(r.mean_variation_omega_per_s, 3)
+            opt(r.mean_variation_omega_per_s, 3),
+            opt(r.mean_upstream_variation_v_per_s, 3),
+            opt(r.mean_upstream_variation_omega_per_s, 3)
         ),
         format!(
             "{:.2} / {:.2}",
@@ -122,7 +124,8 @@ pub fn text(report: &BatchReport) -> String {
         "goal rate: over the worlds where a path keeps r + d_safe from the static obstacles (reached / those).",
         "goal in budget: of those, reached within time_budget_factor x line length / v_nom (– without a budget).",
         "time to goal: mean over the worlds reached. stalled: |v| < 0.02 m/s before the goal, mean over worlds.",
-        "TV v / ω: total variation of the command (sum of |dv|, |domega|) per second, mean over worlds.",
+        "TV v / ω: total variation of the command (sum of |dv|, |domega|) per second, mean over worlds;",
+        "  in brackets the same of the upstream command (a tracking controller's varies with the deviation).",
         "rev. dv / domega: sign reversals of the command's change (both steps above 0.02 m/s, omega_max/6).",
         "CBF viol.: steps where h(k+1) >= (1 - gamma) h(k) failed for the sent command (from the scan);",
         "  feasible: of those, steps the filter did not mark infeasible. braking viol.: steps whose command",
@@ -137,7 +140,7 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 51] = [
+pub const CSV_COLUMNS: [&str; 53] = [
     "controller",
     "worlds",
     "worlds_with_collision",
@@ -172,6 +175,8 @@ pub const CSV_COLUMNS: [&str; 51] = [
     "blind_steps_total",
     "mean_variation_v_per_s",
     "mean_variation_omega_per_s",
+    "mean_upstream_variation_v_per_s",
+    "mean_upstream_variation_omega_per_s",
     "omega_reversal_rate",
     "v_reversal_rate",
     "window_exceeded_total",
@@ -237,6 +242,8 @@ pub fn csv(report: &BatchReport) -> String {
             r.blind_steps_total.to_string(),
             num(r.mean_variation_v_per_s),
             num(r.mean_variation_omega_per_s),
+            num(r.mean_upstream_variation_v_per_s),
+            num(r.mean_upstream_variation_omega_per_s),
             r.omega_reversal_rate.to_string(),
             r.v_reversal_rate.to_string(),
             r.window_exceeded_total.to_string(),
@@ -267,7 +274,8 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
         "world,controller,sensor_seed,path_exists,label,steps,collisions,closing_contacts,passive_contacts,min_clearance_m,\
          reached_goal,time_to_goal_s,time_budget_s,goal_within_budget,path_length_m,max_tracking_error_m,cbf_violations,true_cbf_violations,\
          cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
-         driven_blind_steps,blind_steps,variation_v_per_s,variation_omega_per_s,omega_reversals,v_reversals,\
+         driven_blind_steps,blind_steps,variation_v_per_s,variation_omega_per_s,upstream_variation_v_per_s,upstream_variation_omega_per_s,\
+         omega_reversals,v_reversals,\
          window_exceeded,state_switches,above_upstream_steps,reverse_escape_steps,reverse_evade_steps,\
          reverse_other_steps,v_sign_changes,moving_track_steps,evade_steps,stalled_s,mean_step_us\n",
     );
@@ -275,7 +283,7 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
         let m = &o.figures.motion;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
@@ -302,6 +310,8 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
             o.figures.blind_steps,
             m.variation_v_per_s(),
             m.variation_omega_per_s(),
+            m.upstream_variation_v_per_s(),
+            m.upstream_variation_omega_per_s(),
             m.omega_reversals,
             m.v_reversals,
             m.window_exceeded,
@@ -361,6 +371,8 @@ mod tests {
             blind_steps_total: 0,
             mean_variation_v_per_s: Some(0.0125),
             mean_variation_omega_per_s: Some(0.25),
+            mean_upstream_variation_v_per_s: Some(0.01),
+            mean_upstream_variation_omega_per_s: Some(0.02),
             omega_reversal_rate: 0.0125,
             v_reversal_rate: 0.0,
             window_exceeded_total: 0,

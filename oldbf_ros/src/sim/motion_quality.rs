@@ -3,7 +3,9 @@
 //! to the upstream command. Fed the command sent at every control step.
 //!
 //! * total variation of v and ω: Σ|Δv| and Σ|Δω| over consecutive commands,
-//!   per second of the run (m/s per s, rad/s per s);
+//!   per second of the run (m/s per s, rad/s per s), and the same of the
+//!   upstream command: what the layer's own variation is to be read against
+//!   (a tracking controller upstream varies with the robot's deviation);
 //! * sign reversals of Δω with both steps above ω_max/6, and of Δv with both
 //!   above 0.02 m/s: a command that swings one way and straight back;
 //! * steps whose change leaves the base's dynamic window
@@ -39,6 +41,9 @@ pub struct MotionQuality {
     /// Σ|Δv| (m/s) and Σ|Δω| (rad/s).
     pub variation_v_mps: f64,
     pub variation_omega_radps: f64,
+    /// The same of the upstream (nominal) command, inside the input box.
+    pub upstream_variation_v_mps: f64,
+    pub upstream_variation_omega_radps: f64,
     /// Δω sign reversals (both steps above ω_max/6), Δv ones (both above 0.02 m/s).
     pub omega_reversals: usize,
     pub v_reversals: usize,
@@ -71,6 +76,16 @@ impl MotionQuality {
         per(self.variation_omega_radps, self.duration_s)
     }
 
+    /// Total variation of the upstream command's v per second (m/s per s).
+    pub fn upstream_variation_v_per_s(&self) -> f64 {
+        per(self.upstream_variation_v_mps, self.duration_s)
+    }
+
+    /// Total variation of the upstream command's ω per second (rad/s per s).
+    pub fn upstream_variation_omega_per_s(&self) -> f64 {
+        per(self.upstream_variation_omega_radps, self.duration_s)
+    }
+
     /// `count` per minute of the run.
     pub fn per_minute(&self, count: usize) -> f64 {
         per(60.0 * count as f64, self.duration_s)
@@ -93,6 +108,8 @@ impl MotionQuality {
             duration_s: self.duration_s + o.duration_s,
             variation_v_mps: self.variation_v_mps + o.variation_v_mps,
             variation_omega_radps: self.variation_omega_radps + o.variation_omega_radps,
+            upstream_variation_v_mps: self.upstream_variation_v_mps + o.upstream_variation_v_mps,
+            upstream_variation_omega_radps: self.upstream_variation_omega_radps + o.upstream_variation_omega_radps,
             omega_reversals: self.omega_reversals + o.omega_reversals,
             v_reversals: self.v_reversals + o.v_reversals,
             window_exceeded: self.window_exceeded + o.window_exceeded,
@@ -173,6 +190,8 @@ impl MotionMeter {
             let dw = s.cmd.omega_radps - last.cmd.omega_radps;
             q.variation_v_mps += dv.abs();
             q.variation_omega_radps += dw.abs();
+            q.upstream_variation_v_mps += (v_nom - last.nominal.v_mps).abs();
+            q.upstream_variation_omega_radps += (s.nominal.omega_radps - last.nominal.omega_radps).abs();
             if dv.abs() > V_REVERSAL_STEP_MPS {
                 q.v_reversals += usize::from(dv * self.last_dv < 0.0);
             }
@@ -255,6 +274,27 @@ mod tests {
         assert_eq!(q.window_exceeded, 1);
         assert_eq!(q.above_upstream_steps, 1);
         assert!((q.per_minute(q.state_switches) - 2.0 * 60.0 / 0.7).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_upstream_commands_variation_is_measured_beside_the_commands() {
+        // The upstream swings ω 0 → 0.2 → 0 → 0.2 and v 0.1 → 0.2 → 0.2 → 0.1;
+        // the command holds (0.1, 0.05): its variation is 0, the upstream's
+        // 0.6 rad/s and 0.2 m/s over 0.4 s.
+        let mut m = MotionMeter::new(&Params::default(), 0.1);
+        for (v_nom, w_nom) in [(0.1, 0.0), (0.2, 0.2), (0.2, 0.0), (0.1, 0.2)] {
+            let mut s = step(0.1, 0.05, v_nom, DoaaState::Forward);
+            s.nominal.omega_radps = w_nom;
+            m.add(s);
+        }
+        let q = m.figures();
+        assert_eq!((q.variation_v_mps, q.variation_omega_radps), (0.0, 0.0));
+        assert!((q.upstream_variation_omega_radps - 0.6).abs() < 1e-12);
+        assert!((q.upstream_variation_v_mps - 0.2).abs() < 1e-12);
+        assert!((q.upstream_variation_omega_per_s() - 1.5).abs() < 1e-12);
+        // Summed runs add up.
+        let two = q.sum(&q);
+        assert!((two.upstream_variation_omega_per_s() - 1.5).abs() < 1e-12);
     }
 
     #[test]
