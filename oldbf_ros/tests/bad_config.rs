@@ -117,6 +117,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("obstacles.measurement_noise_m", "0"),
     ("obstacles.moving_speed_mps", "-0.05"),
     ("obstacles.min_travel_m", "-0.3"),
+    ("obstacles.motion_by_sight", "2"),
     ("obstacles.lookahead_s", "61"),
     ("obstacles.max_tracks", "0"),
     ("baselines.dcbf.lookahead_m", "0"),
