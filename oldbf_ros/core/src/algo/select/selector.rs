@@ -198,7 +198,9 @@ impl Selector {
     /// One decision.
     pub fn select(&mut self, input: &SelectInput, g: Geometry<'_>, p: &Params) -> Selection {
         let mut s = self.decide(input, g, p);
-        s.cmd = Twist::new(at_rest(s.cmd.v_mps), at_rest(s.cmd.omega_radps));
+        // Rounded to rest only where the base can be at rest now (the window holds 0).
+        let window = Window::new(input.last, input.since_s, &self.limits, &input.bx);
+        s.cmd = Twist::new(at_rest(s.cmd.v_mps, window.v), at_rest(s.cmd.omega_radps, window.omega));
         self.h_mean.sent(s.h_m, s.h_next_m);
         s
     }
@@ -715,9 +717,10 @@ fn brake(last: Twist, window: &Window) -> Twist {
 /// sign it would read, to the base and to the measures, as a reversal.
 pub const REST_TOL: f64 = 1e-6;
 
-/// `x`, or 0 within [`REST_TOL`] of it.
-fn at_rest(x: f64) -> f64 {
-    if x.abs() < REST_TOL {
+/// `x`, or 0 within [`REST_TOL`] of it when 0 lies in `lo..=hi` (the
+/// window's range for it: rounding never takes a command outside it).
+fn at_rest(x: f64, (lo, hi): (f64, f64)) -> f64 {
+    if x.abs() < REST_TOL && lo <= WINDOW_TOL && hi >= -WINDOW_TOL {
         0.0
     } else {
         x
@@ -742,6 +745,17 @@ mod tests {
             passive: &mut passive,
         };
         sel.select(input, g, p)
+    }
+
+    #[test]
+    fn a_speed_within_rounding_of_rest_is_sent_as_rest_only_where_the_window_holds_rest() {
+        // Braking from 0.1 m/s at 1 m/s² for 0.1 s leaves a residue of 1e-17: rest is reachable.
+        assert_eq!(at_rest(1e-17, (1e-17, 0.15)), 0.0);
+        assert_eq!(at_rest(-3e-7, (-0.05, 0.05)), 0.0);
+        // A window whose least speed is 5e-7 m/s cannot reach rest this step: kept.
+        assert_eq!(at_rest(5e-7, (5e-7, 0.1)), 5e-7);
+        // A speed beyond the rounding is a command.
+        assert_eq!(at_rest(2e-6, (-0.05, 0.05)), 2e-6);
     }
 
     #[test]
