@@ -90,6 +90,9 @@ def pool(out, template, seeds, controller):
         acc["window"] += r["window_exceeded_total"]
         acc["switch_min"] += r["state_switches_per_min"] * n
         acc["above"] += r["above_upstream_steps_total"]
+        if r.get("above_upstream_escape_steps_total") is not None:
+            acc["above_esc"] = acc.get("above_esc", 0) + r["above_upstream_escape_steps_total"]
+            acc["above_esc_worlds"] = acc.get("above_esc_worlds", 0) + w
         acc["rev_escape"] += r["reverse_escape_steps_total"]
         acc["rev_evade"] += r["reverse_evade_steps_total"]
         acc["rev_other"] += r["reverse_other_steps_total"]
@@ -117,7 +120,8 @@ def pool(out, template, seeds, controller):
         "rev Δω": f"{100 * acc['rev_w'] / n:.2f} %",
         "outside window": int(acc["window"]),
         "switches/min": f"{acc['switch_min'] / n:.1f}",
-        "above upstream": int(acc["above"]),
+        "above upstream": (f"{int(acc['above'])} (esc {int(acc['above_esc'])})"
+                           if acc.get("above_esc_worlds") == w else f"{int(acc['above'])}"),
         "reverse unasked (esc/eva/other)": f"{int(acc['rev_escape'])}/{int(acc['rev_evade'])}/{int(acc['rev_other'])}",
         "v sign changes": int(acc["sign"]),
         "moving track": f"{100 * acc['moving'] / n:.1f} %",

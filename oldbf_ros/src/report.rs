@@ -21,7 +21,7 @@ pub fn motion_lines(m: &MotionQuality, stalled_s: Option<f64>) -> String {
     format!(
         "  motion: variation v {:.3} m/s per s, ω {:.3} rad/s per s (upstream {:.3}, {:.3}) | reversals Δv {} ({:.2} %), \
          Δω {} ({:.2} %) | state switches {:.1}/min | outside the window {}{stalled}\n  \
-         added to the upstream: faster {} steps | reversing {} (escape {}, evasion {}, other {}) | v sign changes {} | \
+         added to the upstream: faster {} steps (escape {}) | reversing {} (escape {}, evasion {}, other {}) | v sign changes {} | \
          moving tracks on {:.1} % of steps\n",
         m.variation_v_per_s(),
         m.variation_omega_per_s(),
@@ -34,6 +34,7 @@ pub fn motion_lines(m: &MotionQuality, stalled_s: Option<f64>) -> String {
         m.per_minute(m.state_switches),
         m.window_exceeded,
         m.above_upstream_steps,
+        m.above_upstream_escape_steps,
         m.reverse_unasked_steps(),
         m.reverse_escape_steps,
         m.reverse_evade_steps,

@@ -131,6 +131,8 @@ pub struct ControllerStats {
     pub state_switches_per_min: f64,
     /// Steps faster than the upstream command (beyond braking to it).
     pub above_upstream_steps_total: usize,
+    /// Of those, steps escaping the unsafe set (which may, §5c).
+    pub above_upstream_escape_steps_total: usize,
     /// Steps reversing while the upstream does not: escape, evasion, other.
     pub reverse_escape_steps_total: usize,
     pub reverse_evade_steps_total: usize,
@@ -227,6 +229,7 @@ impl ControllerStats {
             window_exceeded_total: motion.window_exceeded,
             state_switches_per_min: motion.per_minute(motion.state_switches),
             above_upstream_steps_total: motion.above_upstream_steps,
+            above_upstream_escape_steps_total: motion.above_upstream_escape_steps,
             reverse_escape_steps_total: motion.reverse_escape_steps,
             reverse_evade_steps_total: motion.reverse_evade_steps,
             reverse_other_steps_total: motion.reverse_other_steps,

@@ -140,7 +140,7 @@ pub fn text(report: &BatchReport) -> String {
 }
 
 /// Column names of [`csv`], in order (the fields of [`ControllerStats`]).
-pub const CSV_COLUMNS: [&str; 53] = [
+pub const CSV_COLUMNS: [&str; 54] = [
     "controller",
     "worlds",
     "worlds_with_collision",
@@ -182,6 +182,7 @@ pub const CSV_COLUMNS: [&str; 53] = [
     "window_exceeded_total",
     "state_switches_per_min",
     "above_upstream_steps_total",
+    "above_upstream_escape_steps_total",
     "reverse_escape_steps_total",
     "reverse_evade_steps_total",
     "reverse_other_steps_total",
@@ -249,6 +250,7 @@ pub fn csv(report: &BatchReport) -> String {
             r.window_exceeded_total.to_string(),
             r.state_switches_per_min.to_string(),
             r.above_upstream_steps_total.to_string(),
+            r.above_upstream_escape_steps_total.to_string(),
             r.reverse_escape_steps_total.to_string(),
             r.reverse_evade_steps_total.to_string(),
             r.reverse_other_steps_total.to_string(),
@@ -276,14 +278,14 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
          cbf_violations_feasible,braking_violations,braking_violations_feasible,infeasible_steps,\
          driven_blind_steps,blind_steps,variation_v_per_s,variation_omega_per_s,upstream_variation_v_per_s,upstream_variation_omega_per_s,\
          omega_reversals,v_reversals,\
-         window_exceeded,state_switches,above_upstream_steps,reverse_escape_steps,reverse_evade_steps,\
+         window_exceeded,state_switches,above_upstream_steps,above_upstream_escape_steps,reverse_escape_steps,reverse_evade_steps,\
          reverse_other_steps,v_sign_changes,moving_track_steps,evade_steps,stalled_s,mean_step_us\n",
     );
     for o in outcomes {
         let m = &o.figures.motion;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             o.world,
             controller_name(o.controller),
             o.sensor_seed,
@@ -317,6 +319,7 @@ pub fn per_world_csv(outcomes: &[WorldOutcome]) -> String {
             m.window_exceeded,
             m.state_switches,
             m.above_upstream_steps,
+            m.above_upstream_escape_steps,
             m.reverse_escape_steps,
             m.reverse_evade_steps,
             m.reverse_other_steps,
@@ -378,6 +381,7 @@ mod tests {
             window_exceeded_total: 0,
             state_switches_per_min: 3.0,
             above_upstream_steps_total: 0,
+            above_upstream_escape_steps_total: 0,
             reverse_escape_steps_total: 1,
             reverse_evade_steps_total: 0,
             reverse_other_steps_total: 0,

@@ -15,7 +15,8 @@
 //!   at once whatever the base can follow;
 //! * switches of the state (forward, avoid, …) per minute;
 //! * steps whose speed exceeds the upstream (nominal) command's in its
-//!   direction, beyond what braking at the window's deceleration allows, and
+//!   direction, beyond what braking at the window's deceleration allows
+//!   (and of them, those escaping the unsafe set, which may), and
 //!   steps that reverse while the upstream does not (split: escape from the
 //!   unsafe set, evasion of a mover, anything else);
 //! * sign changes of v: a robot that is blocked should rest, not jitter;
@@ -51,8 +52,10 @@ pub struct MotionQuality {
     pub window_exceeded: usize,
     /// Changes of state between consecutive steps.
     pub state_switches: usize,
-    /// Steps faster than the upstream command (beyond braking at the deceleration).
+    /// Steps faster than the upstream command (beyond braking at the deceleration),
+    /// and those of them escaping the unsafe set (which may: §5c).
     pub above_upstream_steps: usize,
+    pub above_upstream_escape_steps: usize,
     /// Steps reversing while the upstream does not: escaping the unsafe set,
     /// evading a mover, and otherwise.
     pub reverse_escape_steps: usize,
@@ -115,6 +118,7 @@ impl MotionQuality {
             window_exceeded: self.window_exceeded + o.window_exceeded,
             state_switches: self.state_switches + o.state_switches,
             above_upstream_steps: self.above_upstream_steps + o.above_upstream_steps,
+            above_upstream_escape_steps: self.above_upstream_escape_steps + o.above_upstream_escape_steps,
             reverse_escape_steps: self.reverse_escape_steps + o.reverse_escape_steps,
             reverse_evade_steps: self.reverse_evade_steps + o.reverse_evade_steps,
             reverse_other_steps: self.reverse_other_steps + o.reverse_other_steps,
@@ -216,6 +220,7 @@ impl MotionMeter {
                 v_nom < 0.0 && v < v_nom.min(hi) - WINDOW_TOL
             };
             q.above_upstream_steps += usize::from(above);
+            q.above_upstream_escape_steps += usize::from(above && s.state == DoaaState::Escape);
         }
         if v < -WINDOW_TOL && v_nom >= 0.0 {
             match s.state {
@@ -277,6 +282,20 @@ mod tests {
     }
 
     #[test]
+    fn escaping_forward_while_the_upstream_rests_is_above_it_and_counted_apart() {
+        // Turning in place (upstream v 0), a noisy reading puts the robot in the unsafe
+        // set and escape drives it out forward at 0.03 m/s: above the upstream, which
+        // escape may (§5c); a forward step outside escape is not.
+        let mut m = MotionMeter::new(&Params::default(), 0.1);
+        use DoaaState::*;
+        for (v, st) in [(0.0, Avoid), (0.03, Escape), (0.0, Avoid), (0.03, Avoid)] {
+            m.add(step(v, 0.0, 0.0, st));
+        }
+        let q = m.figures();
+        assert_eq!((q.above_upstream_steps, q.above_upstream_escape_steps), (2, 1));
+    }
+
+    #[test]
     fn the_upstream_commands_variation_is_measured_beside_the_commands() {
         // The upstream swings ω 0 → 0.2 → 0 → 0.2 and v 0.1 → 0.2 → 0.2 → 0.1;
         // the command holds (0.1, 0.05): its variation is 0, the upstream's
@@ -309,6 +328,7 @@ mod tests {
         // Holding 0.1 when it could brake to 0 is above it.
         m.add(step(0.1, 0.0, 0.0, Forward));
         assert_eq!(m.figures().above_upstream_steps, 1);
+        assert_eq!(m.figures().above_upstream_escape_steps, 0);
         // Backing up: from escape, evasion, and for no stated reason; then forward again.
         for (v, st) in [
             (-0.05, Escape),
