@@ -155,7 +155,9 @@ impl SeenFree {
 
     /// How many snapshots older than `now_s` saw through `q` (tracking
     /// frame, m): the beam through it and its [`NEIGHBOURS`] on either side
-    /// went on more than [`SEEN_THROUGH_M`] beyond it.
+    /// went on more than [`SEEN_THROUGH_M`] beyond it. The pipeline asks
+    /// [`Self::add_to`]; this is each point alone, for the tests.
+    #[cfg(test)]
     pub fn seen_through(&self, q: Vec2, now_s: f64) -> usize {
         self.snaps[..self.used]
             .iter()
@@ -188,7 +190,7 @@ impl SeenFree {
 /// beyond spans less than one step in that view: a thin wall seen end-on, a
 /// pole narrower than the beams' spacing. Seen later from the side, its
 /// points stand where that snapshot saw free, but all within one step.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Spread {
     /// Per snapshot: the first such point's bearing, then the least and the
     /// greatest offset from it of any (rad), and the step between beams (rad);
@@ -197,17 +199,6 @@ pub struct Spread {
     lo_rad: [f64; SNAPSHOTS],
     hi_rad: [f64; SNAPSHOTS],
     step_rad: [f64; SNAPSHOTS],
-}
-
-impl Default for Spread {
-    fn default() -> Self {
-        Self {
-            first_rad: [0.0; SNAPSHOTS],
-            lo_rad: [0.0; SNAPSHOTS],
-            hi_rad: [0.0; SNAPSHOTS],
-            step_rad: [0.0; SNAPSHOTS],
-        }
-    }
 }
 
 impl Spread {
