@@ -109,6 +109,28 @@ impl Route {
     }
 }
 
+/// Whether the plan `relaxed`, made with less clearance, is taken over
+/// `stricter`: it reaches the goal, and the stricter one either does not or
+/// costs more by [`BETTER_M`] and [`BETTER_FRACTION`] (the margin a new plan
+/// needs to replace a held route). A way through a gap that is only just
+/// wide enough is taken when the wider way is much longer, typically because
+/// that one only "reaches" through unseen space: going to look there, and
+/// coming back once it is seen closed, is what a robot that ignores a door
+/// it fits through does. Otherwise the wider way wins: the filter follows it
+/// with room to spare.
+pub fn relaxation_wins(relaxed: &Planned, stricter: &Planned) -> bool {
+    let Planned::Route(r) = relaxed else {
+        return false;
+    };
+    if !r.reaches_goal {
+        return false;
+    }
+    match stricter {
+        Planned::Route(s) if s.reaches_goal => r.cost < s.cost - BETTER_M.max(BETTER_FRACTION * s.cost),
+        _ => true,
+    }
+}
+
 /// What a plan found.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Planned {
@@ -543,9 +565,10 @@ impl RoutePlanner {
 
     /// Plans and decides whether the new plan replaces the route held (see
     /// the module's rule). `reqs` is an ordered relaxation of one request
-    /// (the same goal, less clearance each): the first whose route reaches
-    /// the goal is taken, else the first. Returns the route now held (None:
-    /// no route) and why it changed.
+    /// (the same goal, less clearance each): each is planned, and a later
+    /// one is taken over the one chosen so far only as
+    /// [`relaxation_wins`] says. Returns the route now held (None: no
+    /// route) and why it changed.
     pub fn replan(&mut self, map: &LocalMap, reqs: &[RouteRequest]) -> (Option<&Route>, RouteChange) {
         let Some(first) = reqs.first() else {
             return (self.held.as_ref(), RouteChange::Kept);
@@ -554,15 +577,11 @@ impl RoutePlanner {
         let mut planned = self.plan_fresh(map, first);
         let (mut chosen, mut fields_of) = (0, 0);
         for (i, relaxed) in reqs.iter().enumerate().skip(1) {
-            if matches!(&planned, Planned::Route(r) if r.reaches_goal) {
-                break;
-            }
             let p = self.plan_fresh(map, relaxed);
             fields_of = i;
-            if matches!(&p, Planned::Route(r) if r.reaches_goal) {
+            if relaxation_wins(&p, &planned) {
                 planned = p;
                 chosen = i;
-                break;
             }
         }
         let req = &reqs[chosen];
@@ -693,6 +712,50 @@ mod tests {
         // cell's diagonal) from the door's posts at (1, ±0.3), x ≤ 1 − √(0.343² − 0.3²) = 0.834.
         assert!(r.points.iter().all(|q| q.x < 0.84), "{:?}", r.points.last());
         assert!(r.points.last().unwrap().x > 0.75, "{:?}", r.points.last());
+    }
+
+    #[test]
+    fn a_gap_only_just_wide_enough_is_taken_when_the_wider_way_is_much_longer() {
+        // A wall across x = 1 with a 0.8 m door (y from −0.4 to 0.4): open at the tight
+        // clearance r + d_safe = 0.378, closed at 0.458 (the route's margin of 0.08 added).
+        let wide = |goal| RouteRequest {
+            clearance_m: 0.458,
+            ..req(goal)
+        };
+        let goal = Vec2::new(2.5, 0.0);
+        let through_door = |r: &Route| {
+            let at = r.points.iter().find(|q| (q.x - 1.0).abs() < 1e-9).unwrap();
+            at.y.abs() < 0.051
+        };
+        // The wall's upper part ends at y = 2.6: the wider way round its end is about
+        // 6.6 m, the door's about 2.5 m plus what its narrowness costs.
+        let mut pts = wall(1.0, -3.9, -0.4);
+        pts.extend(wall(1.0, 0.4, 2.6));
+        let map = map_with(&pts);
+        let mut p = RoutePlanner::default();
+        let Planned::Route(round) = p.plan(&map, &wide(goal)) else {
+            panic!("no route")
+        };
+        assert!(round.reaches_goal && !through_door(&round));
+        let (r, why) = p.replan(&map, &[wide(goal), req(goal)]);
+        assert_eq!(why, RouteChange::New);
+        let r = r.unwrap();
+        assert!(through_door(r), "cost {} against {} round", r.cost, round.cost);
+        assert_eq!(p.chosen().map(|q| q.clearance_m), Some(0.378));
+        // A post of 0.1 m (y from 0.4 to 0.5) beside the door, open above it: the way round
+        // (about 3.8) is not longer by 1 m and 20 %, and it keeps the margin: taken.
+        let mut pts = wall(1.0, -3.9, -0.4);
+        pts.extend(wall(1.0, 0.4, 0.5));
+        let map = map_with(&pts);
+        let mut p = RoutePlanner::default();
+        let Planned::Route(door) = p.plan(&map, &req(goal)) else {
+            panic!("no route")
+        };
+        let (r, _) = p.replan(&map, &[wide(goal), req(goal)]);
+        let r = r.unwrap();
+        assert!(r.reaches_goal && !through_door(r), "cost {} against {} by the door", r.cost, door.cost);
+        assert!(r.cost < door.cost + BETTER_M.max(BETTER_FRACTION * r.cost));
+        assert_eq!(p.chosen().map(|q| q.clearance_m), Some(0.458));
     }
 
     #[test]
