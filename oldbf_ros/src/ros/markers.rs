@@ -367,6 +367,7 @@ mod tests {
                 points: vec![Vec2::new(1.0, 2.0), Vec2::new(1.05, 2.0)],
                 reaches_goal: true,
                 cost: 0.05,
+                unknown_m: 0.0,
                 goal: Vec2::new(1.05, 2.0),
                 made_s: 3.0,
             }),

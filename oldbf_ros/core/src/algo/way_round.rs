@@ -185,8 +185,8 @@ impl WayRound {
             memory_s: p.unstuck.memory_s,
         };
         // Gaps narrower than 2 (r + d_safe + margin) but not than 2 (r + d_safe) are
-        // taken only when no wider way reaches the goal, or it is much longer
-        // (route::relaxation_wins).
+        // taken only when no wider way reaches the goal, or only through unseen space
+        // and much longer (route::relaxation_wins).
         let tight = RouteRequest {
             clearance_m: half_width + p.barrier.d_safe_m,
             ..req

@@ -55,7 +55,8 @@ pub struct UnstuckParams {
     pub plan_period_s: f64,
     /// The route keeps r + d_safe + this from everything seen (m), where it
     /// can (gaps of 2 (r + d_safe) are taken when nothing wider reaches the
-    /// goal or the wider way costs 1 m and 20 % more): more than the filter's noise margin δ, the range noise and half
+    /// goal, or reaches it only through unseen space and is 1 m and 20 %
+    /// longer): more than the filter's noise margin δ, the range noise and half
     /// a cell, or the route leads where the filter will not let the robot go.
     pub margin_m: f64,
     /// The way round heads for the point this far further along the
