@@ -366,6 +366,7 @@ mod tests {
             route: Some(Route {
                 points: vec![Vec2::new(1.0, 2.0), Vec2::new(1.05, 2.0)],
                 reaches_goal: true,
+                reaches_target: true,
                 cost: 0.05,
                 unknown_m: 0.0,
                 goal: Vec2::new(1.05, 2.0),

@@ -74,6 +74,10 @@ pub struct Route {
     pub points: Vec<Vec2>,
     /// The end is the goal (within [`NO_ROUTE_M`]).
     pub reaches_goal: bool,
+    /// The end is the search's target within [`NO_ROUTE_M`]: the goal, or
+    /// for a goal beyond the window, where the straight line to it leaves
+    /// the window.
+    pub reaches_target: bool,
     /// Its cost when planned (m, weighted).
     pub cost: f64,
     /// How much of it runs through unknown cells (m): space the route
@@ -113,24 +117,27 @@ impl Route {
 }
 
 /// Whether the plan `relaxed`, made with less clearance, is taken over
-/// `stricter`: it reaches the goal, and the stricter one either does not,
-/// or reaches it only through unseen space and is much longer: it costs
-/// more by [`BETTER_M`] and [`BETTER_FRACTION`] (the margin a new plan needs
-/// to replace a held route) and runs [`BETTER_M`] further through unknown
+/// `stricter`: it reaches its target (the goal, or where the line to a goal
+/// beyond the window leaves it), and the stricter one either does not, or
+/// reaches it only through unseen space and is much longer: it costs more
+/// by [`BETTER_M`] and [`BETTER_FRACTION`] (the margin a new plan needs to
+/// replace a held route) and runs [`BETTER_M`] further through unknown
 /// cells. Going to look past the end of a wall, and coming back once it is
 /// seen closed (and again once it is forgotten), is what a robot that
 /// ignores a door it fits through does. A wider way through space seen open
 /// wins, however long: the filter follows it with room to spare, where a gap
-/// of just 2 (r + d_safe) can hold the robot at its mouth.
+/// of just 2 (r + d_safe) can hold the robot at its mouth. A goal beyond the
+/// window is judged at the window's edge like one inside: most goals are
+/// farther than half the window.
 pub fn relaxation_wins(relaxed: &Planned, stricter: &Planned) -> bool {
     let Planned::Route(r) = relaxed else {
         return false;
     };
-    if !r.reaches_goal {
+    if !r.reaches_target {
         return false;
     }
     match stricter {
-        Planned::Route(s) if s.reaches_goal => {
+        Planned::Route(s) if s.reaches_target => {
             r.cost < s.cost - BETTER_M.max(BETTER_FRACTION * s.cost) && s.unknown_m > r.unknown_m + BETTER_M
         }
         _ => true,
@@ -144,6 +151,20 @@ pub enum Planned {
     Route(Route),
     /// Closed in by what the map knows: no way to the goal.
     NoRoute,
+}
+
+impl Planned {
+    /// One line for logs: whether it reaches the goal and its target, its
+    /// cost and its unknown length.
+    fn summary(&self) -> String {
+        match self {
+            Planned::Route(r) => format!(
+                "route (goal {}, target {}, cost {:.2} m, unknown {:.2} m)",
+                r.reaches_goal, r.reaches_target, r.cost, r.unknown_m
+            ),
+            Planned::NoRoute => "no route".into(),
+        }
+    }
 }
 
 /// Why the route held changed at the last [`RoutePlanner::replan`].
@@ -537,6 +558,7 @@ impl RoutePlanner {
         Planned::Route(Route {
             points,
             reaches_goal: goal_inside && gap_m <= NO_ROUTE_M,
+            reaches_target: gap_m <= NO_ROUTE_M,
             cost,
             unknown_m,
             goal: req.goal,
@@ -592,6 +614,13 @@ impl RoutePlanner {
         for (i, relaxed) in reqs.iter().enumerate().skip(1) {
             let p = self.plan_fresh(map, relaxed);
             fields_of = i;
+            log::trace!(
+                "t {:.1}: relaxation {i} ({:.3} m): {} against {}",
+                relaxed.now_s,
+                relaxed.clearance_m,
+                p.summary(),
+                planned.summary()
+            );
             if relaxation_wins(&p, &planned) {
                 planned = p;
                 chosen = i;
@@ -792,6 +821,41 @@ mod tests {
             door.cost
         );
         assert_eq!(p.chosen().map(|q| q.clearance_m), Some(0.458));
+    }
+
+    #[test]
+    fn a_goal_beyond_the_window_is_judged_where_the_line_to_it_leaves_the_window() {
+        // The wall and 0.8 m door above, only 2.5 m seen, the goal 6 m away: beyond the
+        // window (8 m wide round the robot), so no route reaches the goal itself. Both
+        // reach where the line to it leaves the window (x = 3.975, the last cell
+        // centre), and the door's way wins as it does for a goal inside.
+        let goal = Vec2::new(6.0, 0.0);
+        let wide = RouteRequest {
+            clearance_m: 0.458,
+            ..req(goal)
+        };
+        let mut pts = wall(1.0, -3.9, -0.4);
+        pts.extend(wall(1.0, 0.4, 2.6));
+        let map = map_seen(&pts, 2.5);
+        let mut p = RoutePlanner::default();
+        let Planned::Route(round) = p.plan(&map, &wide) else {
+            panic!("no route")
+        };
+        assert!(!round.reaches_goal && round.reaches_target, "{:?}", round.points.last());
+        assert!(round.unknown_m > 1.0, "{}", round.unknown_m);
+        let (r, _) = p.replan(&map, &[wide, req(goal)]);
+        let r = r.unwrap();
+        assert!(!r.reaches_goal && r.reaches_target);
+        let end = r.points.last().unwrap();
+        assert!((end - Vec2::new(3.975, 0.0)).norm() <= NO_ROUTE_M, "{end:?}");
+        let at = r.points.iter().find(|q| (q.x - 1.0).abs() < 1e-9).unwrap();
+        assert!(
+            at.y.abs() < 0.051,
+            "through the door: {at:?}, cost {} against {}",
+            r.cost,
+            round.cost
+        );
+        assert_eq!(p.chosen().map(|q| q.clearance_m), Some(0.378));
     }
 
     #[test]
