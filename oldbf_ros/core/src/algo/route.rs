@@ -153,16 +153,17 @@ pub enum Planned {
     NoRoute,
 }
 
-impl Planned {
-    /// One line for logs: whether it reaches the goal and its target, its
-    /// cost and its unknown length.
-    fn summary(&self) -> String {
+/// One line for logs: whether it reaches the goal and its target, its cost
+/// and its unknown length (written straight to the log, nothing allocated).
+impl std::fmt::Display for Planned {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Planned::Route(r) => format!(
+            Planned::Route(r) => write!(
+                f,
                 "route (goal {}, target {}, cost {:.2} m, unknown {:.2} m)",
                 r.reaches_goal, r.reaches_target, r.cost, r.unknown_m
             ),
-            Planned::NoRoute => "no route".into(),
+            Planned::NoRoute => f.write_str("no route"),
         }
     }
 }
@@ -618,8 +619,8 @@ impl RoutePlanner {
                 "t {:.1}: relaxation {i} ({:.3} m): {} against {}",
                 relaxed.now_s,
                 relaxed.clearance_m,
-                p.summary(),
-                planned.summary()
+                p,
+                planned
             );
             if relaxation_wins(&p, &planned) {
                 planned = p;
