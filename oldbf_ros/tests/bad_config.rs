@@ -44,6 +44,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("laser.blind_sector_deg", "0"),
     ("laser.blind_fraction", "1.5"),
     ("laser.blind_timeout_s", "61"),
+    ("laser.range_noise_m", "0.2"),
     ("barrier.d_safe_m", "-0.2"),
     ("barrier.big_gamma", "0"),
     ("barrier.sigma", "0.05"),

@@ -6,6 +6,7 @@
 //! and where it departs from the paper.
 
 pub mod barrier;
+pub mod beam_average;
 pub mod beam_memory;
 pub mod blind;
 pub mod body;

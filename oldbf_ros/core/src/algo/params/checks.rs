@@ -32,6 +32,8 @@ const COUNT_1000: Interval = Interval::closed(1.0, 1000.0);
 /// A (de)celeration (m/s²).
 const ACCEL: Interval = Interval::open_closed(0.0, 100.0).unit("m/s²");
 /// A margin up to 1 m; 0 allowed.
+/// A laser's range noise (1σ): 10 cm is far beyond any scanner worth averaging.
+const RANGE_NOISE: Interval = Interval::closed(0.0, 0.1).unit("m");
 const MARGIN_1: Interval = Interval::closed(0.0, 1.0).unit("m");
 /// A horizon or gain up to 10 s.
 const TIME_10_POS: Interval = Interval::open_closed(0.0, 10.0).unit("s");
@@ -116,6 +118,7 @@ impl Validate for Params {
             Interval::open_closed(0.0, 1.0),
         );
         c.range("laser.blind_timeout_s", l.blind_timeout_s, HOLD_60);
+        c.range("laser.range_noise_m", l.range_noise_m, RANGE_NOISE);
 
         let b = &self.barrier;
         c.range("barrier.d_safe_m", b.d_safe_m, DIST_10);

@@ -31,6 +31,12 @@ pub struct LaserParams {
     pub blind_fraction: f64,
     /// …for longer than this (s): stop and report `sensor_blind`.
     pub blind_timeout_s: f64,
+    /// The laser's range noise, one standard deviation (m): each beam's
+    /// static return is averaged over the last few scans within 3 of these
+    /// of each other, and never reported more than 2 of these beyond the
+    /// raw return (ALGORITHM §1, `algo/beam_average.rs`). 0 turns the
+    /// averaging off (the paper method).
+    pub range_noise_m: f64,
 }
 
 /// How a scan's invalid readings are interpreted.
@@ -59,6 +65,7 @@ impl Default for LaserParams {
             blind_sector_deg: 180.0,
             blind_fraction: 0.5,
             blind_timeout_s: 0.3,
+            range_noise_m: 0.01,
         }
     }
 }

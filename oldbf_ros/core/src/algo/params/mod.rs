@@ -83,6 +83,7 @@ impl Params {
     /// worlds (ALGORITHM.md §8). There is no YAML file for it.
     pub fn paper_method(mut self) -> Self {
         self.laser.range_semantics = RangeSemantics::AllInvalidFree;
+        self.laser.range_noise_m = 0.0;
         self.barrier.side_fade_deg = 0.0;
         self.unstuck.enabled = false;
         self.passive.enabled = false;

@@ -93,6 +93,15 @@ impl SafetyPipeline {
         let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.track_obstacles(stamp_s, pose, full_circle, scan.header.range_max_m as f64);
+        let sigma_m = self.params.laser.range_noise_m;
+        if sigma_m > 0.0 {
+            // After tracking, which sees the raw returns (a track's motion is measured,
+            // not smoothed); the returns of moving tracks pass raw.
+            self.mark_movers();
+            let origin = self.derived.mount.pose.position();
+            self.beam_average
+                .apply(&mut self.points, &self.on_mover, pose, origin, sigma_m);
+        }
         if self.params.unstuck.enabled {
             // The map takes the scan less walking people (§4c).
             self.fill_plan_points();
@@ -154,6 +163,7 @@ impl SafetyPipeline {
             self.tracker.reset();
             self.seen_free.reset();
             self.memory.reset();
+            self.beam_average.reset();
             self.way_round.reset(&self.params);
             self.route = None;
         }

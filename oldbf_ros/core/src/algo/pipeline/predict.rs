@@ -197,6 +197,22 @@ impl SafetyPipeline {
     /// detours away from their goal while people walked through the way;
     /// evasion and the DTCBF still see every point.
     pub(super) fn fill_plan_points(&mut self) {
+        self.mark_movers();
+        self.plan_points.clear();
+        self.slow_points.clear();
+        for (q, m) in self.points.points.iter().zip(&self.on_mover) {
+            match m {
+                0 => self.plan_points.push(*q),
+                1 => self.slow_points.push(*q),
+                _ => {}
+            }
+        }
+    }
+
+    /// Marks each point of the scan by its cluster's track in `on_mover`:
+    /// 0 static or untracked, 1 moving slower than PLAN_THROUGH_SPEED_MPS,
+    /// 2 moving faster.
+    pub(super) fn mark_movers(&mut self) {
         let n = self.points.points.len();
         self.on_mover.clear();
         self.on_mover.resize(n, 0);
@@ -212,15 +228,6 @@ impl SafetyPipeline {
                 for i in cluster.indices(n) {
                     self.on_mover[i] = k;
                 }
-            }
-        }
-        self.plan_points.clear();
-        self.slow_points.clear();
-        for (q, m) in self.points.points.iter().zip(&self.on_mover) {
-            match m {
-                0 => self.plan_points.push(*q),
-                1 => self.slow_points.push(*q),
-                _ => {}
             }
         }
     }
