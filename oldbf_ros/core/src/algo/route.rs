@@ -585,32 +585,17 @@ impl RoutePlanner {
         cost
     }
 
-    /// Plans for `req` on fresh fields; closed in only by the spots the
-    /// robot got stuck at, those are forgotten (they are not what the map
-    /// shows) and it plans again.
+    /// Plans for `req` on fresh fields.
     fn plan_fresh(&mut self, map: &LocalMap, req: &RouteRequest) -> Planned {
         self.costs(map, req);
-        let planned = self.search(map, req);
-        if planned == Planned::NoRoute && !self.avoid.is_empty() {
-            self.avoid.clear();
-            self.costs(map, req);
-            return self.search(map, req);
-        }
-        planned
+        self.search(map, req)
     }
 
-    /// Plans and decides whether the new plan replaces the route held (see
-    /// the module's rule). `reqs` is an ordered relaxation of one request
-    /// (the same goal, less clearance each): each is planned, and a later
-    /// one is taken over the one chosen so far only as
-    /// [`relaxation_wins`] says. Returns the route now held (None: no
-    /// route) and why it changed.
-    pub fn replan(&mut self, map: &LocalMap, reqs: &[RouteRequest]) -> (Option<&Route>, RouteChange) {
-        let Some(first) = reqs.first() else {
-            return (self.held.as_ref(), RouteChange::Kept);
-        };
-        self.distances(map, first);
-        let mut planned = self.plan_fresh(map, first);
+    /// Plans every relaxation of `reqs` and picks one as
+    /// [`relaxation_wins`] says: the plan, the index of its request and
+    /// the index of the request whose fields were built last.
+    fn plan_relaxations(&mut self, map: &LocalMap, reqs: &[RouteRequest]) -> (Planned, usize, usize) {
+        let mut planned = self.plan_fresh(map, &reqs[0]);
         let (mut chosen, mut fields_of) = (0, 0);
         for (i, relaxed) in reqs.iter().enumerate().skip(1) {
             let p = self.plan_fresh(map, relaxed);
@@ -626,6 +611,29 @@ impl RoutePlanner {
                 planned = p;
                 chosen = i;
             }
+        }
+        (planned, chosen, fields_of)
+    }
+
+    /// Plans and decides whether the new plan replaces the route held (see
+    /// the module's rule). `reqs` is an ordered relaxation of one request
+    /// (the same goal, less clearance each): each is planned, and a later
+    /// one is taken over the one chosen so far only as
+    /// [`relaxation_wins`] says. Returns the route now held (None: no
+    /// route) and why it changed.
+    pub fn replan(&mut self, map: &LocalMap, reqs: &[RouteRequest]) -> (Option<&Route>, RouteChange) {
+        let Some(first) = reqs.first() else {
+            return (self.held.as_ref(), RouteChange::Kept);
+        };
+        self.distances(map, first);
+        let (mut planned, mut chosen, mut fields_of) = self.plan_relaxations(map, reqs);
+        let reaches_target = |p: &Planned| matches!(p, Planned::Route(r) if r.reaches_target);
+        if !reaches_target(&planned) && !self.avoid.is_empty() {
+            // Closed in (from the target, not only from the goal) by the spots the robot
+            // got stuck at: those are not what the map shows, so they are forgotten
+            // rather than the way given up.
+            self.avoid.clear();
+            (planned, chosen, fields_of) = self.plan_relaxations(map, reqs);
         }
         let req = &reqs[chosen];
         self.chosen = Some(*req);
@@ -913,6 +921,35 @@ mod tests {
         // The goal moves 1 m: planned afresh.
         let (_, why) = p.replan(&map_with(&pts), &[req(Vec2::new(3.0, 1.0))]);
         assert_eq!(why, RouteChange::GoalMoved);
+    }
+
+    #[test]
+    fn spots_that_alone_close_the_way_to_a_goal_beyond_the_window_are_forgotten() {
+        // An open 8 m map round the robot; the goal 6 m ahead, beyond the window, so an
+        // unreached search still gives a route (to the cell nearest the target at
+        // (4, 0)), not "no route". Spots the robot got stuck at, 0.3 m round each, every
+        // 0.25 m on a circle of 0.8 m round it, close it in: they are forgotten and the
+        // route reaches the target again.
+        let mut p = RoutePlanner::default();
+        for k in 0..21 {
+            let a = k as f64 * std::f64::consts::TAU / 21.0;
+            p.avoid(Vec2::new(0.8 * a.cos(), 0.8 * a.sin()), 10.0);
+        }
+        let goal = Vec2::new(6.0, 0.0);
+        let Planned::Route(closed) = p.plan(&map_with(&[]), &req(goal)) else {
+            panic!("a route to the cell nearest the target")
+        };
+        assert!(
+            !closed.reaches_target,
+            "the spots close the way: {:?}",
+            closed.points.last()
+        );
+        let (r, _) = p.replan(&map_with(&[]), &[req(goal)]);
+        let r = r.expect("a route");
+        assert!(r.reaches_target, "{:?}", r.points.last());
+        assert!(r.points.iter().all(|q| q.y.abs() < 1e-9), "the straight line");
+        // Forgotten: the next plan is the straight line too.
+        assert!(matches!(p.plan(&map_with(&[]), &req(goal)), Planned::Route(r) if r.reaches_target));
     }
 
     #[test]
