@@ -43,7 +43,8 @@
 #   clock      cmd_vel_in at 1 kHz on the wall clock for 2 minutes beside 10 Hz
 #              scans (rostopic pub, tests/ros/fast_commands.py): no clock jump
 #              reported, no zero command in open space but for a scan that
-#              really arrived late (counted and reported)
+#              really arrived late or an upstream the node really had not
+#              processed for its cmd_in_timeout (each counted and reported)
 #   simtime    /use_sim_time: the first scan is taken (no resubscription when
 #              simulated time jumps from 0), and Ctrl-C ends the node after
 #              /clock has stopped (tests/ros/sim_time.py)
@@ -431,7 +432,7 @@ t_clock() {
   stop_pid "$node"
   echo "$s" > "$LOG/clock.json"
   jumps=$(grep -c "clock jumped" "$LOG/clock_node.log" || true)
-  figure "clock: cmd_vel_in at $(json "d['rate_hz']" <<< "$s") Hz for 120 s: $(json "'%d commands, %d states, %d naming a clock jump, %d zero commands for a late scan, %d other zero commands' % (d['published'], d['states'], d['clock_jump'], d['zero_late_scan'], d['zero'])" <<< "$s"); $jumps clock-jump lines in the node's log"
+  figure "clock: cmd_vel_in at $(json "d['rate_hz']" <<< "$s") Hz for 120 s: $(json "'%d commands, %d states, %d naming a clock jump, %d zero commands for a late scan, %d for a stale upstream (zero nominal), %d other zero commands' % (d['published'], d['states'], d['clock_jump'], d['zero_late_scan'], d['zero_nominal'], d['zero'])" <<< "$s"); $jumps clock-jump lines in the node's log"
   check "$(json "str(d['rate_hz'] >= 700 and d['states'] >= 0.5 * d['published'] and d['clock_jump'] == 0 and d['zero'] == 0).lower()" <<< "$s")" "1 kHz commands: $s" || return 1
   check "$([ "$jumps" = 0 ] && echo true)" "the node logged $jumps clock jumps"
 }

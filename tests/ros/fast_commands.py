@@ -9,8 +9,13 @@ command loop cannot starve them), and watches NS/oldbf_node/state. Prints
 JSON: commands published and the rate reached, states received, states whose
 stop reason names a clock jump, and states with a zero command, split into
 those stopped for a late scan (`zero_late_scan`: the scans really were late,
-a correct stop) and all others (`zero`: open space, so the upstream command
-passes and any other zero is an invented stop), with every stop reason seen.
+a correct stop), those whose nominal was zero after the node had had no live
+upstream for the node's 0.5 s cmd_in_timeout (`zero_nominal`: no state with
+the 0.1 m/s nominal for that long on the node's own stamps, so it really did
+not process a command in that time, which a loaded machine can do; the
+filter passed the zero it was given) and all others (`zero`: open space and
+a live upstream, so any other zero is a stop the node invented), with every
+stop reason seen.
 """
 import json
 import re
@@ -25,21 +30,28 @@ from oldbf_ros.msg import BarrierState
 ns, rate_hz, seconds = sys.argv[1].rstrip("/"), float(sys.argv[2]), float(sys.argv[3])
 rospy.init_node("fast_commands_probe", anonymous=True, disable_signals=True)
 lock = threading.Lock()
-stats = {"published": 0, "states": 0, "clock_jump": 0, "zero": 0, "zero_late_scan": 0, "reasons": {}}
+stats = {"published": 0, "states": 0, "clock_jump": 0, "zero": 0, "zero_late_scan": 0, "zero_nominal": 0, "reasons": {}}
 started = threading.Event()
+CMD_IN_TIMEOUT_S = 0.5  # the node's default node.cmd_in_timeout_s
+last_live = [None]  # stamp of the last state with the upstream's nominal (s)
 
 
 def on_state(m):
     if not started.is_set():
         return
+    stamp = m.header.stamp.to_sec()
     with lock:
+        if m.nominal.linear.x != 0.0:
+            last_live[0] = stamp
         stats["states"] += 1
         if "clock" in m.stop_reason:
             stats["clock_jump"] += 1
         if m.cmd.linear.x == 0.0:
             late = m.stop_reason.startswith("scan rejected: scan is") and "old (timeout" in m.stop_reason
-            stats["zero_late_scan" if late else "zero"] += 1
-            kind = re.sub(r"[0-9.]+ s\b", "N s", m.stop_reason) or "(none)"  # one entry per kind
+            stale_upstream = (not m.stop_reason and m.nominal.linear.x == 0.0
+                              and last_live[0] is not None and stamp - last_live[0] >= CMD_IN_TIMEOUT_S)
+            stats["zero_late_scan" if late else "zero_nominal" if stale_upstream else "zero"] += 1
+            kind = re.sub(r"[0-9.]+ s\b", "N s", m.stop_reason) or ("(zero nominal)" if stale_upstream else "(none)")
             stats["reasons"][kind] = stats["reasons"].get(kind, 0) + 1
 
 
