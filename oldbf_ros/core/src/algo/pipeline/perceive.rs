@@ -93,16 +93,18 @@ impl SafetyPipeline {
         let span = (scan.header.angle_increment_rad as f64).abs() * scan.ranges_m.len() as f64;
         let full_circle = span >= 2.0 * std::f64::consts::PI - 1e-3;
         self.track_obstacles(stamp_s, pose, full_circle, scan.header.range_max_m as f64);
-        let sigma_m = self.params.laser.range_noise_m;
+        let (sigma_m, plan) = (self.params.laser.range_noise_m, self.params.unstuck.enabled);
+        if sigma_m > 0.0 || plan {
+            self.mark_movers();
+        }
         if sigma_m > 0.0 {
             // After tracking, which sees the raw returns (a track's motion is measured,
             // not smoothed); the returns of moving tracks pass raw.
-            self.mark_movers();
             let origin = self.derived.mount.pose.position();
             self.beam_average
                 .apply(&mut self.points, &self.on_mover, pose, origin, sigma_m);
         }
-        if self.params.unstuck.enabled {
+        if plan {
             // The map takes the scan less walking people (§4c).
             self.fill_plan_points();
             self.map_scan.stamp_s = stamp_s;

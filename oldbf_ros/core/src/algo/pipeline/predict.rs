@@ -195,9 +195,9 @@ impl SafetyPipeline {
     /// [`PLAN_THROUGH_SPEED_MPS`] or more, for the unstuck planner (§4b):
     /// planning round people as if they were walls sent robots on long
     /// detours away from their goal while people walked through the way;
-    /// evasion and the DTCBF still see every point.
+    /// evasion and the DTCBF still see every point. Reads the marks
+    /// [`Self::mark_movers`] left for this scan.
     pub(super) fn fill_plan_points(&mut self) {
-        self.mark_movers();
         self.plan_points.clear();
         self.slow_points.clear();
         for (q, m) in self.points.points.iter().zip(&self.on_mover) {
