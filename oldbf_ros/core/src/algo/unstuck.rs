@@ -116,20 +116,24 @@ const CHORD_STEP_M: f64 = 0.1;
 /// reaches nearly straight: within [`CHORD_DEVIATION_M`] of the chord, at
 /// most [`ROUTE_GOAL_MAX_M`] along (its end at most).
 fn straight_ahead(reference: &ReferenceTrajectory, t_s: f64) -> Vec2 {
+    const STEPS: usize = (ROUTE_GOAL_MAX_M / CHORD_STEP_M) as usize;
     let speed = reference.v_mps.abs().max(1e-9);
     let from = reference.pose_at(t_s).position();
-    let steps = (ROUTE_GOAL_MAX_M / CHORD_STEP_M) as usize;
-    let at = |k: usize| reference.pose_at(t_s + k as f64 * CHORD_STEP_M / speed).position();
+    // Each sample is taken once (a pose costs a sine and a cosine); the check
+    // of every chord against the samples before it is plain arithmetic.
+    let mut samples = [Vec2::new(0.0, 0.0); STEPS + 1];
     let mut best = from;
-    for k in 1..=steps {
-        let end = at(k);
-        let chord = end - from;
+    for k in 1..=STEPS {
+        let end = reference
+            .pose_at(t_s + k as f64 * CHORD_STEP_M / speed)
+            .position();
+        samples[k] = end - from;
+        let chord = samples[k];
         let len = chord.norm();
         let straight = len < 1e-9
-            || (1..k).all(|i| {
-                let q = at(i) - from;
-                (q.x * chord.y - q.y * chord.x).abs() / len <= CHORD_DEVIATION_M
-            });
+            || samples[1..k]
+                .iter()
+                .all(|q| (q.x * chord.y - q.y * chord.x).abs() / len <= CHORD_DEVIATION_M);
         if !straight {
             break;
         }
