@@ -67,6 +67,10 @@ pub const RECONFIGURABLE: &[(&str, &str)] = &[
         "the driver writes 0.0 for no return: 0.0 is free (else unknown)",
     ),
     (
+        "laser.range_noise_m",
+        "the scanner's range noise (1σ): static returns are averaged per beam over recent scans; 0 = off (m)",
+    ),
+    (
         "control.allow_reverse",
         "may back up (only ever on scans that see the rear)",
     ),

@@ -103,6 +103,10 @@ impl SafetyPipeline {
             let origin = self.derived.mount.pose.position();
             self.beam_average
                 .apply(&mut self.points, &self.on_mover, pose, origin, sigma_m);
+        } else {
+            // Off (it may be switched on again while the node runs): nothing is carried
+            // across the time it was off.
+            self.beam_average.reset();
         }
         if plan {
             // The map takes the scan less walking people (§4c).
