@@ -1,9 +1,9 @@
 //! When to make a subscription again that has carried nothing for a while.
 //!
-//! rosrust does not retry a connection to a publisher that failed: in one of
-//! five multi-robot launches a robot's odometry subscriber never connected
-//! ("Failed to connect to topic '/robot1/odom'"), and the robot, rightly
-//! stopped without odometry, stood still for the whole run. A subscription
+//! rosrust does not retry a connection to a publisher that failed: a
+//! subscriber can stay unconnected ("Failed to connect to topic
+//! '/robot1/odom'"), and a robot rightly stopped without odometry then
+//! stands still for good. A subscription
 //! that carries nothing for `quiet_s` is made again; while it stays quiet the
 //! wait doubles, up to `max_quiet_s`, so a topic nobody publishes (odometry
 //! when a planner sends cmd_vel_in) costs the master one registration every

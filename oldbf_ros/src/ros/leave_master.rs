@@ -9,9 +9,7 @@
 //! port is reused by a rosrust publisher's TCPROS listener, that HTTP call is
 //! read as a subscriber's connection header whose length is the bytes "POST":
 //! the listener waits for ~1.4 GB that never come and accepts no subscriber
-//! again. Seen in the multi-robot test: a restarted robot's `cmd_vel` never
-//! reached the simulator (reproduced by hand: one POST to a node's `cmd_vel`
-//! port and `rostopic echo` hangs for good). So a stopping node withdraws,
+//! again. So a stopping node withdraws,
 //! with direct XML-RPC calls, every publication, subscription and service
 //! the master lists for it, and its parameter subscription.
 

@@ -74,9 +74,9 @@ struct RobotIo {
     /// `cmd_vel`, or `odom` with motion_source odom.
     motion_topic: String,
     _motion_sub: Option<rosrust::Subscriber>,
-    /// rosrust does not retry a failed connection: in about one multi-robot
-    /// launch in five a link stayed dead and its robot never moved, so a
-    /// motion source quiet for a while is subscribed again.
+    /// rosrust does not retry a failed connection: a link can stay dead and
+    /// its robot never move, so a motion source quiet for a while is
+    /// subscribed again.
     motion_retry: Resubscribe,
 }
 

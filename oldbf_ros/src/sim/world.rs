@@ -14,8 +14,7 @@
 //! seen from the sensor (angular bins). A ray then tests only the shapes of
 //! its bearing's bin, which hold every shape it can hit, so
 //! [`ScanScratch::ray_cast`] returns exactly the value of
-//! [`World::ray_cast`], an order of magnitude faster in cluttered worlds
-//! (the LiDAR was two thirds of a closed-loop step with 50 obstacles).
+//! [`World::ray_cast`], an order of magnitude faster in cluttered worlds.
 //!
 //! Units: m, s; box yaw in degrees in YAML only (`yaw_deg`).
 

@@ -37,8 +37,7 @@ pub struct Cluster {
     /// Where the centre of the round object it sees probably is (robot frame,
     /// m): on the centroid's bearing, `radius_m` beyond the nearest point.
     /// The centroid of the visible arc of a disc of radius R lies about
-    /// 0.7 R nearer the robot than the disc's centre (seen in the simulator:
-    /// 0.12-0.16 m for people of R = 0.2 m within 1.5 m), so a disc round
+    /// 0.7 R nearer the robot than the disc's centre, so a disc round
     /// the centroid reaches that much nearer the robot than the person does.
     pub centre: Vec2,
     /// Maybe only part of what it sees (cut off by the range limit, or

@@ -79,8 +79,8 @@ pub fn condition_target(h_m: f64, gamma: f64) -> f64 {
 /// there can leave a corner's far side unreachable to a robot that noise has
 /// put in the band: on a one-step prediction every heading that goes round
 /// first comes a fraction of a millimetre closer. The floor keeps almost all
-/// of the margin against the noise (range noise of a third of δ took a robot
-/// resting at ⅔δ into the unsafe set). Never below the condition's
+/// of the margin against the noise (range noise of a third of δ can take a
+/// robot resting at ⅔δ into the unsafe set). Never below the condition's
 /// requirement, so it implies it.
 #[inline]
 pub fn margin_target(h_m: f64, gamma: f64, delta_m: f64) -> f64 {

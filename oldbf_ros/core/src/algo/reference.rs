@@ -16,10 +16,9 @@
 //! robot without the part by which the robot is already *ahead* of it along
 //! its heading. A robot that went round an obstacle and came out further
 //! along the path is not waited for; the reference catches up with it
-//! instead. (Measured with the plain distance, the reference stood still
-//! 1-1.5 m behind such a robot, whose tracking law then drove it back
-//! towards the reference: about a third of the static-clutter worlds
-//! stalled that way.)
+//! instead. (With the plain distance, the reference stands still behind
+//! such a robot, whose tracking law then drives it back towards the
+//! reference, and the robot stalls.)
 
 use super::geometry::{Pose2, Twist};
 use super::unicycle::arc_step;

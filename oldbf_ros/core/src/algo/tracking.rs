@@ -91,8 +91,7 @@ pub fn towards_point(robot: Pose2, point: Vec2, speed_mps: f64, k: &TrackingPara
 /// A unicycle at distance d from a point at bearing β reaches it along the
 /// arc of radius d / (2 |sin β|); turning at |ω| it must keep
 /// v ≤ |ω| d / (2 |sin β|). Faster, and with |ω| capped at ω_max
-/// (`omega_max_radps`), it circles the point instead (seen: a robot orbiting
-/// its goal 0.2-0.6 m away for 60 s at v 0.1-0.2 m/s, ω 0.3 rad/s). Within
+/// (`omega_max_radps`), it circles the point instead. Within
 /// the bound the bearing falls at least at |ω|/2 while the robot closes in.
 pub fn arrive(robot: Pose2, goal: Pose2, k: &TrackingParams, omega_max_radps: f64) -> Twist {
     let cmd = go_to_point(robot, goal, Twist::ZERO, k);
@@ -260,8 +259,7 @@ mod tests {
     #[test]
     fn final_approach_reaches_the_goal_instead_of_circling_it() {
         // A unicycle with |ω| ≤ 0.3 rad/s and v ≤ 0.22 m/s, integrated at 10 Hz,
-        // from poses around a goal (the two_robots run that circled its goal for
-        // 60 s started like the first: 0.59 m away at bearing 80°).
+        // from poses around a goal (the first 0.59 m away at bearing 80°).
         let k = TrackingParams::default();
         let goal = Pose2::new(2.5, 2.5, 0.0);
         for start in [
