@@ -124,9 +124,7 @@ fn straight_ahead(reference: &ReferenceTrajectory, t_s: f64) -> Vec2 {
     let mut samples = [Vec2::new(0.0, 0.0); STEPS + 1];
     let mut best = from;
     for k in 1..=STEPS {
-        let end = reference
-            .pose_at(t_s + k as f64 * CHORD_STEP_M / speed)
-            .position();
+        let end = reference.pose_at(t_s + k as f64 * CHORD_STEP_M / speed).position();
         samples[k] = end - from;
         let chord = samples[k];
         let len = chord.norm();
