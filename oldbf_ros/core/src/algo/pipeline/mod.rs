@@ -177,8 +177,7 @@ const CONE_EVENTS: usize = 4 * 32 + 2;
 /// The unstuck planner leaves out the points of movers at least this fast
 /// (m/s). A slower one moves less than 0.5 m, about a person's width, in
 /// the 5 s it takes the robot to drive a metre round it: it is still in the
-/// way, and is planned round like an obstacle (the 10 h moving soak, people
-/// at 0.015-0.07 m/s: 742 violation steps with it, 2034 without).
+/// way, and is planned round like an obstacle (docs/DECISIONS.md).
 const PLAN_THROUGH_SPEED_MPS: f64 = 0.1;
 
 /// A tracked obstacle on a collision course this step (robot frame).
