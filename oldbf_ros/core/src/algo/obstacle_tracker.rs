@@ -145,8 +145,12 @@ pub struct Track {
     /// Consecutive scans without an association.
     pub misses: u32,
     /// Where the centre of the object it sees was first estimated, tracking
-    /// frame (m): the centroid pushed back by its depth (`Cluster::centre`).
+    /// frame (m): the centroid pushed back by its depth (`Cluster::centre`);
+    /// moved along with the track on every scan that had no whole view of it
+    /// (a partial cluster or none), so only travel seen whole counts.
     pub born_at: Vec2,
+    /// The centre estimate after the last update, tracking frame (m).
+    pub last_centre: Vec2,
     /// The farthest the centre estimate has been from `born_at` so far (m):
     /// proof that it really moves, kept when it turns round (a pacing person
     /// stays a mover). The centre, not the centroid: the centroid of the
@@ -211,6 +215,8 @@ pub struct ObstacleTracker {
     /// Per cluster of the last scan: the track it was associated with.
     cluster_track: Vec<Option<usize>>,
     track_taken: Vec<bool>,
+    /// Scratch, per track: associated with a whole (not partial) cluster this scan.
+    track_whole: Vec<bool>,
     /// Scratch, per cluster: its centroid in the tracking frame if it is a
     /// candidate for tracking.
     measured: Vec<Option<Vec2>>,
@@ -231,6 +237,7 @@ impl ObstacleTracker {
             pairs: Vec::with_capacity(8 * max_tracks),
             cluster_track: Vec::with_capacity(max_clusters),
             track_taken: Vec::with_capacity(max_tracks),
+            track_whole: Vec::with_capacity(max_tracks),
             measured: Vec::with_capacity(max_clusters),
             new_index: Vec::with_capacity(max_tracks),
             ghosts: Vec::with_capacity(max_tracks),
@@ -372,6 +379,8 @@ impl ObstacleTracker {
         self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         self.track_taken.clear();
         self.track_taken.resize(self.tracks.len(), false);
+        self.track_whole.clear();
+        self.track_whole.resize(self.tracks.len(), false);
         for &(_, ti, ci) in &self.pairs {
             let Some(z) = self.measured[ci] else {
                 continue; // only candidates are paired
@@ -389,6 +398,7 @@ impl ObstacleTracker {
             if !clusters[ci].partial {
                 let centre = Self::centre_of(t, self.robot_pose.position());
                 t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
+                self.track_whole[ti] = true;
             }
             t.hits += 1;
             t.misses = 0;
@@ -397,6 +407,18 @@ impl ObstacleTracker {
             }
         }
 
+        // A scan without a whole view of a track proves no travel: a piece of a wall
+        // that slides as the robot turns may carry a track anywhere, and a whole
+        // view of something else there must not then count the distance. Its
+        // reference point goes along with it.
+        let robot = self.robot_pose.position();
+        for (ti, t) in self.tracks.iter_mut().enumerate() {
+            let centre = Self::centre_of(t, robot);
+            if !self.track_whole[ti] {
+                t.born_at += centre - t.last_centre;
+            }
+            t.last_centre = centre;
+        }
         // Misses; the survivors keep their indices for `cluster_track` via a remap.
         for (ti, t) in self.tracks.iter_mut().enumerate() {
             if !self.track_taken[ti] {
@@ -467,6 +489,7 @@ impl ObstacleTracker {
                 hits: 1,
                 misses: 0,
                 born_at: to_tracking.point(c.centre),
+                last_centre: to_tracking.point(c.centre),
                 max_travel_m: 0.0,
                 through_scans: 0,
                 reacquired,
@@ -568,6 +591,13 @@ mod tests {
             tr.update(&[partial(2.0, 0.03 * (k - 3) as f64)], 0.1 * k as f64, pose, &p);
         }
         assert!(!tr.tracks()[0].is_moving(&p), "{:?}", tr.tracks()[0]);
+        // Then seen whole where the piece slid to (another object, or the same one's
+        // end): the 0.9 m the partial views carried the track is no travel either.
+        for k in 34..=40 {
+            tr.update(&[cluster_at(2.0, 0.9)], 0.1 * k as f64, pose, &p);
+            let t = tr.tracks()[0];
+            assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "scan {k}: {t:?}");
+        }
     }
 
     #[test]

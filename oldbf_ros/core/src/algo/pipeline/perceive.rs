@@ -234,6 +234,9 @@ impl SafetyPipeline {
                 continue;
             }
             let cluster = self.clusters.as_slice()[k];
+            if cluster.partial {
+                continue; // maybe part of something longer: where it ends is no proof
+            }
             let stride = cluster.len.div_ceil(THROUGH_PROBES).max(1);
             let mut spread = Spread::default();
             for i in cluster.indices(n_points).step_by(stride) {
@@ -322,12 +325,24 @@ const RANGE_EDGE_M: f64 = 0.25;
 /// free space for proof of motion.
 const THROUGH_PROBES: usize = 6;
 
+/// The next point along a surface seen at a grazing angle lies no farther
+/// beyond the cluster's end than this many times the last step within it
+/// (successive steps grow by a factor of 1 + 2 δ tan φ at a beam step δ and
+/// an angle φ off the surface's normal: 1.3 at 84°)…
+const CONTINUE_STEP_RATIO: f64 = 2.5;
+/// …and within this angle of that last step's direction (rad): 15°, several
+/// times what the range noise turns a step of a cluster's spacing by.
+const CONTINUE_ANGLE_RAD: f64 = 0.26;
+
 /// Whether `cluster` (of `points`, robot frame, beam order) may be only part
 /// of what it sees: a point of it within [`RANGE_EDGE_M`] of the range limit
-/// (the object may go on beyond), or a neighbouring beam's point nearer the
+/// (the object may go on beyond), a neighbouring beam's point nearer the
 /// robot than the cluster's end next to it (something in front hides the
-/// rest). A whole object, a person or a post, stands in front of what is
-/// beside it.
+/// rest), or one that goes on along the cluster's end (a wall seen at a
+/// grazing angle, whose returns spread beyond the cluster gap: its cluster
+/// grows as the robot turns towards it). A whole object, a person or a post,
+/// stands in front of what is beside it, and what lies beyond its edge is a
+/// jump away, not a step on.
 fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_m: f64) -> bool {
     let n = points.len();
     if cluster.len == 0 || n < 2 {
@@ -346,5 +361,86 @@ fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_
     let adjacent = |a: usize, b: usize| beam_index[a].abs_diff(beam_index[b]) <= 1 + BRIDGED_BEAMS;
     let hidden_by =
         |end: usize, other: usize| other != end && adjacent(end, other) && points[other].norm() < points[end].norm();
-    cluster.len < n && (hidden_by(first, (first + n - 1) % n) || hidden_by(last, (last + 1) % n))
+    // `other` continues the surface that reaches `end` from `inner` (the point of
+    // the cluster before its end).
+    let cos_max = CONTINUE_ANGLE_RAD.cos();
+    let goes_on = |end: usize, inner: usize, other: usize| {
+        let (step, on) = (points[end] - points[inner], points[other] - points[end]);
+        let (ls, lo) = (step.norm(), on.norm());
+        other != end
+            && cluster.len >= 2
+            && adjacent(end, other)
+            && ls > 0.0
+            && lo <= CONTINUE_STEP_RATIO * ls
+            && step.dot(&on) >= cos_max * ls * lo
+    };
+    let (before, after) = ((first + n - 1) % n, (last + 1) % n);
+    cluster.len < n
+        && (hidden_by(first, before)
+            || hidden_by(last, after)
+            || goes_on(first, (first + 1) % n, before)
+            || goes_on(last, (last + n - 1) % n, after))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algo::clusters::Clusters;
+
+    /// The clusters (gap 0.15 m) of `points` on consecutive beams 0, 1, …
+    fn clusters_of(points: &[Vec2]) -> Clusters {
+        let idx: Vec<u32> = (0..points.len() as u32).collect();
+        let mut c = Clusters::default();
+        c.build(points, &idx, 360, false, 0.15);
+        c
+    }
+
+    #[test]
+    fn a_wall_seen_at_a_grazing_angle_is_open_where_its_returns_spread_apart() {
+        // A wall along y = 0.5 m, beams 1° apart from 90° down to 10° off the x axis:
+        // the point at φ is (0.5 / tan φ, 0.5), and steps grow as 0.0087 / sin²φ m, past
+        // the 0.15 m gap between 14° (x = 2.005 m) and 13° (x = 2.166 m). The next step
+        // (0.161 m) goes on along the last one inside (0.139 m, from 15°): the cluster
+        // from 90° to 14° is a piece of something longer.
+        let points: Vec<Vec2> = (0..=80)
+            .map(|k| {
+                let phi = (90.0 - k as f64).to_radians();
+                Vec2::new(0.5 / phi.tan(), 0.5)
+            })
+            .collect();
+        let c = clusters_of(&points);
+        let first = c.as_slice()[0];
+        assert_eq!((first.start, first.end), (0, 77), "{first:?}");
+        assert!(open_ended(&first, &points, &(0..81).collect::<Vec<u32>>(), 10.0));
+    }
+
+    #[test]
+    fn a_person_in_front_of_a_wall_is_whole() {
+        // A disc of radius 0.2 m at (1.5, 0), a wall at x = 3 m behind it, beams 1° apart
+        // from −30° to 30°: beyond the disc's edge the next return is on the wall, 1.5 m
+        // on, a jump, not a step of the 2-3 cm between the disc's own returns.
+        let (centre, radius) = (Vec2::new(1.5, 0.0), 0.2);
+        let points: Vec<Vec2> = (-30..=30)
+            .map(|deg: i32| {
+                let phi = (deg as f64).to_radians();
+                let u = Vec2::new(phi.cos(), phi.sin());
+                let along = u.dot(&centre);
+                let off2 = centre.norm_squared() - along * along;
+                if off2 <= radius * radius {
+                    u * (along - (radius * radius - off2).sqrt())
+                } else {
+                    u * (3.0 / phi.cos())
+                }
+            })
+            .collect();
+        let idx: Vec<u32> = (0..points.len() as u32).collect();
+        let c = clusters_of(&points);
+        let person = c
+            .as_slice()
+            .iter()
+            .find(|k| (k.centroid - Vec2::new(1.35, 0.0)).norm() < 0.1)
+            .expect("the person's cluster");
+        assert!(person.len >= 10, "{person:?}");
+        assert!(!open_ended(person, &points, &idx, 10.0));
+    }
 }
