@@ -234,9 +234,6 @@ impl SafetyPipeline {
                 continue;
             }
             let cluster = self.clusters.as_slice()[k];
-            if cluster.partial {
-                continue; // maybe part of something longer: where it ends is no proof
-            }
             let stride = cluster.len.div_ceil(THROUGH_PROBES).max(1);
             let mut spread = Spread::default();
             for i in cluster.indices(n_points).step_by(stride) {
