@@ -57,7 +57,9 @@ pub struct MotionQuality {
     pub above_upstream_steps: usize,
     pub above_upstream_escape_steps: usize,
     /// Steps reversing while the upstream does not: escaping the unsafe set,
-    /// evading a mover, and otherwise.
+    /// evading a mover, and otherwise. A step still reversing only because
+    /// braking at the deceleration from the last command cannot reach rest
+    /// yet counts with the reversing it brakes from.
     pub reverse_escape_steps: usize,
     pub reverse_evade_steps: usize,
     pub reverse_other_steps: usize,
@@ -165,6 +167,8 @@ pub struct MotionMeter {
     /// The last non-zero changes (Δv, Δω) above the reversal thresholds, for the reversal counts.
     last_dv: f64,
     last_domega: f64,
+    /// Why the last step reversed unasked (escape, evasion, other), if it did.
+    last_reverse: Option<DoaaState>,
 }
 
 impl MotionMeter {
@@ -179,6 +183,7 @@ impl MotionMeter {
             last: None,
             last_dv: 0.0,
             last_domega: 0.0,
+            last_reverse: None,
         }
     }
 
@@ -222,13 +227,26 @@ impl MotionMeter {
             q.above_upstream_steps += usize::from(above);
             q.above_upstream_escape_steps += usize::from(above && s.state == DoaaState::Escape);
         }
-        if v < -WINDOW_TOL && v_nom >= 0.0 {
-            match s.state {
-                DoaaState::Escape => q.reverse_escape_steps += 1,
-                DoaaState::Evade => q.reverse_evade_steps += 1,
-                _ => q.reverse_other_steps += 1,
+        let reverse = (v < -WINDOW_TOL && v_nom >= 0.0).then(|| {
+            // Braking from the last step's reversing at the window's edge, rest still
+            // out of reach: the reversing it brakes from.
+            let braking = self.last.is_some_and(|last| {
+                let l = if s.evading { &self.evading } else { &self.driving };
+                let (_, hi) = reachable(last.cmd.v_mps, self.dt_s, l.accel_mps2, l.decel_mps2);
+                hi < -WINDOW_TOL && v >= hi - WINDOW_TOL
+            });
+            match (braking, self.last_reverse) {
+                (true, Some(why)) => why,
+                _ => s.state,
             }
+        });
+        match reverse {
+            Some(DoaaState::Escape) => q.reverse_escape_steps += 1,
+            Some(DoaaState::Evade) => q.reverse_evade_steps += 1,
+            Some(_) => q.reverse_other_steps += 1,
+            None => {}
         }
+        self.last_reverse = reverse;
         self.last = Some(s);
     }
 
@@ -347,6 +365,23 @@ mod tests {
         assert_eq!(
             q.v_sign_changes, 1,
             "0.1 → −0.05; through 0 to 0.05 is not a sign change step"
+        );
+        // Out of the unsafe set at −0.15 m/s: braking at 1 m/s² reaches −0.05 at best,
+        // still escape's reversing; from −0.1 rest is in reach, and holding −0.05 is not.
+        let mut m2 = MotionMeter::new(&Params::default(), 0.1);
+        for (v, st) in [
+            (-0.15, Escape),
+            (-0.05, Follow),
+            (0.0, Follow),
+            (-0.1, Escape),
+            (-0.05, Follow),
+        ] {
+            m2.add(step(v, 0.0, 0.15, st));
+        }
+        let q2 = m2.figures();
+        assert_eq!(
+            (q2.reverse_escape_steps, q2.reverse_evade_steps, q2.reverse_other_steps),
+            (3, 0, 1)
         );
         // A fault stop from speed is outside the window but not counted.
         let mut s = step(0.0, 0.0, 0.2, Stop);
