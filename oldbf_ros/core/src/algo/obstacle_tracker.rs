@@ -146,11 +146,14 @@ pub struct Track {
     pub misses: u32,
     /// Where the centre of the object it sees was first estimated, tracking
     /// frame (m): the centroid pushed back by its depth (`Cluster::centre`);
-    /// moved along with the track on every scan that had no whole view of it
-    /// (a partial cluster or none), so only travel seen whole counts.
+    /// shifted by whatever the track moved between two whole views with
+    /// scans in between that had none (a partial cluster or no cluster), so
+    /// only travel seen whole, scan after scan, counts.
     pub born_at: Vec2,
-    /// The centre estimate after the last update, tracking frame (m).
-    pub last_centre: Vec2,
+    /// The centre estimate at the last whole view, tracking frame (m).
+    pub last_whole: Vec2,
+    /// A scan without a whole view came since the last whole view.
+    pub unseen_since: bool,
     /// The farthest the centre estimate has been from `born_at` so far (m):
     /// proof that it really moves, kept when it turns round (a pacing person
     /// stays a mover). The centre, not the centroid: the centroid of the
@@ -397,6 +400,14 @@ impl ObstacleTracker {
             t.depth_m = 0.8 * t.depth_m + 0.2 * depth_of(&clusters[ci]);
             if !clusters[ci].partial {
                 let centre = Self::centre_of(t, self.robot_pose.position());
+                // Across scans without a whole view the track may have been carried by a
+                // piece of a wall that slides as the view changes, onto something else:
+                // what it moved then proves nothing, whether it came back or not.
+                if t.unseen_since {
+                    t.born_at += centre - t.last_whole;
+                    t.unseen_since = false;
+                }
+                t.last_whole = centre;
                 t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
                 self.track_whole[ti] = true;
             }
@@ -407,17 +418,8 @@ impl ObstacleTracker {
             }
         }
 
-        // A scan without a whole view of a track proves no travel: a piece of a wall
-        // that slides as the robot turns may carry a track anywhere, and a whole
-        // view of something else there must not then count the distance. Its
-        // reference point goes along with it.
-        let robot = self.robot_pose.position();
         for (ti, t) in self.tracks.iter_mut().enumerate() {
-            let centre = Self::centre_of(t, robot);
-            if !self.track_whole[ti] {
-                t.born_at += centre - t.last_centre;
-            }
-            t.last_centre = centre;
+            t.unseen_since |= !self.track_whole[ti];
         }
         // Misses; the survivors keep their indices for `cluster_track` via a remap.
         for (ti, t) in self.tracks.iter_mut().enumerate() {
@@ -489,7 +491,8 @@ impl ObstacleTracker {
                 hits: 1,
                 misses: 0,
                 born_at: to_tracking.point(c.centre),
-                last_centre: to_tracking.point(c.centre),
+                last_whole: to_tracking.point(c.centre),
+                unseen_since: false,
                 max_travel_m: 0.0,
                 through_scans: 0,
                 reacquired,
@@ -598,6 +601,25 @@ mod tests {
             let t = tr.tracks()[0];
             assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "scan {k}: {t:?}");
         }
+        // A post seen whole, then in part sliding 0.3 m away, then whole where it stands,
+        // ten times over: it never moved, and no slide adds up to travel.
+        let mut tr = ObstacleTracker::default();
+        let mut k = 0;
+        let mut scan = |tr: &mut ObstacleTracker, c: Cluster| {
+            tr.update(&[c], 0.1 * k as f64, pose, &p);
+            k += 1;
+        };
+        for _ in 0..3 {
+            scan(&mut tr, cluster_at(2.0, 0.0));
+        }
+        for _ in 0..10 {
+            for y in [0.1, 0.2, 0.3] {
+                scan(&mut tr, partial(2.0, y));
+            }
+            scan(&mut tr, cluster_at(2.0, 0.0));
+        }
+        let t = tr.tracks()[0];
+        assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "{t:?}");
     }
 
     #[test]
