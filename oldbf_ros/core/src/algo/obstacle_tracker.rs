@@ -146,9 +146,9 @@ pub struct Track {
     pub misses: u32,
     /// Where the centre of the object it sees was first estimated, tracking
     /// frame (m): the centroid pushed back by its depth (`Cluster::centre`);
-    /// shifted by whatever the track moved between two whole views with
-    /// scans in between that had none (a partial cluster or no cluster), so
-    /// only travel seen whole, scan after scan, counts.
+    /// estimated anew at a whole view farther than `max_cluster_diameter_m`
+    /// from the last one with scans in between that had none (a partial
+    /// cluster or no cluster): what carried the track there is no proof.
     pub born_at: Vec2,
     /// The centre estimate at the last whole view, tracking frame (m).
     pub last_whole: Vec2,
@@ -401,12 +401,13 @@ impl ObstacleTracker {
             if !clusters[ci].partial {
                 let centre = Self::centre_of(t, self.robot_pose.position());
                 // Across scans without a whole view the track may have been carried by a
-                // piece of a wall that slides as the view changes, onto something else:
-                // what it moved then proves nothing, whether it came back or not.
-                if t.unseen_since {
-                    t.born_at += centre - t.last_whole;
-                    t.unseen_since = false;
+                // piece of a wall that slides as the view changes, onto something else.
+                // Farther than a view change slides a centre, travel starts anew; nearer,
+                // it counts as before (a person hidden for a moment walked on).
+                if t.unseen_since && (centre - t.last_whole).norm() > p.max_cluster_diameter_m {
+                    t.born_at = centre;
                 }
+                t.unseen_since = false;
                 t.last_whole = centre;
                 t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
                 self.track_whole[ti] = true;
@@ -602,7 +603,8 @@ mod tests {
             assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "scan {k}: {t:?}");
         }
         // A post seen whole, then in part sliding 0.3 m away, then whole where it stands,
-        // ten times over: it never moved, and no slide adds up to travel.
+        // ten times over: it never moved, and the slides do not add up to travel (the
+        // filter, pulled by the slide, counts at most part of one).
         let mut tr = ObstacleTracker::default();
         let mut k = 0;
         let mut scan = |tr: &mut ObstacleTracker, c: Cluster| {
@@ -619,7 +621,7 @@ mod tests {
             scan(&mut tr, cluster_at(2.0, 0.0));
         }
         let t = tr.tracks()[0];
-        assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "{t:?}");
+        assert!(!t.is_moving(&p) && t.max_travel_m < 0.3, "{t:?}");
     }
 
     #[test]
