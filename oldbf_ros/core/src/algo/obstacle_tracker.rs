@@ -404,7 +404,9 @@ impl ObstacleTracker {
                 // piece of a wall that slides as the view changes, onto something else.
                 // Farther than a view change slides a centre, travel starts anew; nearer,
                 // it counts as before (a person hidden for a moment walked on).
-                if t.unseen_since && (centre - t.last_whole).norm() > p.max_cluster_diameter_m {
+                // This project's proof of motion (the paper method keeps the one it had).
+                let restart = p.motion_by_sight && t.unseen_since;
+                if restart && (centre - t.last_whole).norm() > p.max_cluster_diameter_m {
                     t.born_at = centre;
                 }
                 t.unseen_since = false;
@@ -602,6 +604,21 @@ mod tests {
             let t = tr.tracks()[0];
             assert!(!t.is_moving(&p) && t.max_travel_m < 0.1, "scan {k}: {t:?}");
         }
+        // The paper method keeps the proof it had: there the 0.9 m counts (at its 0.3 m).
+        let paper = ObstacleParams {
+            motion_by_sight: false,
+            min_travel_m: crate::algo::params::PAPER_MIN_TRAVEL_M,
+            ..p
+        };
+        let mut tr = ObstacleTracker::default();
+        for k in 0..3 {
+            tr.update(&[cluster_at(2.0, 0.0)], 0.1 * k as f64, pose, &paper);
+        }
+        for k in 3..=33 {
+            tr.update(&[partial(2.0, 0.03 * (k - 3) as f64)], 0.1 * k as f64, pose, &paper);
+        }
+        tr.update(&[cluster_at(2.0, 0.9)], 3.4, pose, &paper);
+        assert!(tr.tracks()[0].max_travel_m > 0.8, "{:?}", tr.tracks()[0]);
         // A post seen whole, then in part sliding 0.3 m away, then whole where it stands,
         // ten times over: it never moved, and the slides do not add up to travel (the
         // filter, pulled by the slide, counts at most part of one).

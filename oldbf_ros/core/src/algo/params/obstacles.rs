@@ -32,7 +32,9 @@ pub struct ObstacleParams {
     /// object's centre estimate.
     pub min_travel_m: f64,
     /// Prove a track's motion by sight: its object stands where earlier scans saw
-    /// free (ALGORITHM.md §6). false = by travel alone (the paper method, with
+    /// free (ALGORITHM.md §6), with a wall seen at a grazing angle partial and the
+    /// travel restarted after a far jump across scans without a whole view.
+    /// false = by travel alone, as the paper method had it (with
     /// [`PAPER_MIN_TRAVEL_M`]).
     pub motion_by_sight: bool,
     /// Horizon over which an obstacle on a collision course raises its side's barrier (s).

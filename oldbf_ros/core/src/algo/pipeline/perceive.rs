@@ -209,7 +209,15 @@ impl SafetyPipeline {
                 .indices(n_points)
                 .filter(|&i| self.points.status[self.points.beam_index[i] as usize] == BeamStatus::Held)
                 .count();
-            let cut = open_ended(&cluster, &self.points.points, &self.points.beam_index, range_max_m);
+            // The grazing rule is this project's proof of motion; the paper method keeps its own.
+            let grazing = self.params.obstacles.motion_by_sight;
+            let cut = open_ended(
+                &cluster,
+                &self.points.points,
+                &self.points.beam_index,
+                range_max_m,
+                grazing,
+            );
             if 2 * held >= cluster.len && held > 0 {
                 self.clusters.exclude(k);
             } else if cut {
@@ -340,7 +348,9 @@ const CONTINUE_ANGLE_RAD: f64 = 0.26;
 /// grows as the robot turns towards it). A whole object, a person or a post,
 /// stands in front of what is beside it, and what lies beyond its edge is a
 /// jump away, not a step on.
-fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_m: f64) -> bool {
+/// The last rule only with `grazing` (this project's proof of motion; the
+/// paper method keeps the clusters it had).
+fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_m: f64, grazing: bool) -> bool {
     let n = points.len();
     if cluster.len == 0 || n < 2 {
         return false;
@@ -364,7 +374,8 @@ fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_
     let goes_on = |end: usize, inner: usize, other: usize| {
         let (step, on) = (points[end] - points[inner], points[other] - points[end]);
         let (ls, lo) = (step.norm(), on.norm());
-        other != end
+        grazing
+            && other != end
             && cluster.len >= 2
             && adjacent(end, other)
             && ls > 0.0
@@ -408,7 +419,7 @@ mod tests {
         let c = clusters_of(&points);
         let first = c.as_slice()[0];
         assert_eq!((first.start, first.end), (0, 77), "{first:?}");
-        assert!(open_ended(&first, &points, &(0..81).collect::<Vec<u32>>(), 10.0));
+        assert!(open_ended(&first, &points, &(0..81).collect::<Vec<u32>>(), 10.0, true));
     }
 
     #[test]
@@ -438,6 +449,6 @@ mod tests {
             .find(|k| (k.centroid - Vec2::new(1.35, 0.0)).norm() < 0.1)
             .expect("the person's cluster");
         assert!(person.len >= 10, "{person:?}");
-        assert!(!open_ended(person, &points, &idx, 10.0));
+        assert!(!open_ended(person, &points, &idx, 10.0, true));
     }
 }
