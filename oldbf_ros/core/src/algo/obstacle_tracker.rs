@@ -218,8 +218,6 @@ pub struct ObstacleTracker {
     /// Per cluster of the last scan: the track it was associated with.
     cluster_track: Vec<Option<usize>>,
     track_taken: Vec<bool>,
-    /// Scratch, per track: associated with a whole (not partial) cluster this scan.
-    track_whole: Vec<bool>,
     /// Scratch, per cluster: its centroid in the tracking frame if it is a
     /// candidate for tracking.
     measured: Vec<Option<Vec2>>,
@@ -240,7 +238,6 @@ impl ObstacleTracker {
             pairs: Vec::with_capacity(8 * max_tracks),
             cluster_track: Vec::with_capacity(max_clusters),
             track_taken: Vec::with_capacity(max_tracks),
-            track_whole: Vec::with_capacity(max_tracks),
             measured: Vec::with_capacity(max_clusters),
             new_index: Vec::with_capacity(max_tracks),
             ghosts: Vec::with_capacity(max_tracks),
@@ -382,8 +379,6 @@ impl ObstacleTracker {
         self.pairs.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         self.track_taken.clear();
         self.track_taken.resize(self.tracks.len(), false);
-        self.track_whole.clear();
-        self.track_whole.resize(self.tracks.len(), false);
         for &(_, ti, ci) in &self.pairs {
             let Some(z) = self.measured[ci] else {
                 continue; // only candidates are paired
@@ -412,7 +407,8 @@ impl ObstacleTracker {
                 t.unseen_since = false;
                 t.last_whole = centre;
                 t.max_travel_m = t.max_travel_m.max((centre - t.born_at).norm());
-                self.track_whole[ti] = true;
+            } else {
+                t.unseen_since = true;
             }
             t.hits += 1;
             t.misses = 0;
@@ -421,12 +417,10 @@ impl ObstacleTracker {
             }
         }
 
-        for (ti, t) in self.tracks.iter_mut().enumerate() {
-            t.unseen_since |= !self.track_whole[ti];
-        }
         // Misses; the survivors keep their indices for `cluster_track` via a remap.
         for (ti, t) in self.tracks.iter_mut().enumerate() {
             if !self.track_taken[ti] {
+                t.unseen_since = true;
                 t.misses += 1;
                 t.hits = 0;
                 if t.status != TrackStatus::Tentative {
