@@ -372,15 +372,12 @@ fn open_ended(cluster: &Cluster, points: &[Vec2], beam_index: &[u32], range_max_
     // the cluster before its end).
     let cos_max = CONTINUE_ANGLE_RAD.cos();
     let goes_on = |end: usize, inner: usize, other: usize| {
+        if !grazing || other == end || cluster.len < 2 || !adjacent(end, other) {
+            return false;
+        }
         let (step, on) = (points[end] - points[inner], points[other] - points[end]);
         let (ls, lo) = (step.norm(), on.norm());
-        grazing
-            && other != end
-            && cluster.len >= 2
-            && adjacent(end, other)
-            && ls > 0.0
-            && lo <= CONTINUE_STEP_RATIO * ls
-            && step.dot(&on) >= cos_max * ls * lo
+        ls > 0.0 && lo <= CONTINUE_STEP_RATIO * ls && step.dot(&on) >= cos_max * ls * lo
     };
     let (before, after) = ((first + n - 1) % n, (last + 1) % n);
     cluster.len < n
