@@ -194,7 +194,12 @@ impl MotionMeter {
         q.moving_track_steps += usize::from(s.moving_tracks > 0);
         q.evade_steps += usize::from(s.state == DoaaState::Evade);
         let (v, v_nom) = (s.cmd.v_mps, s.nominal.v_mps);
-        if let Some(last) = self.last {
+        // The speeds the window reached from the last command (m/s).
+        let l = if s.evading { &self.evading } else { &self.driving };
+        let window = self
+            .last
+            .map(|last| reachable(last.cmd.v_mps, self.dt_s, l.accel_mps2, l.decel_mps2));
+        if let (Some(last), Some((lo, hi))) = (self.last, window) {
             let dv = v - last.cmd.v_mps;
             let dw = s.cmd.omega_radps - last.cmd.omega_radps;
             q.variation_v_mps += dv.abs();
@@ -210,8 +215,6 @@ impl MotionMeter {
             // A reversal needs both steps above the threshold, back to back.
             self.last_dv = if dv.abs() > V_REVERSAL_STEP_MPS { dv } else { 0.0 };
             self.last_domega = if dw.abs() > self.omega_step { dw } else { 0.0 };
-            let l = if s.evading { &self.evading } else { &self.driving };
-            let (lo, hi) = reachable(last.cmd.v_mps, self.dt_s, l.accel_mps2, l.decel_mps2);
             let dw_max = l.angular_accel_radps2 * self.dt_s;
             let outside = v < lo - WINDOW_TOL || v > hi + WINDOW_TOL || dw.abs() > dw_max + WINDOW_TOL;
             q.window_exceeded += usize::from(outside && !s.fault_stop);
@@ -230,11 +233,7 @@ impl MotionMeter {
         let reverse = (v < -WINDOW_TOL && v_nom >= 0.0).then(|| {
             // Braking from the last step's reversing at the window's edge, rest still
             // out of reach: the reversing it brakes from.
-            let braking = self.last.is_some_and(|last| {
-                let l = if s.evading { &self.evading } else { &self.driving };
-                let (_, hi) = reachable(last.cmd.v_mps, self.dt_s, l.accel_mps2, l.decel_mps2);
-                hi < -WINDOW_TOL && v >= hi - WINDOW_TOL
-            });
+            let braking = window.is_some_and(|(_, hi)| hi < -WINDOW_TOL && v >= hi - WINDOW_TOL);
             match (braking, self.last_reverse) {
                 (true, Some(why)) => why,
                 _ => s.state,
