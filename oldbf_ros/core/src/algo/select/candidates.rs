@@ -152,6 +152,7 @@ mod tests {
             last: Twist::new(0.15, 0.0),
             last_change: Twist::ZERO,
             target: None,
+            slide_rad: None,
             side: None,
             guide: 1.0,
             doaa_both_sides: false,

@@ -5,13 +5,15 @@
 //! [`candidates`] a fine sample of it, the speed exact per yaw rate;
 //! [`tiers`] the hard constraints as one ordered list of relaxations
 //! ([`h_mean`]: h averaged over recent steps, which the first of them uses);
-//! [`critics`] the soft preferences, one file each; [`selector`] the
-//! decision that puts them together.
+//! [`critics`] the soft preferences, one file each ([`slide`]: the heading
+//! the progress critic aims at when the target's bearing is closed);
+//! [`selector`] the decision that puts them together.
 
 pub mod candidates;
 pub mod critics;
 pub mod h_mean;
 pub mod selector;
+pub mod slide;
 pub mod tiers;
 pub mod window;
 

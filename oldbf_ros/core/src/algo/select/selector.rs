@@ -31,6 +31,7 @@
 use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
 use super::h_mean::HMean;
+use super::slide;
 use super::tiers::{escape_target, Tier};
 use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, DtcbfFilter, InputBox, TOL_M};
@@ -55,6 +56,11 @@ const PRUNE_MARGIN: f64 = 1e-9;
 
 /// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
 const SIDE_MIN_RADPS: f64 = 0.03;
+
+/// The least speed, as a share of v_max, whose step [`slide::heading`]
+/// measures the open headings with: an upstream asking to crawl or rest
+/// still learns where the robot could drive.
+const SLIDE_PROBE_SHARE: f64 = 0.25;
 
 /// What the step gives the selector besides the geometry.
 #[derive(Debug, Clone, Copy)]
@@ -291,6 +297,29 @@ impl Selector {
             1.0
         };
         let nominal_ok = guide == 0.0;
+        // Where the progress critic aims when the margin level closes the target's
+        // bearing: the open heading nearest it, on a tie the side the DOAA's law (or the
+        // side kept) turns to.
+        let slide_rad = match input.target {
+            Some(t) if guide > 0.0 && h >= 0.0 => {
+                let speed = input.nominal.v_mps.abs().max(SLIDE_PROBE_SHARE * p.control.v_max_mps);
+                let turn = input.doaa.omega_radps - input.nominal.omega_radps;
+                let law = if turn.abs() > SIDE_MIN_RADPS {
+                    turn.signum()
+                } else {
+                    0.0
+                };
+                let prefer = self.side.unwrap_or(law);
+                slide::heading(
+                    self.clearance.near(),
+                    t.y.atan2(t.x),
+                    speed * p.control.dt_s(),
+                    prefer,
+                    p,
+                )
+            }
+            _ => None,
+        };
         let ctx = Context {
             params: p,
             nominal: input.nominal,
@@ -303,6 +332,7 @@ impl Selector {
             last: input.last,
             last_change: input.last_change,
             target: input.target,
+            slide_rad,
             side: self.side,
             guide,
         };
@@ -840,6 +870,46 @@ mod tests {
     }
 
     #[test]
+    fn at_the_margin_the_robot_turns_to_where_it_can_drive_not_to_face_the_corner() {
+        // A post 45° to the right at h = δ (0.408 m from the centre: r 0.178 + d_safe
+        // 0.2 + δ 0.03): the margin level forbids every heading within 90° of it, so
+        // straight ahead the robot may only creep. The waypoint lies 30° to the right,
+        // across the post; the upstream turns towards it, the DOAA's law away. The open
+        // heading nearest the waypoint's bearing is the post's tangent 45° to the left
+        // (75° away; the other tangent, 135° to the right, is 105° away): at rest the
+        // robot turns left, where it can drive on along the post, not right to face it.
+        let p = Params::default();
+        let d = p.robot_radius_m() + p.barrier.d_safe_m + p.dtcbf.noise_margin_m;
+        let post: Vec<Vec2> = (-2..=2)
+            .map(|k: i32| {
+                let a = -std::f64::consts::FRAC_PI_4 + 0.02 * f64::from(k);
+                Vec2::new(a.cos(), a.sin()) * (d + 0.01 * f64::from(k.abs()))
+            })
+            .collect();
+        let waypoint = -30f64.to_radians();
+        let input = SelectInput {
+            nominal: Twist::new(0.15, -0.3),
+            doaa: Twist::new(0.15, 0.3),
+            doaa_both_sides: false,
+            last: Twist::ZERO,
+            last_change: Twist::ZERO,
+            since_s: 0.1,
+            bx: InputBox::from_params(&p),
+            target: Some(Vec2::new(waypoint.cos(), waypoint.sin()) * 2.0),
+            front_blocked: false,
+            front_clear: false,
+            following: true,
+            clearer_side: 1.0,
+            closing_in: false,
+            mover_closing: false,
+        };
+        let mut sel = Selector::with_capacity(post.len(), &p);
+        let s = select_on(&mut sel, &post, &[], &input, &p);
+        assert_eq!(s.tier, Tier::Margin);
+        assert!(s.cmd.v_mps < 0.02 && s.cmd.omega_radps > 0.05, "{s:?}");
+    }
+
+    #[test]
     fn following_a_way_round_the_robot_turns_towards_its_waypoint_at_rest() {
         // The pipeline passes the both-sides turn as such only when no way round is
         // followed. Counted as the both-sides turn, it pulls right as hard as the
@@ -933,7 +1003,9 @@ mod tests {
                 last_change: Twist::ZERO,
                 since_s: dt,
                 bx: InputBox::from_params(&p),
-                target: Some(Vec2::new(3.0, 0.0)),
+                // No target: one fixed in the robot frame would turn with it, and the
+                // progress critic would lead it along the wall (`slide`), not at it.
+                target: None,
                 front_blocked: false,
                 front_clear: true,
                 following: false,

@@ -62,6 +62,11 @@ impl Clearance {
         }
     }
 
+    /// The points kept by [`Self::prepare`], nearest first.
+    pub fn near(&self) -> &[Vec2] {
+        &self.near
+    }
+
     /// The unweighted cost of the candidate `look` (0..4).
     pub fn cost(&self, look: &Look, p: &Params) -> f64 {
         let band = p.select.clearance_band_m;

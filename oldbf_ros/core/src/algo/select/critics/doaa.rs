@@ -46,6 +46,7 @@ mod tests {
             last: Twist::ZERO,
             last_change: Twist::ZERO,
             target: None,
+            slide_rad: None,
             side: None,
             guide: 1.0,
             doaa_both_sides: false,

@@ -134,6 +134,9 @@ pub struct Context<'a> {
     pub last_change: Twist,
     /// Where progress is measured to (robot frame, m), if anywhere.
     pub target: Option<Vec2>,
+    /// The heading to aim at instead of the target's bearing when the
+    /// margin level closes that bearing ([`super::slide`]; robot frame, rad).
+    pub slide_rad: Option<f64>,
     /// The side kept for passing an obstacle ahead (+1 left, −1 right).
     pub side: Option<f64>,
     /// How much the critics that steer (DOAA, progress, clearance, side)

@@ -34,6 +34,7 @@ mod tests {
             last: Twist::ZERO,
             last_change: Twist::ZERO,
             target: None,
+            slide_rad: None,
             side: None,
             guide: 0.0,
             doaa_both_sides: false,

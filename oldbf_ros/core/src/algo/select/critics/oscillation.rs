@@ -40,6 +40,7 @@ mod tests {
             last: Twist::new(0.05, 0.1),
             last_change: Twist::new(-0.05, 0.1),
             target: None,
+            slide_rad: None,
             side: None,
             guide: 1.0,
             doaa_both_sides: false,

@@ -6,7 +6,10 @@
 //! full approach at v_max, ½ for none, 1 for backing straight away); and
 //! how far the heading then is from the target's bearing, over π (so a
 //! robot that cannot drive on still prefers to turn towards where it is
-//! going). No target (an upstream `cmd_vel_in` alone): 0.
+//! going). When the margin level closes that bearing, the heading is
+//! measured against the open heading nearest it instead ([`super::super::slide`]):
+//! a robot at rest turns to where it can drive on, not to face a corner
+//! it may not approach. No target (an upstream `cmd_vel_in` alone): 0.
 
 use super::{Context, Look};
 use crate::algo::geometry::wrap_angle;
@@ -24,10 +27,10 @@ pub fn cost(ctx: &Context<'_>, look: &Look) -> f64 {
     let gained = target.norm() - to.norm();
     let approach = (0.5 * (1.0 - gained / reach)).clamp(0.0, 1.0);
     let heading = look.cmd.omega_radps * ctx.params.select.horizon_s;
-    let misalign = if to.norm() > 1e-9 {
-        wrap_angle(to.y.atan2(to.x) - heading).abs() / std::f64::consts::PI
-    } else {
-        0.0
+    let misalign = match ctx.slide_rad {
+        Some(open) => wrap_angle(open - heading).abs() / std::f64::consts::PI,
+        None if to.norm() > 1e-9 => wrap_angle(to.y.atan2(to.x) - heading).abs() / std::f64::consts::PI,
+        None => 0.0,
     };
     0.5 * (approach + misalign)
 }
@@ -52,6 +55,7 @@ mod tests {
             last: Twist::ZERO,
             last_change: Twist::ZERO,
             target: Some(Vec2::new(3.0, 0.0)),
+            slide_rad: None,
             side: None,
             guide: 1.0,
             doaa_both_sides: false,
@@ -67,6 +71,13 @@ mod tests {
         assert!(cost(&ctx, Twist::new(0.15, 0.3)) < cost(&ctx, Twist::new(0.15, -0.3)));
         let turned = 0.5 * (0.5 + (std::f64::consts::FRAC_PI_2 - 0.45) / std::f64::consts::PI);
         assert!((cost(&ctx, Twist::new(0.0, 0.3)) - turned).abs() < 1e-12);
+        // The same target with its bearing closed and the open heading at −π/2: the
+        // heading term measures against that, so turning in place to the right wins.
+        ctx.slide_rad = Some(-std::f64::consts::FRAC_PI_2);
+        assert!(cost(&ctx, Twist::new(0.0, -0.3)) < cost(&ctx, Twist::new(0.0, 0.3)));
+        let slid = 0.5 * (0.5 + (std::f64::consts::FRAC_PI_2 - 0.45) / std::f64::consts::PI);
+        assert!((cost(&ctx, Twist::new(0.0, -0.3)) - slid).abs() < 1e-12);
+        ctx.slide_rad = None;
         ctx.target = None;
         assert_eq!(cost(&ctx, Twist::new(-0.1, 0.0)), 0.0);
     }

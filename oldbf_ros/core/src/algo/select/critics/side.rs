@@ -39,6 +39,7 @@ mod tests {
             last: Twist::ZERO,
             last_change: Twist::ZERO,
             target: None,
+            slide_rad: None,
             side: Some(1.0),
             guide: 1.0,
             doaa_both_sides: false,

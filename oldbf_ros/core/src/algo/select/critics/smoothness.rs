@@ -30,6 +30,7 @@ mod tests {
             last: Twist::new(0.1, 0.1),
             last_change: Twist::ZERO,
             target: None,
+            slide_rad: None,
             side: None,
             guide: 1.0,
             doaa_both_sides: false,
