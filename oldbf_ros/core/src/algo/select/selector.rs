@@ -31,7 +31,7 @@
 use super::candidates::{Candidate, Candidates, Sampling};
 use super::critics::{clearance::Clearance, mover, Context, Critic, CriticCosts, Look};
 use super::h_mean::HMean;
-use super::slide;
+use super::slide::Slide;
 use super::tiers::{escape_target, Tier};
 use super::window::{Limits, Window, WINDOW_TOL};
 use crate::algo::dtcbf::{condition_holds, DtcbfFilter, InputBox, TOL_M};
@@ -57,7 +57,7 @@ const PRUNE_MARGIN: f64 = 1e-9;
 /// A deviation from the upstream's yaw rate beyond this (rad/s) chooses a side.
 const SIDE_MIN_RADPS: f64 = 0.03;
 
-/// The least speed, as a share of v_max, whose step [`slide::heading`]
+/// The least speed, as a share of v_max, whose step [`Slide::heading`]
 /// measures the open headings with: an upstream asking to crawl or rest
 /// still learns where the robot could drive.
 const SLIDE_PROBE_SHARE: f64 = 0.25;
@@ -145,6 +145,7 @@ pub struct Selector {
     candidates: Candidates,
     order: Vec<(f64, u32)>,
     clearance: Clearance,
+    slide: Slide,
     side: Option<f64>,
     /// This step's window and allowed speeds (uncut by the window, m/s):
     /// what a candidate at the window's edge goes on towards.
@@ -170,6 +171,7 @@ impl Selector {
             candidates: Candidates::with_capacity(p),
             order: Vec::with_capacity((p.select.omega_samples + 3) * (p.select.speed_samples + 20)),
             clearance: Clearance::with_capacity(points),
+            slide: Slide::with_capacity(points),
             side: None,
             window: None,
             allowed: (0.0, 0.0),
@@ -299,9 +301,10 @@ impl Selector {
         let nominal_ok = guide == 0.0;
         // Where the progress critic aims when the margin level closes the target's
         // bearing: the open heading nearest it, on a tie the side the DOAA's law (or the
-        // side kept) turns to.
+        // side kept) turns to. Its arcs are those of still surroundings; with a person
+        // near or a threat, the DOAA's law and the mover critic steer.
         let slide_rad = match input.target {
-            Some(t) if guide > 0.0 && h >= 0.0 => {
+            Some(t) if guide > 0.0 && h >= 0.0 && !threatened && !people_near => {
                 let speed = input.nominal.v_mps.abs().max(SLIDE_PROBE_SHARE * p.control.v_max_mps);
                 let turn = input.doaa.omega_radps - input.nominal.omega_radps;
                 let law = if turn.abs() > SIDE_MIN_RADPS {
@@ -310,7 +313,7 @@ impl Selector {
                     0.0
                 };
                 let prefer = self.side.unwrap_or(law);
-                slide::heading(
+                self.slide.heading(
                     self.clearance.near(),
                     t.y.atan2(t.x),
                     speed * p.control.dt_s(),

@@ -39,61 +39,82 @@ pub const MAX_OFFSET_RAD: f64 = std::f64::consts::FRAC_PI_2;
 /// its edge, where rounding cannot close it again.
 const PAST_RAD: f64 = 1e-3;
 
-/// The free heading nearest `bearing_rad` (robot frame), or `None` when
-/// the bearing itself is open, or no open heading lies within
-/// [`MAX_OFFSET_RAD`] of it (then the bearing stays the goal: nothing that
-/// gets nearer is known). `near` is the surroundings
-/// (robot frame, m) sorted by distance, nearest first; `step_m` the length
-/// of a step at the speed asked; `prefer` the side preferred on a tie (+1
-/// left, −1 right, 0 none).
-pub fn heading(near: &[Vec2], bearing_rad: f64, step_m: f64, prefer: f64, p: &Params) -> Option<f64> {
-    if step_m <= 0.0 || !bearing_rad.is_finite() {
-        return None;
+/// The closed arcs of one step: each closing point's bearing and the
+/// half-width of the headings it closes (rad). Kept between steps so the
+/// scan path does not allocate.
+#[derive(Debug, Clone, Default)]
+pub struct Slide {
+    arcs: Vec<(f64, f64)>,
+}
+
+impl Slide {
+    /// Room for `points` closing points without reallocating.
+    pub fn with_capacity(points: usize) -> Self {
+        Self {
+            arcs: Vec::with_capacity(points),
+        }
     }
-    let required = p.robot_radius_m() + p.barrier.d_safe_m;
-    let (gamma, delta) = (p.dtcbf.gamma, p.dtcbf.noise_margin_m);
-    // The points that close anything: sorted by distance, so the allowance only
-    // grows along `near`; the first that lets a whole step through ends them.
-    let closing = near.partition_point(|q| gamma * (q.norm() - required - delta).max(0.0) < step_m);
-    let near = &near[..closing];
-    let half_width = |q: &Vec2| (gamma * (q.norm() - required - delta).max(0.0) / step_m).acos();
-    let left = sweep(near, bearing_rad, 1.0, &half_width);
-    let right = sweep(near, bearing_rad, -1.0, &half_width);
-    // Only a heading along which the robot still nears the target is worth turning
-    // to: beyond a right angle the open side leads away, and the bearing stays.
-    let useful = |o: Option<f64>| o.filter(|&o| o <= MAX_OFFSET_RAD);
-    let (left, right) = match (left, right) {
-        (Some(0.0), _) | (_, Some(0.0)) => return None,
-        (l, r) => match (useful(l), useful(r)) {
-            (None, None) => return None,
-            (l, r) => (l.unwrap_or(f64::INFINITY), r.unwrap_or(f64::INFINITY)),
-        },
-    };
-    let go_left = if (left - right).abs() <= TIE_RAD && prefer != 0.0 {
-        prefer > 0.0
-    } else {
-        left <= right
-    };
-    Some(wrap_angle(if go_left {
-        bearing_rad + left
-    } else {
-        bearing_rad - right
-    }))
+
+    /// The free heading nearest `bearing_rad` (robot frame), or `None` when
+    /// the bearing itself is open, or no open heading lies within
+    /// [`MAX_OFFSET_RAD`] of it (then the bearing stays the goal: nothing
+    /// that gets nearer is known). `near` is the surroundings (robot frame,
+    /// m) sorted by distance, nearest first; `step_m` the length of a step at
+    /// the speed asked; `prefer` the side preferred on a tie (+1 left, −1
+    /// right, 0 none).
+    pub fn heading(&mut self, near: &[Vec2], bearing_rad: f64, step_m: f64, prefer: f64, p: &Params) -> Option<f64> {
+        if step_m <= 0.0 || !bearing_rad.is_finite() {
+            return None;
+        }
+        let required = p.robot_radius_m() + p.barrier.d_safe_m;
+        let (gamma, delta) = (p.dtcbf.gamma, p.dtcbf.noise_margin_m);
+        // The points that close anything: sorted by distance, so the allowance only
+        // grows along `near`; the first that lets a whole step through ends them.
+        let allowance = |q: &Vec2| gamma * (q.norm() - required - delta).max(0.0);
+        let closing = near.partition_point(|q| allowance(q) < step_m);
+        self.arcs.clear();
+        self.arcs.extend(
+            near[..closing]
+                .iter()
+                .map(|q| (q.y.atan2(q.x), (allowance(q) / step_m).acos())),
+        );
+        let left = sweep(&self.arcs, bearing_rad, 1.0);
+        let right = sweep(&self.arcs, bearing_rad, -1.0);
+        // Only a heading along which the robot still nears the target is worth turning
+        // to: beyond a right angle the open side leads away, and the bearing stays.
+        let useful = |o: Option<f64>| o.filter(|&o| o <= MAX_OFFSET_RAD);
+        let (left, right) = match (left, right) {
+            (Some(0.0), _) | (_, Some(0.0)) => return None,
+            (l, r) => match (useful(l), useful(r)) {
+                (None, None) => return None,
+                (l, r) => (l.unwrap_or(f64::INFINITY), r.unwrap_or(f64::INFINITY)),
+            },
+        };
+        let go_left = if (left - right).abs() <= TIE_RAD && prefer != 0.0 {
+            prefer > 0.0
+        } else {
+            left <= right
+        };
+        Some(wrap_angle(if go_left {
+            bearing_rad + left
+        } else {
+            bearing_rad - right
+        }))
+    }
 }
 
 /// How far (rad) from `bearing` towards `side` (+1 left, −1 right) the first
-/// heading no closed arc holds lies: 0 for an open bearing, `None` when the
-/// arcs close the whole circle.
-fn sweep(near: &[Vec2], bearing: f64, side: f64, half_width: &impl Fn(&Vec2) -> f64) -> Option<f64> {
+/// heading no closed arc (bearing, half-width) holds lies: 0 for an open
+/// bearing, `None` when the arcs close the whole circle.
+fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64) -> Option<f64> {
     let mut offset = 0.0;
     // Each pass leaves every arc holding the heading; an arc once left is not
-    // met again before the whole circle is swept, so `near.len()` passes suffice.
-    for _ in 0..=near.len() {
+    // met again before the whole circle is swept, so `arcs.len()` passes suffice.
+    for _ in 0..=arcs.len() {
         let at = bearing + side * offset;
         let mut exit = 0.0_f64;
-        for q in near {
-            let off = wrap_angle(q.y.atan2(q.x) - at);
-            let w = half_width(q);
+        for &(centre, w) in arcs {
+            let off = wrap_angle(centre - at);
             if off.abs() < w {
                 // Leaving towards `side` means reaching the arc's edge on that side.
                 exit = exit.max(w + side * off);
@@ -114,6 +135,10 @@ fn sweep(near: &[Vec2], bearing: f64, side: f64, half_width: &impl Fn(&Vec2) -> 
 mod tests {
     use super::*;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+
+    fn heading(near: &[Vec2], bearing_rad: f64, step_m: f64, prefer: f64, p: &Params) -> Option<f64> {
+        Slide::default().heading(near, bearing_rad, step_m, prefer, p)
+    }
 
     /// A point at h = `h` (beyond r + d_safe of the defaults, 0.378 m) and
     /// bearing `angle`. The defaults also have δ = 0.03 m, γ = 0.2.
