@@ -299,28 +299,10 @@ impl Selector {
             1.0
         };
         let nominal_ok = guide == 0.0;
-        // Where the progress critic aims when the margin level closes the target's
-        // bearing: the open heading nearest it, on a tie the side the DOAA's law (or the
-        // side kept) turns to. Its arcs are those of still surroundings; with a person
-        // near or a threat, the DOAA's law and the mover critic steer.
+        // Its arcs are those of still surroundings: with a person near or a threat, the
+        // DOAA's law and the mover critic steer.
         let slide_rad = match input.target {
-            Some(t) if guide > 0.0 && h >= 0.0 && !threatened && !people_near => {
-                let speed = input.nominal.v_mps.abs().max(SLIDE_PROBE_SHARE * p.control.v_max_mps);
-                let turn = input.doaa.omega_radps - input.nominal.omega_radps;
-                let law = if turn.abs() > SIDE_MIN_RADPS {
-                    turn.signum()
-                } else {
-                    0.0
-                };
-                let prefer = self.side.unwrap_or(law);
-                self.slide.heading(
-                    self.clearance.near(),
-                    t.y.atan2(t.x),
-                    speed * p.control.dt_s(),
-                    prefer,
-                    p,
-                )
-            }
+            Some(t) if guide > 0.0 && h >= 0.0 && !threatened && !people_near => self.open_heading(input, t, p),
             _ => None,
         };
         let ctx = Context {
@@ -447,6 +429,25 @@ impl Selector {
             braking_held,
             condition_held: condition_holds(h, h_next, p.dtcbf.gamma),
         }
+    }
+
+    /// Where the progress critic aims when the margin level closes the
+    /// bearing of `target` (robot frame): the open heading nearest it
+    /// ([`Slide::heading`]), on a tie the side the DOAA's law (or the side
+    /// kept) turns to; `None` when the bearing is open or nothing open nears
+    /// the target.
+    fn open_heading(&mut self, input: &SelectInput, target: Vec2, p: &Params) -> Option<f64> {
+        let speed = input.nominal.v_mps.abs().max(SLIDE_PROBE_SHARE * p.control.v_max_mps);
+        let turn = input.doaa.omega_radps - input.nominal.omega_radps;
+        let law = if turn.abs() > SIDE_MIN_RADPS {
+            turn.signum()
+        } else {
+            0.0
+        };
+        let prefer = self.side.unwrap_or(law);
+        let step_m = speed * p.control.dt_s();
+        self.slide
+            .heading(self.clearance.near(), target.y.atan2(target.x), step_m, prefer, p)
     }
 
     /// Every critic's weighted cost for `look`, from its cheap ones: the
