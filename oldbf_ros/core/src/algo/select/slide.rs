@@ -78,17 +78,13 @@ impl Slide {
                 .iter()
                 .map(|q| (q.y.atan2(q.x), (allowance(q) / step_m).acos())),
         );
-        let left = sweep(&self.arcs, bearing_rad, 1.0);
-        let right = sweep(&self.arcs, bearing_rad, -1.0);
         // Only a heading along which the robot still nears the target is worth turning
         // to: beyond a right angle the open side leads away, and the bearing stays.
-        let useful = |o: Option<f64>| o.filter(|&o| o <= MAX_OFFSET_RAD);
+        let left = sweep(&self.arcs, bearing_rad, 1.0, MAX_OFFSET_RAD);
+        let right = sweep(&self.arcs, bearing_rad, -1.0, MAX_OFFSET_RAD);
         let (left, right) = match (left, right) {
-            (Some(0.0), _) | (_, Some(0.0)) => return None,
-            (l, r) => match (useful(l), useful(r)) {
-                (None, None) => return None,
-                (l, r) => (l.unwrap_or(f64::INFINITY), r.unwrap_or(f64::INFINITY)),
-            },
+            (Some(0.0), _) | (_, Some(0.0)) | (None, None) => return None,
+            (l, r) => (l.unwrap_or(f64::INFINITY), r.unwrap_or(f64::INFINITY)),
         };
         let go_left = if (left - right).abs() <= TIE_RAD && prefer != 0.0 {
             prefer > 0.0
@@ -105,8 +101,8 @@ impl Slide {
 
 /// How far (rad) from `bearing` towards `side` (+1 left, −1 right) the first
 /// heading no closed arc (bearing, half-width) holds lies: 0 for an open
-/// bearing, `None` when the arcs close the whole circle.
-fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64) -> Option<f64> {
+/// bearing, `None` when it lies beyond `limit_rad` (or nowhere).
+fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64, limit_rad: f64) -> Option<f64> {
     let mut offset = 0.0;
     // Each pass leaves every arc holding the heading; an arc once left is not
     // met again before the whole circle is swept, so `arcs.len()` passes suffice.
@@ -124,7 +120,7 @@ fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64) -> Option<f64> {
             return Some(offset);
         }
         offset += exit + PAST_RAD;
-        if offset >= std::f64::consts::TAU {
+        if offset > limit_rad {
             return None;
         }
     }
@@ -213,6 +209,52 @@ mod tests {
         // A target 60° to the left: the left edge lies 50° from it.
         let psi = heading(&wall, std::f64::consts::FRAC_PI_3, 0.022, 0.0, &p).unwrap();
         assert!((psi - (FRAC_PI_2 + 0.35)).abs() < 2e-3, "{psi}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+
+        /// Against a plain reference, headings sampled every 0.5 mrad: the
+        /// heading returned is open, none nearer the bearing on its side is,
+        /// the other side has none nearer by more than the tie, and it lies
+        /// within a right angle; `None` only for an open bearing or when
+        /// nothing open lies within a right angle on either side.
+        #[test]
+        fn the_sweep_finds_the_nearest_open_heading(
+            pts in proptest::collection::vec((-3.2..3.2f64, 0.0..0.14f64), 1..10),
+            bearing in -3.2..3.2f64,
+            prefer in -1i32..=1,
+        ) {
+            let p = Params::default();
+            let mut near: Vec<Vec2> = pts.iter().map(|&(a, h)| at(h, a)).collect();
+            near.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
+            let step = 0.022;
+            let required = p.robot_radius_m() + p.barrier.d_safe_m;
+            let closed = |psi: f64| near.iter().any(|q| {
+                let allow = p.dtcbf.gamma * (q.norm() - required - p.dtcbf.noise_margin_m).max(0.0);
+                allow < step && step * wrap_angle(psi - q.y.atan2(q.x)).cos() > allow + 1e-9
+            });
+            // The nearest open offset on each side within a right angle, sampled.
+            let first_open = |side: f64| (0..=3142).map(|k| f64::from(k) * 5e-4)
+                .find(|&o| !closed(bearing + side * o));
+            let got = heading(&near, bearing, step, f64::from(prefer), &p);
+            let (l, r) = (first_open(1.0), first_open(-1.0));
+            match got {
+                None => proptest::prop_assert!(l == Some(0.0) || r == Some(0.0) || (l.is_none() && r.is_none()),
+                    "None with open offsets {l:?} {r:?}"),
+                Some(psi) => {
+                    let off = wrap_angle(psi - bearing);
+                    proptest::prop_assert!(off.abs() <= MAX_OFFSET_RAD + 1e-9);
+                    proptest::prop_assert!(!closed(psi), "{psi} is closed");
+                    let (mine, other) = if off > 0.0 { (l, r) } else { (r, l) };
+                    let mine = mine.expect("an open heading on the side returned");
+                    proptest::prop_assert!((mine - off.abs()).abs() < 2e-3, "sampled {mine}, swept {off}");
+                    if let Some(o) = other {
+                        proptest::prop_assert!(o >= off.abs() - TIE_RAD - 2e-3, "the other side {o} beats {off}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
