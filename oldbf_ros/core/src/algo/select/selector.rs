@@ -260,12 +260,7 @@ impl Selector {
         if self.side.is_none() && input.front_blocked && !input.following {
             // The side to pass on: the way the DOAA's law turns off the upstream's, else
             // the clearer side.
-            let turn = input.doaa.omega_radps - input.nominal.omega_radps;
-            self.side = Some(if turn.abs() > SIDE_MIN_RADPS {
-                turn.signum()
-            } else {
-                input.clearer_side
-            });
+            self.side = Some(law_side(input).unwrap_or(input.clearer_side));
         }
         self.clearance.prepare(g.points, g.filter.footprint(), p);
         let first = if h >= 0.0 { Tier::Margin } else { Tier::Condition };
@@ -438,13 +433,7 @@ impl Selector {
     /// the target.
     fn open_heading(&mut self, input: &SelectInput, target: Vec2, p: &Params) -> Option<f64> {
         let speed = input.nominal.v_mps.abs().max(SLIDE_PROBE_SHARE * p.control.v_max_mps);
-        let turn = input.doaa.omega_radps - input.nominal.omega_radps;
-        let law = if turn.abs() > SIDE_MIN_RADPS {
-            turn.signum()
-        } else {
-            0.0
-        };
-        let prefer = self.side.unwrap_or(law);
+        let prefer = self.side.or_else(|| law_side(input)).unwrap_or(0.0);
         let step_m = speed * p.control.dt_s();
         self.slide
             .heading(self.clearance.near(), target.y.atan2(target.x), step_m, prefer, p)
@@ -685,6 +674,13 @@ impl Selector {
         }
         None
     }
+}
+
+/// The side the DOAA's law turns to off the upstream's yaw rate (+1 left,
+/// −1 right), if it turns by more than [`SIDE_MIN_RADPS`].
+fn law_side(input: &SelectInput) -> Option<f64> {
+    let turn = input.doaa.omega_radps - input.nominal.omega_radps;
+    (turn.abs() > SIDE_MIN_RADPS).then(|| turn.signum())
 }
 
 /// The speeds a safety layer may command this step (ALGORITHM.md §5c):
