@@ -5,8 +5,7 @@
 //! * A scan's ray clears the cells it crosses (seen free at the scan's
 //!   time), short of its end by [`CLEAR_SHORT_CELLS`] cells, and marks its
 //!   end cell seen occupied; within one scan a hit wins over a ray that
-//!   grazes it. A cell last seen occupied is cleared only by a ray that
-//!   passes within [`CLEAR_CENTRE_M`] of its centre. The points given are the scan's less those of moving tracks
+//!   grazes it. The points given are the scan's less those of moving tracks
 //!   (a person walking is not a wall), so a walking person leaves no trail.
 //! * A cell is **occupied** when it was last seen occupied within
 //!   `memory_s`, **free** when last seen free within `memory_s`, and
@@ -27,15 +26,6 @@ pub const MAP_CELL_M: f64 = 0.05;
 /// A ray clears up to this many cells short of its end: the end cell's
 /// neighbours may hold the same surface, seen at a grazing angle.
 pub const CLEAR_SHORT_CELLS: i64 = 2;
-/// A ray clears a cell last seen occupied only if it passes this near the
-/// cell's centre (m, a quarter cell). The surface point that made the cell
-/// occupied may lie anywhere in it; a ray that only crosses the cell's edge
-/// can pass beside that point, as the rays along a box's side seen at a
-/// glancing angle do on every scan. Cleared by such rays, the side's cells
-/// come and go, and a gap just too narrow for the robot opens on the map
-/// each time it is seen from afar. Where something really went away, rays
-/// cross its cells through their centres within a few scans.
-pub const CLEAR_CENTRE_M: f64 = 0.25 * MAP_CELL_M;
 /// Never seen.
 const NEVER: f64 = f64::NEG_INFINITY;
 /// A cell last hit by a slowly moving track counts as occupied this long (s):
@@ -220,8 +210,7 @@ impl LocalMap {
             } else {
                 to
             };
-            let ray = (pose.position(), (w - pose.position()) / len.max(1e-9));
-            self.clear_ray(from, clear_to, to, stamp_s, ray);
+            self.clear_ray(from, clear_to, to, stamp_s);
         }
         for q in points.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
             if let Some(k) = self.index(cell_coords(map.point(*q))) {
@@ -269,17 +258,14 @@ impl LocalMap {
             let to = cell_coords(map.point(q));
             // The ray's end is no surface: clear up to it (a cell beyond it is the "end").
             let beyond = cell_coords(map.point(q * (1.0 + (CLEAR_SHORT_CELLS as f64 + 1.0) * MAP_CELL_M / len)));
-            let ray = (pose.position(), (map.point(q) - pose.position()) / len);
-            self.clear_ray(from, to, beyond, stamp_s, ray);
+            self.clear_ray(from, to, beyond, stamp_s);
         }
     }
 
     /// Marks free the cells of the line from `a` to `b` (Bresenham), but not
     /// those within [`CLEAR_SHORT_CELLS`] of the ray's end `end`, nor cells
-    /// hit in this same scan, nor cells last seen occupied that the ray
-    /// (`ray`: its origin and unit direction, tracking frame) passes farther
-    /// than [`CLEAR_CENTRE_M`] from the centre of.
-    fn clear_ray(&mut self, a: (i64, i64), b: (i64, i64), end: (i64, i64), stamp_s: f64, ray: (Vec2, Vec2)) {
+    /// hit in this same scan.
+    fn clear_ray(&mut self, a: (i64, i64), b: (i64, i64), end: (i64, i64), stamp_s: f64) {
         let (dx, dy) = ((b.0 - a.0).abs(), -(b.1 - a.1).abs());
         // No ray is longer than the window: a longer one comes of garbage (a point at
         // infinity seen from a pose far away) and clears nothing.
@@ -293,12 +279,7 @@ impl LocalMap {
                 break;
             }
             if let Some(k) = self.index((x, y)) {
-                let through_centre = || {
-                    let d = Vec2::new(x as f64 * MAP_CELL_M, y as f64 * MAP_CELL_M) - ray.0;
-                    (d.x * ray.1.y - d.y * ray.1.x).abs() <= CLEAR_CENTRE_M
-                };
-                let seen_occupied = self.hit_s[k] > self.free_s[k];
-                if self.hit_s[k] != stamp_s && (!seen_occupied || through_centre()) {
+                if self.hit_s[k] != stamp_s {
                     self.free_s[k] = stamp_s;
                 }
             }
@@ -353,23 +334,6 @@ mod tests {
         m.insert(at(0.0, 0.0), &[Vec2::new(1.5, 0.0)], 1.1, 5.0);
         assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 1.1, 5.0), CellState::Free);
         assert_eq!(m.state_at(Vec2::new(1.5, 0.0), 1.1, 5.0), CellState::Occupied);
-    }
-
-    #[test]
-    fn a_ray_past_the_edge_of_an_occupied_cell_leaves_it_occupied() {
-        let mut m = LocalMap::new(4.0);
-        // A surface point 2 cm below the centre of cell (20, 0) (centre (1.0, 0.0)).
-        m.insert(at(0.0, 0.0), &[Vec2::new(1.0, -0.02)], 1.0, 5.0);
-        assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 1.0, 5.0), CellState::Occupied);
-        // A ray at y = 0.015 x, ending 3 m out, crosses that cell 1.5 cm above its
-        // centre, 3.5 cm beside the point: the point may still be there.
-        m.insert(at(0.0, 0.0), &[Vec2::new(3.0, 0.045)], 1.1, 5.0);
-        assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 1.1, 5.0), CellState::Occupied);
-        // The cells it crosses that held nothing are free (0.5 m out: cell (10, 0)).
-        assert_eq!(m.state_at(Vec2::new(0.5, 0.0), 1.1, 5.0), CellState::Free);
-        // A ray 1 cm from the cell's centre (within a quarter cell) clears it.
-        m.insert(at(0.0, 0.0), &[Vec2::new(3.0, 0.03)], 1.2, 5.0);
-        assert_eq!(m.state_at(Vec2::new(1.0, 0.0), 1.2, 5.0), CellState::Free);
     }
 
     #[test]
