@@ -4,8 +4,11 @@
 //!
 //! * A scan's ray clears the cells it crosses (seen free at the scan's
 //!   time), short of its end by [`CLEAR_SHORT_CELLS`] cells, and marks its
-//!   end cell seen occupied; within one scan a hit wins over a ray that
-//!   grazes it. The points given are the scan's less those of moving tracks
+//!   end cell seen occupied. The rays are cleared first and a tie of the
+//!   two stamps reads free, so a cell that a point of the scan lies in and
+//!   another ray of the same scan crosses reads free (a surface seen at a
+//!   glancing angle loses cells this way; docs/DECISIONS.md, §4c stop 46,
+//!   has what changing it measured). The points given are the scan's less those of moving tracks
 //!   (a person walking is not a wall), so a walking person leaves no trail.
 //! * A cell is **occupied** when it was last seen occupied within
 //!   `memory_s`, **free** when last seen free within `memory_s`, and
@@ -242,8 +245,8 @@ impl LocalMap {
     /// Clears the rays from the robot at `pose` to `ends` (robot frame, m;
     /// beams that saw nothing in range, so what they cross is free up to
     /// their end), within `clear_range_m`, at `stamp_s`. Marks nothing
-    /// occupied. Call before [`Self::insert`] of the same scan's points, so
-    /// its hits win.
+    /// occupied. Call before [`Self::insert`] of the same scan's points (a
+    /// hit in a cell these rays cross reads free all the same: a tie).
     pub fn clear_open(&mut self, pose: Pose2, ends: &[Vec2], stamp_s: f64, clear_range_m: f64) {
         let Some((from, map)) = self.scan_frame(pose, stamp_s) else {
             return;
