@@ -8,8 +8,9 @@
 //!   two stamps reads free, so a cell that a point of the scan lies in and
 //!   another ray of the same scan crosses reads free (a surface seen at a
 //!   glancing angle loses cells this way; docs/DECISIONS.md, §4c stop 46,
-//!   has what changing it measured). The points given are the scan's less those of moving tracks
-//!   (a person walking is not a wall), so a walking person leaves no trail.
+//!   has what changing it measured). The points given are the scan's less
+//!   those of moving tracks (a person walking is not a wall), so a walking
+//!   person leaves no trail.
 //! * A cell is **occupied** when it was last seen occupied within
 //!   `memory_s`, **free** when last seen free within `memory_s`, and
 //!   **unknown** otherwise: what went out of view is remembered for a
