@@ -23,11 +23,12 @@ points under any change that moves a path; the discordant worlds say
 whether a change did more than that.
 """
 import argparse
-import json
 import csv
+import json
 import math
 import os
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -56,14 +57,13 @@ def run(args):
             path = os.path.join(args.out, f"{t}_{s}.json")
             if os.path.exists(path):
                 continue
-            rows = tempfile.mkdtemp(prefix="eval_seeds_")
-            cmd = [exe, "batch", os.path.join(ROOT, "config", "batch", f"{t}.yaml"), "--worlds",
-                   str(args.worlds), "--seed", str(s), "--controllers", args.controllers, "--json",
-                   "--out", rows] + args.extra.split()
-            res = subprocess.run(cmd, capture_output=True, text=True, check=True)
-            line = res.stdout.strip().splitlines()[-1]
-            shutil.move(os.path.join(rows, "per_world.csv"), os.path.join(args.out, f"{t}_{s}.csv"))
-            shutil.rmtree(rows)
+            with tempfile.TemporaryDirectory(prefix="eval_seeds_") as rows:
+                cmd = [exe, "batch", os.path.join(ROOT, "config", "batch", f"{t}.yaml"), "--worlds",
+                       str(args.worlds), "--seed", str(s), "--controllers", args.controllers, "--json",
+                       "--out", rows] + args.extra.split()
+                res = subprocess.run(cmd, capture_output=True, text=True, check=True)
+                line = res.stdout.strip().splitlines()[-1]
+                shutil.move(os.path.join(rows, "per_world.csv"), os.path.join(args.out, f"{t}_{s}.csv"))
             with open(path + ".tmp", "w") as f:
                 f.write(line)
             os.replace(path + ".tmp", path)
@@ -226,12 +226,8 @@ def paired(args):
         budget = cell(lambda r: r["goal_within_budget"] == "true", budgeted, True) if budgeted else "–"
         dt = [float(b[k]["time_to_goal_s"]) - float(a[k]["time_to_goal_s"]) for k in with_path
               if a[k]["reached_goal"] == "true" and b[k]["reached_goal"] == "true"]
-        if len(dt) > 1:
-            mean = sum(dt) / len(dt)
-            se = math.sqrt(sum((x - mean) ** 2 for x in dt) / (len(dt) - 1) / len(dt))
-            time = f"{mean:+.2f} ± {se:.2f}"
-        else:
-            time = "–"
+        time = (f"{statistics.mean(dt):+.2f} ± {statistics.stdev(dt) / math.sqrt(len(dt)):.2f}"
+                if len(dt) > 1 else "–")
         print(f"| {t} | {len(keys)} | {contact} | {closing} | {goal} | {budget} | {time} |")
 
 
