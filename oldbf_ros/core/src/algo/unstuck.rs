@@ -179,7 +179,7 @@ pub enum RouteEvent {
     NoRoute,
     /// Ended: the planner's route is older than [`ROUTE_STALE_S`].
     ReleaseStale,
-    /// Stuck on the route: the spot is avoided and a new route planned.
+    /// Stuck on the route: the route is planned again at once.
     Stuck,
 }
 

@@ -63,9 +63,9 @@ pub struct RouteAsk {
     pub direct_to: Vec2,
     /// Cells this near the robot are never blocked (m).
     pub own_m: f64,
-    /// The robot has not got on along the route for half `unstuck.stall_s`: the
-    /// spot it was steering at is avoided for `unstuck.memory_s`, and the
-    /// route planned afresh now.
+    /// The robot has not got on along the route for half `unstuck.stall_s`:
+    /// the route is planned again now (on a map that may have changed; the
+    /// spot is not closed, see ALGORITHM.md §4c).
     pub stuck: bool,
 }
 
@@ -96,8 +96,6 @@ pub struct WayRound {
     planner: RoutePlanner,
     last_plan_s: Option<f64>,
     window_m: f64,
-    /// The last plan's carrot (tracking frame, m).
-    last_carrot: Option<Vec2>,
 }
 
 impl WayRound {
@@ -108,7 +106,6 @@ impl WayRound {
             planner: RoutePlanner::default(),
             last_plan_s: None,
             window_m: p.unstuck.window_m,
-            last_carrot: None,
         }
     }
 
@@ -137,9 +134,7 @@ impl WayRound {
         } else {
             self.map.clear();
             self.planner.drop_route();
-            self.planner.clear_avoid();
             self.last_plan_s = None;
-            self.last_carrot = None;
         }
     }
 
@@ -166,12 +161,6 @@ impl WayRound {
     /// straight way to `ask.direct_to` on the same fields.
     pub fn plan(&mut self, ask: &RouteAsk, p: &Params) -> RouteUpdate {
         self.last_plan_s = Some(ask.now_s);
-        if ask.stuck {
-            if let Some(at) = self.last_carrot {
-                log::debug!("t {:.1}: stuck on the way round: avoiding {at:?}", ask.now_s);
-                self.planner.avoid(at, ask.now_s + p.unstuck.memory_s);
-            }
-        }
         // The body's reach to either side along its narrowest way: r for the circle, a
         // polygon's half-width (a route for the body moving lengthwise; the filter checks
         // the polygon itself wherever it has to turn).
@@ -197,7 +186,6 @@ impl WayRound {
         let req = self.planner.chosen().copied().unwrap_or(req);
         let direct_margin_m = self.segment_margin(ask.from, ask.direct_to, ask.own_m, &req);
         let carrot = route.as_ref().and_then(|r| self.carrot(r, ask, &req));
-        self.last_carrot = carrot;
         log::trace!(
             "t {:.1}: route {} points ({}), reaches {:?}, carrot {carrot:?}, direct margin {direct_margin_m:.2} m, from {:?}",
             ask.now_s,
@@ -261,6 +249,62 @@ impl WayRound {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stuck_at_the_mouth_of_the_only_door_the_robot_is_sent_through_it_again() {
+        // A wall across x = 1 from y = −3 to 3 with a door 0.86 m wide (y from −0.43 to
+        // 0.43), a passage 1.2 m long: 2 (r + d_safe) = 0.756 m fits, so the route runs
+        // down its middle; the way round the wall's ends is 6 m longer. The robot, 0.4 m before the door, got
+        // stuck there (the checks hold it while it lines up): the new route still goes
+        // through the door, not round the wall.
+        let p = Params::default();
+        let wall = |y0: f64, y1: f64| -> Vec<Vec2> {
+            let n = ((y1 - y0) / 0.02).round() as usize;
+            (0..=n).map(|i| Vec2::new(1.0, y0 + 0.02 * i as f64)).collect()
+        };
+        let mut points = wall(-3.0, -0.43);
+        points.extend(wall(0.43, 3.0));
+        // The door is a passage 1.2 m long (side walls along x from 1 to 2.2 m).
+        for y in [-0.43, 0.43] {
+            points.extend((0..=60).map(|i| Vec2::new(1.0 + 0.02 * i as f64, y)));
+        }
+        let mut w = WayRound::new(&p);
+        w.insert(&MapScan {
+            stamp_s: 0.0,
+            pose: Pose2::default(),
+            points,
+            open_ends: vec![],
+            transient: vec![],
+        });
+        let ask = RouteAsk {
+            now_s: 0.0,
+            from: Vec2::new(0.6, 0.0),
+            goal: Vec2::new(3.0, 0.0),
+            direct_to: Vec2::new(3.0, 0.0),
+            own_m: 0.1,
+            stuck: false,
+        };
+        let through_the_door = |u: &RouteUpdate| {
+            let r = u.route.as_ref().expect("a route");
+            r.reaches_goal
+                && r.points
+                    .iter()
+                    .filter(|q| (1.0..=2.2).contains(&q.x))
+                    .all(|q| q.y.abs() < 0.1)
+                && r.points.iter().all(|q| q.y.abs() < 0.5)
+        };
+        let u = w.plan(&ask, &p);
+        assert!(through_the_door(&u), "{:?}", u.route);
+        let later = RouteAsk {
+            now_s: 3.0,
+            stuck: true,
+            ..ask
+        };
+        assert!(w.due(&later, &p), "stuck: planned again at once");
+        let u = w.plan(&later, &p);
+        assert!(through_the_door(&u), "{:?}", u.route);
+        assert!(u.carrot.is_some_and(|c| c.x > 0.6), "{:?}", u.carrot);
+    }
 
     #[test]
     fn plans_at_its_period_and_sees_a_wall_across_the_direct_way() {
