@@ -78,6 +78,7 @@ const PARAM_ROWS: &[(&str, &str)] = &[
     ("unstuck.progress_m", "0"),
     ("unstuck.window_m", "0.5"),
     ("unstuck.memory_s", "601"),
+    ("unstuck.stuck_avoid_s", "-1"),
     ("unstuck.plan_period_s", "0.01"),
     ("unstuck.margin_m", "-1"),
     ("unstuck.ahead_m", "21"),

@@ -236,9 +236,15 @@ pub struct RoutePlanner {
     z: Vec<f64>,
     held: Option<Route>,
     last_change: Option<RouteChange>,
+    /// Spots the robot got stuck at while following a route, and until when
+    /// they count as blocked (tracking frame, m; s).
+    avoid: Vec<(Vec2, f64)>,
     /// The request of the last replan's route (its fields are the last built).
     chosen: Option<RouteRequest>,
 }
+
+/// Cells within this of a spot the robot got stuck at are blocked (m).
+pub const AVOID_RADIUS_M: f64 = 0.3;
 
 /// Squared distance of a cell with no occupied cell in reach (cells²).
 const FAR2: f64 = 1e12;
@@ -315,6 +321,22 @@ impl RoutePlanner {
     /// Drops the route held.
     pub fn drop_route(&mut self) {
         self.held = None;
+    }
+
+    /// Drops the route held and blocks the cells within [`AVOID_RADIUS_M`]
+    /// of `at` until `until_s`: the robot could not get through there (the
+    /// safety checks hold it back where the map shows a gap), so the next
+    /// plan looks for another way.
+    pub fn avoid(&mut self, at: Vec2, until_s: f64) {
+        self.held = None;
+        if at.x.is_finite() && at.y.is_finite() && until_s.is_finite() {
+            self.avoid.push((at, until_s));
+        }
+    }
+
+    /// Forgets the spots to avoid.
+    pub fn clear_avoid(&mut self) {
+        self.avoid.clear();
     }
 
     /// Distances and step-cost factors of every cell for `req`.
@@ -398,6 +420,22 @@ impl RoutePlanner {
                     let near = ((NEAR_RAMP_M - (d_m - block_m)) / NEAR_RAMP_M).clamp(0.0, 1.0);
                     1.0 + extra + NEAR_COST * near
                 };
+            }
+        }
+        self.avoid.retain(|&(_, until_s)| req.now_s <= until_s);
+        let reach = (AVOID_RADIUS_M / MAP_CELL_M).ceil() as i64;
+        for &(at, _) in &self.avoid {
+            let c = cell_coords(at);
+            for dj in -reach..=reach {
+                for di in -reach..=reach {
+                    let Some(k) = map.index((c.0 + di, c.1 + dj)) else {
+                        continue;
+                    };
+                    let centre = map.centre(k);
+                    if (centre - at).norm() <= AVOID_RADIUS_M && (centre - req.from).norm_squared() > own2 {
+                        self.factor[k] = f64::INFINITY;
+                    }
+                }
             }
         }
     }
@@ -588,7 +626,15 @@ impl RoutePlanner {
             return (self.held.as_ref(), RouteChange::Kept);
         };
         self.distances(map, first);
-        let (planned, chosen, fields_of) = self.plan_relaxations(map, reqs);
+        let (mut planned, mut chosen, mut fields_of) = self.plan_relaxations(map, reqs);
+        let reaches_target = |p: &Planned| matches!(p, Planned::Route(r) if r.reaches_target);
+        if !reaches_target(&planned) && !self.avoid.is_empty() {
+            // Closed in (from the target, not only from the goal) by the spots the robot
+            // got stuck at: those are not what the map shows, so they are forgotten
+            // rather than the way given up.
+            self.avoid.clear();
+            (planned, chosen, fields_of) = self.plan_relaxations(map, reqs);
+        }
         let req = &reqs[chosen];
         self.chosen = Some(*req);
         if fields_of != chosen {
@@ -864,9 +910,46 @@ mod tests {
         assert_eq!(why, RouteChange::Blocked);
         let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
         assert!(side > 0.0, "round the other side: {side}");
+        // Stuck at the held route's crossing: that spot is blocked, and the next plan
+        // (the wall gone again) goes round the other way.
+        let crossing = *r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap();
+        p.avoid(crossing, 10.0);
+        let (r, why) = p.replan(&map_with(&post2), &[req(goal)]);
+        assert_eq!(why, RouteChange::New);
+        let side = r.unwrap().points.iter().find(|q| (q.x - 1.5).abs() < 1e-9).unwrap().y;
+        assert!(side < 0.0, "round the right again, the left's spot avoided: {side}");
         // The goal moves 1 m: planned afresh.
         let (_, why) = p.replan(&map_with(&pts), &[req(Vec2::new(3.0, 1.0))]);
         assert_eq!(why, RouteChange::GoalMoved);
+    }
+
+    #[test]
+    fn spots_that_alone_close_the_way_to_a_goal_beyond_the_window_are_forgotten() {
+        // An open 8 m map round the robot; the goal 6 m ahead, beyond the window, so an
+        // unreached search still gives a route (to the cell nearest the target at
+        // (4, 0)), not "no route". Spots the robot got stuck at, 0.3 m round each, every
+        // 0.25 m on a circle of 0.8 m round it, close it in: they are forgotten and the
+        // route reaches the target again.
+        let mut p = RoutePlanner::default();
+        for k in 0..21 {
+            let a = k as f64 * std::f64::consts::TAU / 21.0;
+            p.avoid(Vec2::new(0.8 * a.cos(), 0.8 * a.sin()), 10.0);
+        }
+        let goal = Vec2::new(6.0, 0.0);
+        let Planned::Route(closed) = p.plan(&map_with(&[]), &req(goal)) else {
+            panic!("a route to the cell nearest the target")
+        };
+        assert!(
+            !closed.reaches_target,
+            "the spots close the way: {:?}",
+            closed.points.last()
+        );
+        let (r, _) = p.replan(&map_with(&[]), &[req(goal)]);
+        let r = r.expect("a route");
+        assert!(r.reaches_target, "{:?}", r.points.last());
+        assert!(r.points.iter().all(|q| q.y.abs() < 1e-9), "the straight line");
+        // Forgotten: the next plan is the straight line too.
+        assert!(matches!(p.plan(&map_with(&[]), &req(goal)), Planned::Route(r) if r.reaches_target));
     }
 
     #[test]

@@ -179,7 +179,8 @@ pub enum RouteEvent {
     NoRoute,
     /// Ended: the planner's route is older than [`ROUTE_STALE_S`].
     ReleaseStale,
-    /// Stuck on the route: the route is planned again at once.
+    /// Stuck on the route: a new route is planned at once (the spot avoided
+    /// for `unstuck.stuck_avoid_s`).
     Stuck,
 }
 

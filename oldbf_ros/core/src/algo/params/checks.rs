@@ -248,6 +248,11 @@ impl Validate for Params {
         c.range("unstuck.window_m", u.window_m, Interval::closed(1.0, 20.0).unit("m"));
         c.range("unstuck.memory_s", u.memory_s, Interval::closed(0.0, 600.0).unit("s"));
         c.range(
+            "unstuck.stuck_avoid_s",
+            u.stuck_avoid_s,
+            Interval::closed(0.0, 600.0).unit("s"),
+        );
+        c.range(
             "unstuck.plan_period_s",
             u.plan_period_s,
             Interval::closed(0.05, 10.0).unit("s"),

@@ -62,6 +62,13 @@ pub struct UnstuckParams {
     /// The way round heads for the point this far further along the
     /// reference's path than the (governed) reference point (m).
     pub ahead_m: f64,
+    /// Stuck while following (§4c): the spot the robot steered at is closed
+    /// to the route for this long (s); 0 = never closed, the route is only
+    /// planned again. Closing it sends the robot another way when the gap
+    /// it was led to is one the checks will not let it through; it also
+    /// sends it away from the mouth of a passable door it was still lining
+    /// up for (DECISIONS.md, stop 48).
+    pub stuck_avoid_s: f64,
 }
 
 impl Default for UnstuckParams {
@@ -75,6 +82,7 @@ impl Default for UnstuckParams {
             plan_period_s: 0.5,
             margin_m: 0.08,
             ahead_m: 1.5,
+            stuck_avoid_s: 30.0,
         }
     }
 }
