@@ -180,7 +180,7 @@ pub enum RouteEvent {
     /// Ended: the planner's route is older than [`ROUTE_STALE_S`].
     ReleaseStale,
     /// Stuck on the route: a new route is planned at once (the spot avoided
-    /// for `unstuck.stuck_avoid_s`).
+    /// for `unstuck.stuck_avoid_s` if the route is pinched there).
     Stuck,
 }
 

@@ -10,6 +10,13 @@ use super::local_map::{cell_coords, LocalMap, MAP_CELL_M};
 use super::params::Params;
 /// The robot steers at most this far along the route (m).
 pub const WAYPOINT_REACH_M: f64 = 1.0;
+/// A stuck spot is judged on the route up to this far past it (m): what
+/// holds the robot back lies where it was heading, a little beyond the spot.
+pub const PINCH_BEYOND_M: f64 = 0.5;
+/// A gap counts as pinched when its clearance is short of r + d_safe by more
+/// than this (m): the range noise of a good LiDAR, so a gap of just
+/// 2 (r + d_safe) is never closed for noise.
+pub const PINCH_TOLERANCE_M: f64 = 0.01;
 
 use super::route::{Route, RouteChange, RoutePlanner, RouteRequest};
 
@@ -98,6 +105,9 @@ pub struct WayRound {
     window_m: f64,
     /// The last plan's carrot (tracking frame, m).
     last_carrot: Option<Vec2>,
+    /// The latest scan's points (tracking frame, m): where a stuck robot's
+    /// gap is measured.
+    last_points: Vec<Vec2>,
 }
 
 impl WayRound {
@@ -109,6 +119,7 @@ impl WayRound {
             last_plan_s: None,
             window_m: p.unstuck.window_m,
             last_carrot: None,
+            last_points: Vec::new(),
         }
     }
 
@@ -140,6 +151,7 @@ impl WayRound {
             self.planner.clear_avoid();
             self.last_plan_s = None;
             self.last_carrot = None;
+            self.last_points.clear();
         }
     }
 
@@ -151,6 +163,16 @@ impl WayRound {
         self.map.clear_open(scan.pose, &scan.open_ends, scan.stamp_s, clear_m);
         self.map.insert(scan.pose, &scan.points, scan.stamp_s, clear_m);
         self.map.insert_transient(scan.pose, &scan.transient, scan.stamp_s);
+        if scan.pose.is_finite() {
+            let map = scan.pose.frame_map();
+            self.last_points.clear();
+            self.last_points.extend(
+                scan.points
+                    .iter()
+                    .filter(|q| q.x.is_finite() && q.y.is_finite())
+                    .map(|q| map.point(*q)),
+            );
+        }
     }
 
     /// Whether a plan for `ask` is due (`unstuck.plan_period_s` since the
@@ -166,16 +188,24 @@ impl WayRound {
     /// straight way to `ask.direct_to` on the same fields.
     pub fn plan(&mut self, ask: &RouteAsk, p: &Params) -> RouteUpdate {
         self.last_plan_s = Some(ask.now_s);
-        if ask.stuck && p.unstuck.stuck_avoid_s > 0.0 {
-            if let Some(at) = self.last_carrot {
-                log::debug!("t {:.1}: stuck on the way round: avoiding {at:?}", ask.now_s);
-                self.planner.avoid(at, ask.now_s + p.unstuck.stuck_avoid_s);
-            }
-        }
         // The body's reach to either side along its narrowest way: r for the circle, a
         // polygon's half-width (a route for the body moving lengthwise; the filter checks
         // the polygon itself wherever it has to turn).
         let half_width = p.footprint.passing_half_width_m();
+        if ask.stuck && p.unstuck.stuck_avoid_s > 0.0 {
+            if let Some(at) = self.last_carrot {
+                // A gap the body fits through is planned through again: what held the
+                // robot there passes (a turn, a margin), and the way round a partition
+                // is long and unseen. A gap the scan shows too narrow is closed a while.
+                if self.pinched(ask.from, ask.own_m, at, half_width + p.barrier.d_safe_m) {
+                    log::debug!("t {:.1}: stuck at a gap too narrow: avoiding {at:?}", ask.now_s);
+                    self.planner.avoid(at, ask.now_s + p.unstuck.stuck_avoid_s);
+                } else {
+                    log::debug!("t {:.1}: stuck where the robot fits: planning afresh", ask.now_s);
+                    self.planner.drop_route();
+                }
+            }
+        }
         let req = RouteRequest {
             now_s: ask.now_s,
             from: ask.from,
@@ -235,6 +265,47 @@ impl WayRound {
         best
     }
 
+    /// Whether the held route, from the robot at `from` to the spot `at` it
+    /// steered at and [`PINCH_BEYOND_M`] past it, runs through a gap the
+    /// latest scan shows narrower than 2 `need_m`: some route point has no
+    /// position within half a cell of it (the route is cell centres) as far
+    /// as `need_m` − [`PINCH_TOLERANCE_M`] from every point of the scan.
+    /// Exact where the map is not: its cells round a gap's width by up to a
+    /// cell, and a passable door can be barely wider than the body needs.
+    fn pinched(&self, from: Vec2, own_m: f64, at: Vec2, need_m: f64) -> bool {
+        let Some(route) = self.planner.route() else {
+            return false;
+        };
+        let need2 = (need_m - PINCH_TOLERANCE_M).max(0.0).powi(2);
+        let (start, spot) = (route.nearest(from), route.nearest(at));
+        let h = 0.25 * MAP_CELL_M;
+        let mut past_m = 0.0;
+        for k in start..route.points.len() {
+            let q = route.points[k];
+            if k > spot.max(start) {
+                past_m += (q - route.points[k - 1]).norm();
+                if past_m > PINCH_BEYOND_M {
+                    break;
+                }
+            }
+            // The robot is where it is: only the way ahead is judged.
+            if (q - from).norm() <= own_m {
+                continue;
+            }
+            // The best clearance within half a cell of q, on a 5 x 5 lattice.
+            let fits = (-2..=2).any(|i| {
+                (-2..=2).any(|j| {
+                    let c = q + Vec2::new(h * f64::from(i), h * f64::from(j));
+                    self.last_points.iter().all(|s| (s - c).norm_squared() >= need2)
+                })
+            });
+            if !fits {
+                return true;
+            }
+        }
+        false
+    }
+
     /// The least margin over the blocked band along the segment from `a`
     /// to `b`, leaving out the disc of radius `own_m` round `a` (m).
     fn segment_margin(&self, a: Vec2, b: Vec2, own_m: f64, req: &RouteRequest) -> f64 {
@@ -263,21 +334,23 @@ mod tests {
     use super::*;
 
     /// The route planned after the robot got stuck 0.4 m before the only
-    /// door of a wall, with the spot closed for `stuck_avoid_s`: whether it
-    /// still runs through the door. The wall runs across x = 1 from y = −3 to
-    /// 3; its door is 0.86 m wide (y from −0.43 to 0.43), a passage 1.2 m long:
-    /// 2 (r + d_safe) = 0.756 m fits, so the route runs down its middle; the
-    /// way round the wall's ends is 6 m longer.
-    fn through_the_door_after_stuck(stuck_avoid_s: f64) -> bool {
+    /// door of a wall, `half_m` each side of the middle: whether it still runs
+    /// through the door. The wall runs across x = 1 from y = −3 to 3; its door
+    /// is a passage 1.2 m long; the way round the wall's ends is 6 m longer.
+    /// Both doors below are wider than the route's tight band (2 (r + d_safe)
+    /// less a cell's diagonal), so the route runs down the passage's middle.
+    fn through_the_door_after_stuck(half_m: f64, stuck_avoid_s: f64) -> bool {
         let mut p = Params::default();
         p.unstuck.stuck_avoid_s = stuck_avoid_s;
         let wall = |y0: f64, y1: f64| -> Vec<Vec2> {
             let n = ((y1 - y0) / 0.02).round() as usize;
-            (0..=n).map(|i| Vec2::new(1.0, y0 + 0.02 * i as f64)).collect()
+            (0..=n)
+                .map(|i| Vec2::new(1.0, y0 + (y1 - y0) * i as f64 / n as f64))
+                .collect()
         };
-        let mut points = wall(-3.0, -0.43);
-        points.extend(wall(0.43, 3.0));
-        for y in [-0.43, 0.43] {
+        let mut points = wall(-3.0, -half_m);
+        points.extend(wall(half_m, 3.0));
+        for y in [-half_m, half_m] {
             points.extend((0..=60).map(|i| Vec2::new(1.0 + 0.02 * i as f64, y)));
         }
         let mut w = WayRound::new(&p);
@@ -317,11 +390,19 @@ mod tests {
     }
 
     #[test]
-    fn stuck_at_the_only_door_the_robot_is_sent_round_the_wall_unless_told_not_to_close_the_spot() {
-        // The default closes the spot steered at (in the passage) for 30 s: the route
-        // goes round the wall. With 0 the spot stays open: the route goes through the door.
-        assert!(!through_the_door_after_stuck(Params::default().unstuck.stuck_avoid_s));
-        assert!(through_the_door_after_stuck(0.0));
+    fn stuck_at_a_door_the_robot_fits_through_it_is_planned_through_again() {
+        // r + d_safe = 0.378 m. A door of 0.86 m leaves 0.052 m spare each side: the
+        // spot is not closed, the route goes through the door again.
+        let p = Params::default();
+        assert!((p.robot_radius_m() + p.barrier.d_safe_m - 0.378).abs() < 1e-9);
+        assert!(through_the_door_after_stuck(0.43, p.unstuck.stuck_avoid_s));
+        // A door of 0.72 m is 0.018 m short each side (beyond the 0.01 m tolerance):
+        // the spot is closed for stuck_avoid_s and the route goes round the wall, unless
+        // stuck spots are never closed.
+        assert!(!through_the_door_after_stuck(0.36, p.unstuck.stuck_avoid_s));
+        assert!(through_the_door_after_stuck(0.36, 0.0));
+        // 0.74 m is short by 0.008 m each side, within the tolerance: planned through.
+        assert!(through_the_door_after_stuck(0.37, p.unstuck.stuck_avoid_s));
     }
 
     #[test]

@@ -62,12 +62,11 @@ pub struct UnstuckParams {
     /// The way round heads for the point this far further along the
     /// reference's path than the (governed) reference point (m).
     pub ahead_m: f64,
-    /// Stuck while following (§4c): the spot the robot steered at is closed
-    /// to the route for this long (s); 0 = never closed, the route is only
-    /// planned again. Closing it sends the robot another way when the gap
-    /// it was led to is one the checks will not let it through; it also
-    /// sends it away from the mouth of a passable door it was still lining
-    /// up for (DECISIONS.md, stop 48).
+    /// Stuck while following (§4c) at a gap the latest scan shows narrower
+    /// than 2 (r + d_safe): the spot the robot steered at is closed to the
+    /// route for this long (s), so it goes another way rather than rest at a
+    /// gap the checks will not let it through; 0 = never closed, the route is
+    /// only planned again. A gap the body fits through is never closed.
     pub stuck_avoid_s: f64,
 }
 
