@@ -106,8 +106,9 @@ impl Slide {
 fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64, limit_rad: f64) -> Option<f64> {
     let mut offset = 0.0;
     // Each pass leaves every arc holding the heading; an arc once left is not
-    // met again before the whole circle is swept, so `arcs.len()` passes suffice.
-    for _ in 0..=arcs.len() {
+    // met again before the whole circle is swept, so `arcs.len()` passes suffice
+    // (one more to check the limit itself).
+    for _ in 0..=arcs.len() + 1 {
         let at = bearing + side * offset;
         let mut exit = 0.0_f64;
         for &(centre, w) in arcs {
@@ -120,10 +121,13 @@ fn sweep(arcs: &[(f64, f64)], bearing: f64, side: f64, limit_rad: f64) -> Option
         if exit == 0.0 {
             return Some(offset);
         }
-        offset += exit + PAST_RAD;
-        if offset > limit_rad {
+        // An edge short of the limit leaves open headings within it, even when
+        // stepping past the edge overshoots: the limit itself is taken.
+        let edge = offset + exit;
+        if edge >= limit_rad {
             return None;
         }
+        offset = (edge + PAST_RAD).min(limit_rad);
     }
     None
 }
