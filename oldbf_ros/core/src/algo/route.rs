@@ -22,10 +22,14 @@
 //!   window and that nearest cell is more than [`NO_ROUTE_M`] from it, the
 //!   robot is closed in by what it has seen: **no route**.
 //! * **Keeping a route** ([`RoutePlanner::replan`]): a new plan replaces
-//!   the route held only when the held one is now blocked, its goal has
+//!   the route held only when the held one is now blocked (a cell of it
+//!   nearer to the occupied cells than a new route may go by more than
+//!   [`HELD_TOLERANCE_M`], or a spot avoided), its goal has
 //!   moved by [`GOAL_MOVED_M`], or the new one is cheaper than what remains
 //!   of it by [`BETTER_M`] and [`BETTER_FRACTION`] of it. So the route does
-//!   not flip between two nearly equal ways round one obstacle.
+//!   not flip between two nearly equal ways round one obstacle, nor is it
+//!   dropped, and the robot sent back, when a passage's walls flicker by a
+//!   cell on the map as their noisy hits fall either side of a cell's edge.
 
 use super::geometry::Vec2;
 use super::local_map::{cell_coords, CellState, LocalMap, MAP_CELL_M};
@@ -49,6 +53,10 @@ pub const BETTER_M: f64 = 1.0;
 pub const BETTER_FRACTION: f64 = 0.2;
 /// The held route's goal this far from the new goal: replanned from scratch (m).
 pub const GOAL_MOVED_M: f64 = 0.5;
+/// A held route is blocked only where the map closes it by more than this
+/// beyond the band a new route keeps (m): one cell, what a wall's noisy hits
+/// spread into the cell beside it.
+pub const HELD_TOLERANCE_M: f64 = MAP_CELL_M;
 
 /// What a plan asks.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -567,16 +575,28 @@ impl RoutePlanner {
         })
     }
 
-    /// The cost of what remains of `route` from the point nearest `from`
-    /// on the last fields (∞: it runs through a blocked cell).
-    fn remaining_cost(&self, map: &LocalMap, route: &Route, from: Vec2) -> f64 {
-        let start = route.nearest(from);
+    /// The cost of what remains of `route` from the point nearest `req.from`
+    /// on the last fields (∞: it runs through a cell blocked by more than
+    /// [`HELD_TOLERANCE_M`], or a spot avoided).
+    fn remaining_cost(&self, map: &LocalMap, route: &Route, req: &RouteRequest) -> f64 {
+        let start = route.nearest(req.from);
         let mut cost = 0.0;
         let mut prev: Option<(Vec2, f64)> = None;
         for p in &route.points[start..] {
-            let f = map
-                .index(cell_coords(*p))
-                .map_or(1.0 + UNKNOWN_COST, |k| self.factor[k]);
+            let f = map.index(cell_coords(*p)).map_or(1.0 + UNKNOWN_COST, |k| {
+                let f = self.factor[k];
+                if f.is_infinite()
+                    && self.dist2[k].sqrt() * MAP_CELL_M >= block_m(req) - HELD_TOLERANCE_M
+                    && !self
+                        .avoid
+                        .iter()
+                        .any(|(at, _)| (map.centre(k) - at).norm() <= AVOID_RADIUS_M)
+                {
+                    1.0 + NEAR_COST
+                } else {
+                    f
+                }
+            });
             if let Some((q, fq)) = prev {
                 cost += (p - q).norm() * 0.5 * (f + fq);
             }
@@ -644,7 +664,7 @@ impl RoutePlanner {
         let held = self.held.as_ref().map(|r| {
             let at_end = r.nearest(req.from) + 1 >= r.points.len();
             (
-                self.remaining_cost(map, r, req.from),
+                self.remaining_cost(map, r, req),
                 (r.goal - req.goal).norm(),
                 r.reaches_goal,
                 at_end,
@@ -921,6 +941,37 @@ mod tests {
         // The goal moves 1 m: planned afresh.
         let (_, why) = p.replan(&map_with(&pts), &[req(Vec2::new(3.0, 1.0))]);
         assert_eq!(why, RouteChange::GoalMoved);
+    }
+
+    #[test]
+    fn a_held_route_is_kept_while_a_doors_posts_creep_in_by_less_than_a_cell() {
+        // A wall across x = 1 (y from −1.5 to 1.5) with a door of 2 × `half` m.
+        let door = |half: f64| {
+            let mut pts = wall(1.0, -1.5, -half);
+            pts.extend(wall(1.0, half, 1.5));
+            pts
+        };
+        let goal = Vec2::new(2.5, 0.0);
+        let through = |r: &Route| r.points.iter().any(|q| (q.x - 1.0).abs() < 1e-9 && q.y.abs() < 0.051);
+        let mut p = RoutePlanner::default();
+        let (r, why) = p.replan(&map_with(&door(0.4)), &[req(goal)]);
+        assert_eq!(why, RouteChange::New);
+        assert!(through(r.unwrap()));
+        // The posts seen 8 cm further in: their cells 0.30 m from the middle's, inside the
+        // band a new route keeps (0.378 less half a diagonal = 0.343 m) by less than a cell.
+        // A new route goes round the wall…
+        let Planned::Route(fresh) = RoutePlanner::default().plan(&map_with(&door(0.32)), &req(goal)) else {
+            panic!("no route")
+        };
+        assert!(fresh.reaches_goal && !through(&fresh));
+        // …the one held through the door is kept.
+        let (r, why) = p.replan(&map_with(&door(0.32)), &[req(goal)]);
+        assert_eq!(why, RouteChange::Kept);
+        assert!(through(r.unwrap()));
+        // 13 cm in (cells 0.25 m from the middle, more than a cell inside): blocked.
+        let (r, why) = p.replan(&map_with(&door(0.27)), &[req(goal)]);
+        assert_eq!(why, RouteChange::Blocked);
+        assert!(!through(r.unwrap()));
     }
 
     #[test]

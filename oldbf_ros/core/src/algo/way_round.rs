@@ -197,11 +197,18 @@ impl WayRound {
                 // A gap the body fits through is planned through again: what held the
                 // robot there passes (a turn, a margin), and the way round a partition
                 // is long and unseen. A gap the scan shows too narrow is closed a while.
-                if self.pinched(ask.from, ask.own_m, at, half_width + p.barrier.d_safe_m) {
-                    log::debug!("t {:.1}: stuck at a gap too narrow: avoiding {at:?}", ask.now_s);
+                let gap_m = self.gap_clearance(ask.from, ask.own_m, at);
+                if gap_m < half_width + p.barrier.d_safe_m - PINCH_TOLERANCE_M {
+                    log::debug!(
+                        "t {:.1}: stuck at a gap too narrow ({gap_m:.3} m): avoiding {at:?}",
+                        ask.now_s
+                    );
                     self.planner.avoid(at, ask.now_s + p.unstuck.stuck_avoid_s);
                 } else {
-                    log::debug!("t {:.1}: stuck where the robot fits: planning afresh", ask.now_s);
+                    log::debug!(
+                        "t {:.1}: stuck where the robot fits ({gap_m:.3} m): planning afresh",
+                        ask.now_s
+                    );
                     self.planner.drop_route();
                 }
             }
@@ -265,20 +272,21 @@ impl WayRound {
         best
     }
 
-    /// Whether the held route, from the robot at `from` to the spot `at` it
-    /// steered at and [`PINCH_BEYOND_M`] past it, runs through a gap the
-    /// latest scan shows narrower than 2 `need_m`: some route point has no
-    /// position within half a cell of it (the route is cell centres) as far
-    /// as `need_m` − [`PINCH_TOLERANCE_M`] from every point of the scan.
-    /// Exact where the map is not: its cells round a gap's width by up to a
-    /// cell, and a passable door can be barely wider than the body needs.
-    fn pinched(&self, from: Vec2, own_m: f64, at: Vec2, need_m: f64) -> bool {
+    /// The narrowest the held route gets, by the latest scan, from the robot
+    /// at `from` to the spot `at` it steered at and [`PINCH_BEYOND_M`] past
+    /// it: over its points, the least of the best clearance from every scan
+    /// point within half a cell of the point (the route is cell centres; a
+    /// 5 × 5 lattice), leaving out the points within `own_m` of the robot
+    /// (m; ∞ without a route or a scan). Exact where the map is not: its
+    /// cells round a gap's width by up to a cell, and a passable door can be
+    /// barely wider than the body needs.
+    fn gap_clearance(&self, from: Vec2, own_m: f64, at: Vec2) -> f64 {
         let Some(route) = self.planner.route() else {
-            return false;
+            return f64::INFINITY;
         };
-        let need2 = (need_m - PINCH_TOLERANCE_M).max(0.0).powi(2);
         let (start, spot) = (route.nearest(from), route.nearest(at));
         let h = 0.25 * MAP_CELL_M;
+        let mut least2 = f64::INFINITY;
         let mut past_m = 0.0;
         for k in start..route.points.len() {
             let q = route.points[k];
@@ -292,18 +300,16 @@ impl WayRound {
             if (q - from).norm() <= own_m {
                 continue;
             }
-            // The best clearance within half a cell of q, on a 5 x 5 lattice.
-            let fits = (-2..=2).any(|i| {
-                (-2..=2).any(|j| {
+            let mut best2 = 0.0_f64;
+            for i in -2..=2 {
+                for j in -2..=2 {
                     let c = q + Vec2::new(h * f64::from(i), h * f64::from(j));
-                    self.last_points.iter().all(|s| (s - c).norm_squared() >= need2)
-                })
-            });
-            if !fits {
-                return true;
+                    best2 = best2.max(super::geometry::min_distance_squared(&self.last_points, c));
+                }
             }
+            least2 = least2.min(best2);
         }
-        false
+        least2.sqrt()
     }
 
     /// The least margin over the blocked band along the segment from `a`
