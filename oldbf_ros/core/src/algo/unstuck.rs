@@ -12,21 +12,29 @@
 //!   the (governed) reference point, in m: it grows while the reference runs
 //!   and while the robot closes in on it; a robot held up by an obstacle,
 //!   with the governor holding the reference, makes none.
-//! * **Follow** once progress has stalled: less than `unstuck.progress_m`
-//!   for `unstuck.stall_s` while the nominal asks to move (the reactive
-//!   steering gets round a single obstacle on its own, more smoothly than a
-//!   route would). The follow is *blocked* when the straight way from the
-//!   robot to the point `unstuck.ahead_m` further along the reference
-//!   (where the tracking law is heading) runs through the map's blocked band
-//!   (cells nearer than r + d_safe + `unstuck.margin_m` to something seen,
-//!   walking people left out), else *stalled*. The nominal becomes a
-//!   turn towards the route's farthest point within 1 m along that the
-//!   robot sees in a straight line clear of the blocked band; the route itself is kept until
-//!   blocked, beaten by a margin or its goal moves ([`super::route`]).
+//! * **Follow** at once when the straight way from the robot to the point
+//!   `unstuck.ahead_m` further along the reference (where the tracking law
+//!   is heading) runs through the map's blocked band (cells nearer than
+//!   r + d_safe + `unstuck.margin_m` to something seen, walking people left
+//!   out) and no moving track has been seen for [`MOVERS_QUIET_S`]: the
+//!   reactive steering picks its side by the nearest surface, not by where
+//!   the way through is, and at a wall with a door it drives into the
+//!   wall's corner first. That follow is *blocked*. With people about, and
+//!   when the straight way is clear, the follow begins only once progress
+//!   has stalled: less than `unstuck.progress_m` for `unstuck.stall_s`
+//!   while the nominal asks to move (*blocked* or *stalled* by the straight
+//!   way). The reactive steering and evasion deal with people, and the
+//!   route, which leaves walking people out, could lead into them. The
+//!   nominal becomes a turn towards the route's farthest point within 1 m
+//!   along that the robot sees in a straight line clear of the blocked band
+//!   (the DOAA's both-sides turn goes the same way); the route itself is
+//!   kept until blocked, beaten by a margin or its goal moves
+//!   ([`super::route`]).
 //! * **Release**, with its reason recorded: the straight way is clear again
 //!   by [`RELEASE_MARGIN_M`] (a follow begun on a blocked way), progress has
 //!   grown by `unstuck.progress_m` (one begun on a stall), the reference
-//!   point is within the capture radius, or a tracked mover on a collision
+//!   point is within the capture radius with the straight way clear or at
+//!   the reference's end, or a tracked mover on a collision
 //!   course has come near (a robot held up by people waits for them to
 //!   pass: DOAA and evasion deal with movers; going round them is not this).
 //! * **No route**: closed in by what the map knows (a narrow doorway in a
@@ -52,6 +60,11 @@ pub const STUCK_FRACTION: f64 = 0.5;
 pub const STUCK_TURN_RAD: f64 = 0.5;
 /// A route planned longer ago than this is not followed (s): the planner has stopped.
 pub const ROUTE_STALE_S: f64 = 3.0;
+/// A blocked straight way is gone round at once only when no moving track
+/// has been seen for this long (s), counted from the first step: a walking
+/// person's track can drop out for a scan or two, and a person needs a few
+/// scans to be tracked as moving.
+pub const MOVERS_QUIET_S: f64 = 5.0;
 
 /// Where the nominal command is heading: the governed reference point and
 /// how far along its path it is.
@@ -156,6 +169,8 @@ pub struct Situation<'a> {
     /// for them to pass (DOAA and evasion deal with movers); it does not go
     /// round them.
     pub movers_near: bool,
+    /// A moving track is seen (anywhere).
+    pub movers_seen: bool,
     /// The way-round planner's latest outcome.
     pub route: Option<&'a RouteUpdate>,
 }
@@ -163,7 +178,8 @@ pub struct Situation<'a> {
 /// Why a way round began or ended (steps.csv's `route_event`, `~state`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RouteEvent {
-    /// Began: no progress for the stall time, the straight way ahead blocked on the map.
+    /// Began: the straight way ahead blocked on the map (at once with no
+    /// people about, else after the stall time).
     FollowBlocked,
     /// Began: no progress for the stall time, the straight way ahead clear.
     FollowStalled,
@@ -245,6 +261,8 @@ pub struct Unstuck {
     moved: Option<(Pose2, f64)>,
     /// Stuck on the way round, not yet told to the planner.
     stuck: bool,
+    /// Since when no moving track has been seen (s; from the first step).
+    quiet_since_s: Option<f64>,
 }
 
 impl Unstuck {
@@ -289,6 +307,7 @@ impl Unstuck {
             nominal,
             ego,
             movers_near,
+            movers_seen,
             route,
         } = *now;
         let Some(g) = guidance.filter(Guidance::is_finite) else {
@@ -302,6 +321,9 @@ impl Unstuck {
             (Some(best), Some(t)) => progress >= best + u.progress_m || now_s < t, // or the clock went back
             _ => true,
         };
+        if movers_seen || self.quiet_since_s.is_none_or(|t| now_s < t) {
+            self.quiet_since_s = Some(now_s); // or the first step, or the clock went back
+        }
         if gained {
             self.best_progress_m = Some(self.best_progress_m.map_or(progress, |b| b.max(progress)));
             self.last_gain_s = Some(now_s);
@@ -322,7 +344,10 @@ impl Unstuck {
             };
         }
         self.no_route = false;
-        if dist <= p.tracking.capture_radius_m {
+        let blocked = route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0);
+        // At the reference point there is nothing to go round, unless the straight way
+        // ahead is blocked: a robot keeping up with its reference is driving at the wall.
+        if dist <= p.tracking.capture_radius_m && (g.at_end || !blocked) {
             return self.release(RouteEvent::ReleaseArrived);
         }
         if movers_near {
@@ -335,8 +360,8 @@ impl Unstuck {
                 if !wants_to_move {
                     return UnstuckDecision::NONE;
                 }
-                let blocked = route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0);
-                if blocked && self.stalled(now_s, p) {
+                let quiet = self.quiet_since_s.is_some_and(|t| now_s - t >= MOVERS_QUIET_S);
+                if blocked && (quiet || self.stalled(now_s, p)) {
                     self.following = Some(Cause::Blocked);
                     event = Some(RouteEvent::FollowBlocked);
                 } else if self.stalled(now_s, p) {
@@ -446,6 +471,7 @@ mod tests {
             nominal,
             ego: Pose2::default(),
             movers_near,
+            movers_seen: movers_near,
             route,
         }
     }
@@ -460,46 +486,116 @@ mod tests {
         }
     }
 
+    /// Steps a robot making progress `gain_m` per 0.1 s before a wall 1.5 m ahead
+    /// (y = −0.6 to 2.5: the way round is to the right) from 0 s to `until_s`,
+    /// a moving track seen at the steps `seen` says; returns when the follow began.
+    fn blocked_follow_begins(gain_m: f64, seen: impl Fn(f64) -> bool, until_s: f64) -> Option<(f64, RouteEvent)> {
+        let p = params();
+        let mut u = Unstuck::default();
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        assert!(blocked.direct_margin_m < 0.0);
+        let steps = (until_s / 0.1).round() as usize;
+        (0..=steps).find_map(|k| {
+            let t = 0.1 * k as f64;
+            let r = RouteUpdate {
+                made_s: t,
+                ..blocked.clone()
+            };
+            let now = Situation {
+                movers_seen: seen(t),
+                ..at(t, Twist::new(0.15, 0.0), Some(&r), false)
+            };
+            let d = u.step(Some(guidance(3.0 + gain_m * k as f64)), &now, &p);
+            d.event.map(|e| (t, e))
+        })
+    }
+
     #[test]
-    fn a_wall_across_the_way_ahead_is_gone_round_after_the_stall_and_released_once_clear() {
+    fn a_blocked_way_is_gone_round_once_no_people_have_been_seen_for_the_quiet_time() {
+        // Nobody about: from the first step, MOVERS_QUIET_S (5 s) before the stall (6 s).
+        let (t, e) = blocked_follow_begins(0.0, |_| false, 10.0).unwrap();
+        assert_eq!(e, RouteEvent::FollowBlocked);
+        assert!((t - MOVERS_QUIET_S).abs() < 1e-9, "{t}");
+        // A person's track seen at 2 s only (it dropped out after): the quiet time runs
+        // from then, 7 s, and progress (0.2 m a step) keeps the stall off.
+        let (t, e) = blocked_follow_begins(0.2, |t| (t - 2.0).abs() < 1e-9, 10.0).unwrap();
+        assert_eq!(e, RouteEvent::FollowBlocked);
+        assert!((t - 7.0).abs() < 1e-9, "{t}");
+        // People about all along: the reactive steering and evasion have the stall time
+        // first, and then the follow is a blocked one…
+        let (t, e) = blocked_follow_begins(0.0, |_| true, 10.0).unwrap();
+        assert_eq!(e, RouteEvent::FollowBlocked);
+        assert!((t - 6.0).abs() < 1e-9, "{t}");
+        // …and while they make progress, none at all.
+        assert_eq!(blocked_follow_begins(0.2, |_| true, 20.0), None);
+    }
+
+    #[test]
+    fn a_robot_keeping_up_with_its_reference_still_goes_round_a_blocked_way() {
+        let p = params(); // capture radius 0.5 m
+        let nominal = Twist::new(0.15, 0.0);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        // The reference point 0.3 m ahead (inside the capture radius), the line's end 4 m on.
+        let keeping_up = |at_end: bool| Guidance {
+            target: Vec2::new(0.3, 0.0),
+            at_end,
+            ..guidance(3.0)
+        };
+        let follow_at = |r: &RouteUpdate, at_end: bool| {
+            let mut u = Unstuck::default();
+            (0..=100).find_map(|k| {
+                let t = 0.1 * k as f64;
+                let r = RouteUpdate { made_s: t, ..r.clone() };
+                let g = Guidance {
+                    along_m: 3.0 + 0.015 * k as f64, // progress: no stall
+                    ..keeping_up(at_end)
+                };
+                u.step(Some(g), &at(t, nominal, Some(&r), false), &p)
+                    .event
+                    .map(|e| (k, e))
+            })
+        };
+        // The wall across the way: gone round once the quiet time has passed (5 s).
+        assert_eq!(follow_at(&blocked, false), Some((50, RouteEvent::FollowBlocked)));
+        // Nothing across it: nothing to go round.
+        assert_eq!(follow_at(&clear, false), None);
+        // At the reference's end the goal is the reference point: arrived.
+        assert_eq!(follow_at(&blocked, true), None);
+    }
+
+    #[test]
+    fn a_followed_way_round_heads_for_the_walls_open_end_and_is_released_once_clear() {
         let p = params();
         let mut u = Unstuck::default();
         let nominal = Twist::new(0.15, 0.0);
         // A wall 1.5 m ahead from y = −0.6 to 2.5: the way round is to the right.
-        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
-        assert!(blocked.direct_margin_m < 0.0);
-        // No progress: the reactive steering has its stall time first.
-        for k in 0..60 {
-            let r = RouteUpdate {
-                made_s: 0.1 * k as f64,
-                ..blocked.clone()
-            };
-            let d = u.step(Some(guidance(3.0)), &at(0.1 * k as f64, nominal, Some(&r), false), &p);
-            assert_eq!(d.event, None, "no follow before 6 s");
-        }
-        let blocked = RouteUpdate { made_s: 6.0, ..blocked };
-        let d = u.step(Some(guidance(3.0)), &at(6.0, nominal, Some(&blocked), false), &p);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 5.0);
+        let d = u.step(Some(guidance(3.0)), &at(0.0, nominal, Some(&blocked), false), &p);
+        assert_eq!(d.event, None, "the first step starts the quiet time");
+        let d = u.step(Some(guidance(3.0)), &at(5.0, nominal, Some(&blocked), false), &p);
         assert_eq!(d.event, Some(RouteEvent::FollowBlocked), "{d:?}");
         let w = d.waypoint.unwrap();
         assert!(w.y < -0.2 && w.x > 0.5, "towards the wall's right end: {w:?}");
         assert_eq!(u.aim(), Some(w), "robot at the origin: tracking frame = robot frame");
         // Kept while blocked…
-        let d = u.step(Some(guidance(3.0)), &at(6.1, nominal, Some(&blocked), false), &p);
+        let d = u.step(Some(guidance(3.0)), &at(5.1, nominal, Some(&blocked), false), &p);
         assert_eq!((d.event, d.waypoint.is_some()), (None, true));
         // …released once the straight way is clear.
-        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 6.2);
-        let d = u.step(Some(guidance(3.0)), &at(6.2, nominal, Some(&clear), false), &p);
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 5.2);
+        let d = u.step(Some(guidance(3.0)), &at(5.2, nominal, Some(&clear), false), &p);
         assert_eq!(
             (d.event, d.waypoint, u.following()),
             (Some(RouteEvent::ReleaseClear), None, false)
         );
-        // A route planned more than ROUTE_STALE_S ago is not followed.
+        // A route planned more than ROUTE_STALE_S ago is not followed (the stall, 6 s
+        // without progress, starts a follow with no waypoint).
         let d = u.step(
             Some(guidance(3.0)),
-            &at(0.1 + ROUTE_STALE_S + 0.2, nominal, Some(&blocked), false),
+            &at(5.0 + ROUTE_STALE_S + 0.2, nominal, Some(&blocked), false),
             &p,
         );
-        assert_eq!((d.event, d.waypoint), (None, None));
+        assert_eq!((d.event, d.waypoint), (Some(RouteEvent::FollowStalled), None));
     }
 
     #[test]
@@ -622,8 +718,8 @@ mod tests {
             };
             u.step(Some(guidance(3.0)), &now, &p).event
         };
-        // Following from 6 s (the stall). Turning in place at 0.3 rad/s: 0.5 rad every
-        // 1.7 s, never stuck.
+        // Following from 5 s (the way blocked, no people about since the first step).
+        // Turning in place at 0.3 rad/s: 0.5 rad every 1.7 s, never stuck.
         let mut u = Unstuck::default();
         for k in 0..160 {
             let t = 0.1 * k as f64;
@@ -640,7 +736,7 @@ mod tests {
                 assert!(u.take_stuck() && !u.take_stuck());
             }
         }
-        assert_eq!(stuck_at, vec![90, 120]);
+        assert_eq!(stuck_at, vec![80, 110]);
     }
 
     #[test]
