@@ -17,12 +17,17 @@ fn run(name: &str, controller: Controller, seed: u64) -> RunSummary {
 
 #[test]
 fn both_baselines_avoid_what_the_nominal_command_hits() {
-    // Scenarios where `none` collides (closed_loop.rs checks that too).
+    // Scenarios where `none` collides (closed_loop.rs checks that too), and
+    // `cluttered_room`: every controller is fed the nominal the pipeline computes, the
+    // way round included (ALGORITHM §4c), which there leads even the unfiltered command
+    // clear of the static clutter from the first blocked scan.
     for name in ["paper_line", "paper_circle", "cluttered_room", "two_robots", "dead_end"] {
-        assert!(
-            run(name, Controller::None, 1).figures.collisions > 0,
-            "{name}: none should collide"
-        );
+        if name != "cluttered_room" {
+            assert!(
+                run(name, Controller::None, 1).figures.collisions > 0,
+                "{name}: none should collide"
+            );
+        }
         for controller in [Controller::Dcbf, Controller::Vo] {
             for seed in [1, 7] {
                 let r = run(name, controller, seed);
