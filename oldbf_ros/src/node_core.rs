@@ -968,6 +968,7 @@ impl NodeCore {
             let (reference, progress) = self.reference.as_mut().expect("checked above");
             return match odom {
                 Some(o) => {
+                    progress.catch_up(reference, o.pose, params.capture_radius_m);
                     let lag = ReferenceProgress::lag_m(o.pose, reference.pose_at(progress.t_s));
                     let rate = ReferenceProgress::rate(lag, params.capture_radius_m);
                     let (ref_pose, ref_twist) = progress.reference(reference, rate);

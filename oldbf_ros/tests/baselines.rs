@@ -43,12 +43,25 @@ fn both_baselines_avoid_what_the_nominal_command_hits() {
 #[test]
 fn the_baselines_change_the_command_only_where_it_matters() {
     // In the open stretch of the corridor scenario (walls 0.6 m+ away) every
-    // controller follows the same nominal line: the same time to goal as `none`.
+    // controller follows the same nominal line: the same time to goal as `none`,
+    // within three control steps (0.3 s): the reference catches up with a robot
+    // ahead of it (ALGORITHM §7), and ORCA's command differs from the nominal by
+    // a few hundredths of a m/s for a few seconds where it sees the walls, so it
+    // may arrive a step or two sooner.
     let none = run("corridor", Controller::None, 1);
+    let none_s = none.figures.time_to_goal_s.unwrap();
     for controller in [Controller::Oldbf, Controller::Dcbf, Controller::Vo] {
         let r = run("corridor", controller, 1);
         assert!(r.figures.reached_goal, "{controller:?}: {r:?}");
-        assert_eq!(r.figures.time_to_goal_s, none.figures.time_to_goal_s, "{controller:?}");
+        let t_s = r.figures.time_to_goal_s.unwrap();
+        assert!(
+            (t_s - none_s).abs() <= 0.3 + 1e-9,
+            "{controller:?}: {t_s} s against {none_s} s"
+        );
+        assert!(
+            (r.figures.max_tracking_error_m.unwrap() - none.figures.max_tracking_error_m.unwrap()).abs() < 1e-3,
+            "{controller:?}: {r:?}"
+        );
     }
 }
 

@@ -138,11 +138,12 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
 #[test]
 fn without_the_filter_the_robot_collides() {
     // Proof that the safety tests can fail: the same runs with the nominal command alone.
-    // (Not `cluttered_room`: every controller is fed the nominal the pipeline computes, the
-    // way round included, ALGORITHM §4c, which there leads even the unfiltered command
-    // clear of the static clutter from the first blocked scan.)
-    for name in ["paper_line", "paper_circle", "dead_end"] {
-        let r = run(&scenario(name), Controller::None, 1);
+    // The way round (ALGORITHM §4c) is part of the layer: left on, it leads even the
+    // unfiltered tracking command clear of the clutter in `cluttered_room`.
+    for name in ["paper_line", "paper_circle", "dead_end", "cluttered_room"] {
+        let mut s = scenario(name);
+        s.params.unstuck.enabled = false;
+        let r = run(&s, Controller::None, 1);
         assert!(r.figures.collisions >= 1, "{name}: {r:?}");
         assert!(
             r.figures.cbf_violations >= 1 && r.figures.min_clearance_m < 0.0,
@@ -330,4 +331,53 @@ fn a_person_walking_head_on_is_sidestepped_not_backed_away_from() {
 #[test]
 fn a_static_point_behind_does_not_stop_an_escape_from_a_person() {
     common::assert_template_worlds_safe("slow_obstacles", &[(9, 90)]);
+}
+
+/// A partition across the way with a passage (0.88 m wide, 1.5 m long) just
+/// left of the reference line, whose right-hand wall ends on the line itself,
+/// 1.45 m ahead; the partition runs on to the right. The reactive law picks
+/// its side by the nearest surface: the wall's end is dead ahead, a shade to
+/// the left, so it turns right, along the partition, away from the only way
+/// through (ALGORITHM.md §4c: it then stalls, and only then goes round). The
+/// map shows the way blocked from the first scan and the route goes through
+/// the passage: with nobody about the robot follows it at once, and its
+/// both-sides turn goes the route's way.
+const PASSAGE_BESIDE_THE_LINE: &str = "
+name: passage_beside_the_line
+duration_s: 90
+robot: {preset: turtlebot3_burger}
+start: {x_m: 0, y_m: 0, theta_deg: 0}
+lidar: {beams: 360, noise_std_m: 0.01}
+nominal: {kind: line, v_mps: 0.15, length_m: 4.4}
+world:
+  walls:
+    - {from: [-1, -3], to: [5, -3]}
+    - {from: [-1, 3], to: [5, 3]}
+    - {from: [-1, -3], to: [-1, 3]}
+    - {from: [5, -3], to: [5, 3]}
+    - {from: [2.2, 0.0], to: [2.2, -3]}
+    - {from: [2.2, 1.1], to: [2.2, 3]}
+    - {from: [1.45, 0.0], to: [2.95, 0.0]}
+    - {from: [1.45, 0.12], to: [2.95, 0.12]}
+    - {from: [1.45, 0.0], to: [1.45, 0.12]}
+    - {from: [1.45, 1.0], to: [2.95, 1.0]}
+    - {from: [1.45, 1.1], to: [2.95, 1.1]}
+    - {from: [1.45, 1.0], to: [1.45, 1.1]}
+";
+
+#[test]
+fn a_passage_beside_the_line_is_taken_its_way_from_the_start() {
+    let s = Scenario::from_str(PASSAGE_BESIDE_THE_LINE, "passage_beside_the_line.yaml", None).unwrap();
+    // The line takes 4.4 / 0.15 = 29.3 s; the generalising templates' budget is 2.5x.
+    let budget_s = 2.5 * 4.4 / 0.15;
+    for seed in [1, 2, 3] {
+        let r = run_scenario(&s, Controller::Oldbf, seed).unwrap();
+        let sum = &r.summary;
+        assert_eq!(sum.figures.collisions, 0, "seed {seed}: {sum:?}");
+        let t = sum.figures.time_to_goal_s.unwrap_or(f64::INFINITY);
+        assert!(t <= budget_s, "seed {seed}: goal at {t} s, budget {budget_s:.1} s");
+        // Never off along the partition to the right, the wrong way (the line is y = 0).
+        let lowest_m = r.robots[0].rows.iter().map(|row| row.y_m).fold(f64::INFINITY, f64::min);
+        assert!(lowest_m > -0.1, "seed {seed}: {lowest_m:.2} m to the right of the line");
+    }
 }

@@ -128,6 +128,9 @@ pub fn sides_tie(c: &Clearances) -> bool {
 #[derive(Debug, Default, Clone)]
 pub struct Doaa {
     both_sides: Option<TurnDirection>,
+    /// The side a way round being followed goes (§4c): the both-sides turn goes
+    /// that way, whatever the clearances say.
+    route_side: Option<TurnDirection>,
 }
 
 impl Doaa {
@@ -138,7 +141,15 @@ impl Doaa {
 
     /// Forgets the latched turn (after a stop, a reset, or a filter toggle).
     pub fn reset(&mut self) {
-        self.both_sides = None;
+        *self = Self::default();
+    }
+
+    /// While a way round is followed, the side its waypoint lies on (None: no
+    /// way round, the law's own choice). The both-sides turn picks its side by
+    /// the clearances near the robot; the route knows which side the way
+    /// through is on, and a turn latched the other way would fight it.
+    pub fn set_route_side(&mut self, side: Option<TurnDirection>) {
+        self.route_side = side;
     }
 
     /// The turn latched while both sides are blocked, if any.
@@ -169,6 +180,9 @@ impl Doaa {
             && front_is_nearest
         {
             self.both_sides = Some(pick_turn(c, nominal));
+        }
+        if let (Some(_), Some(side)) = (self.both_sides, self.route_side) {
+            self.both_sides = Some(side);
         }
         if self.both_sides.is_some() && c.d_front_m >= d_act + p.doaa.both_sides_release_m {
             self.both_sides = None;
@@ -304,6 +318,33 @@ mod tests {
         let (_, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.8, 0.4, 1.31));
         assert_eq!(state, DoaaState::Avoid);
         assert_eq!(doaa.latched_turn(), None);
+    }
+
+    #[test]
+    fn a_followed_way_round_turns_the_both_sides_turn_its_way() {
+        let mut doaa = Doaa::new();
+        // Right has more clearance, but the route goes left: the turn goes left, at the
+        // same reduced speed (front 0.45: v = 0.15 · 0.2 / 0.95).
+        doaa.set_route_side(Some(TurnDirection::Left));
+        let (cmd, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
+        assert_eq!((state, cmd.omega_radps), (DoaaState::BothSides, 0.3));
+        assert!((cmd.v_mps - 0.15 * 0.2 / 0.95).abs() < 1e-12);
+        // A turn latched right before the follow began goes left once it does.
+        let mut doaa = Doaa::new();
+        let (cmd, _) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
+        assert_eq!(cmd.omega_radps, -0.3);
+        doaa.set_route_side(Some(TurnDirection::Left));
+        let (cmd, _) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
+        assert_eq!((cmd.omega_radps, doaa.latched_turn()), (0.3, Some(TurnDirection::Left)));
+        // The follow over, the latch stays as it is until the front clears.
+        doaa.set_route_side(None);
+        let (cmd, _) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.45, 0.8, 0.45));
+        assert_eq!(cmd.omega_radps, 0.3);
+        // A route side with nothing blocking both sides starts no turn.
+        let mut doaa = Doaa::new();
+        doaa.set_route_side(Some(TurnDirection::Left));
+        let (_, state) = run(&mut doaa, Twist::new(0.15, 0.0), clear(0.5, 0.5, 5.0));
+        assert_eq!((state, doaa.latched_turn()), (DoaaState::Avoid, None));
     }
 
     #[test]

@@ -121,6 +121,27 @@ impl ReferenceProgress {
         (r.pose_at(self.t_s), Twist::new(tw.v_mps * rate, tw.omega_radps * rate))
     }
 
+    /// Moves the virtual robot up to the real one when the real one is ahead of
+    /// it along its direction of travel by a (m) and within `capture_radius_m`
+    /// of its path sideways: t += a / |v_r|, up to the trajectory's end. Left
+    /// behind, the reference would have the tracking law stop a robot that came
+    /// out of a detour further along, or turn it back; a robot off to the side
+    /// by more than R_c is left to rejoin the path first (its projection may lie
+    /// beside the obstacle it went round). On an arc the tangent's a is a
+    /// first-order step; repeated each tick it settles on the robot's abreast
+    /// point.
+    pub fn catch_up(&mut self, r: &ReferenceTrajectory, robot: Pose2, capture_radius_m: f64) {
+        let speed_mps = r.v_mps.abs();
+        if speed_mps == 0.0 || self.finished(r) {
+            return;
+        }
+        let d = r.pose_at(self.t_s).inverse_transform_point(robot.position());
+        let ahead_m = d.x * r.v_mps.signum();
+        if ahead_m > 0.0 && d.y.abs() <= capture_radius_m {
+            self.t_s = (self.t_s + ahead_m / speed_mps).min(r.duration_s);
+        }
+    }
+
     /// Advances by one control period at the given rate.
     pub fn advance(&mut self, dt_s: f64, rate: f64) {
         self.t_s += dt_s * rate;
@@ -179,6 +200,39 @@ mod tests {
         let down = Pose2::new(0.0, 0.0, -std::f64::consts::FRAC_PI_2);
         assert!(ReferenceProgress::lag_m(Pose2::new(0.0, -1.0, 0.0), down) < 1e-12);
         assert!((ReferenceProgress::lag_m(Pose2::new(0.0, 1.0, 0.0), down) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_robot_ahead_near_the_path_is_caught_up_with() {
+        // A line along +x from the origin at 0.15 m/s, 3 m long (20 s).
+        let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 3.0);
+        let at = |t_s: f64, robot: Pose2| {
+            let mut p = ReferenceProgress { t_s };
+            p.catch_up(&r, robot, 0.5);
+            p.t_s
+        };
+        // 0.6 m ahead, 0.3 m aside (within R_c): abreast of it, t = 0.6 / 0.15 = 4 s.
+        assert!((at(0.0, Pose2::new(0.6, 0.3, 0.0)) - 4.0).abs() < 1e-12);
+        // 0.8 m aside: left alone; behind: left alone.
+        assert_eq!(at(0.0, Pose2::new(0.6, 0.8, 0.0)), 0.0);
+        assert_eq!(at(2.0, Pose2::new(0.1, 0.0, 0.0)), 2.0);
+        // Past the end: held at the end (the goal).
+        assert_eq!(at(10.0, Pose2::new(3.5, 0.0, 0.0)), 20.0);
+        // On the paper's circle (radius 1.54 m) a robot a quarter lap on, on the path:
+        // the tangent steps settle on it within a few ticks.
+        let c = ReferenceTrajectory::circle(Pose2::default(), 0.2, 0.13, 1.0);
+        let quarter_s = 0.25 * c.duration_s;
+        let robot = c.pose_at(quarter_s);
+        let mut p = ReferenceProgress::default();
+        // A quarter lap is 2.4 m along but only 1.54 m ahead along the start's tangent,
+        // and beyond R_c aside from it: not caught up from the start.
+        p.catch_up(&c, robot, 0.5);
+        assert_eq!(p.t_s, 0.0);
+        p.t_s = quarter_s - 2.0; // 0.4 m behind it on the arc
+        for _ in 0..5 {
+            p.catch_up(&c, robot, 0.5);
+        }
+        assert!((p.t_s - quarter_s).abs() < 1e-3, "{} vs {quarter_s}", p.t_s);
     }
 
     #[test]

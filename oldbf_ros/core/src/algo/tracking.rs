@@ -19,6 +19,10 @@
 //! DOAA steers is what carries the robot round an obstacle standing between
 //! it and the reference (the paper's robot always drives at v_r); scaling v by
 //! cos β instead stalls it in front of the obstacle.
+//!
+//! The speed keeps the reference's sign: a robot ahead of a forward reference
+//! (e_x < 0 by more than v_r / k_x) is asked to stop and wait for it, not to
+//! back up; the upstream of a forward reference never asks to reverse.
 
 use super::geometry::{wrap_angle, Pose2, Twist, Vec2};
 use super::params::TrackingParams;
@@ -130,14 +134,27 @@ pub fn track(
     let rc = k.capture_radius_m;
     let lambda = ((dist - rc) / rc).clamp(0.0, 1.0);
     let near = kanayama(robot, reference, reference_twist, k);
-    if lambda == 0.0 {
-        return near;
-    }
-    let far = go_to_point(robot, reference, reference_twist, k);
-    Twist::new(
-        (1.0 - lambda) * near.v_mps + lambda * far.v_mps,
-        (1.0 - lambda) * near.omega_radps + lambda * far.omega_radps,
-    )
+    let cmd = if lambda == 0.0 {
+        near
+    } else {
+        let far = go_to_point(robot, reference, reference_twist, k);
+        Twist::new(
+            (1.0 - lambda) * near.v_mps + lambda * far.v_mps,
+            (1.0 - lambda) * near.omega_radps + lambda * far.omega_radps,
+        )
+    };
+    // A robot ahead of a forward reference waits for it rather than backing up
+    // (and one behind a reversing reference likewise): the reference moves on at
+    // full rate while the robot is ahead ([`super::reference::ReferenceProgress`]),
+    // so it catches up, and the upstream never asks the robot to reverse.
+    let v_mps = if reference_twist.v_mps > 0.0 {
+        cmd.v_mps.max(0.0)
+    } else if reference_twist.v_mps < 0.0 {
+        cmd.v_mps.min(0.0)
+    } else {
+        cmd.v_mps
+    };
+    Twist::new(v_mps, cmd.omega_radps)
 }
 
 #[cfg(test)]
@@ -286,6 +303,25 @@ mod tests {
             let t = arrived_at_s.unwrap_or_else(|| panic!("from {start:?}: still circling at {pose:?}"));
             assert!(t < 30.0, "from {start:?}: {t} s");
         }
+    }
+
+    #[test]
+    fn a_robot_ahead_of_a_forward_reference_waits_instead_of_reversing() {
+        let k = TrackingParams::default(); // k_x 1
+        let vr = Twist::new(0.15, 0.0);
+        // Reference 0.2 m behind, same heading: Kanayama asks 0.15 + 1·(−0.2) = −0.05 m/s.
+        let behind = Pose2::new(-0.2, 0.0, 0.0);
+        assert!((kanayama(Pose2::default(), behind, vr, &k).v_mps + 0.05).abs() < 1e-12);
+        assert_eq!(track(Pose2::default(), behind, vr, &k, 0.3), Twist::new(0.0, 0.0));
+        // 0.1 m behind: 0.05 m/s forward, unchanged.
+        let close = Pose2::new(-0.1, 0.0, 0.0);
+        assert!((track(Pose2::default(), close, vr, &k, 0.3).v_mps - 0.05).abs() < 1e-12);
+        // A reversing reference 0.2 m ahead: Kanayama asks −0.15 + 0.2 = +0.05; held at 0.
+        let ahead = Pose2::new(0.2, 0.0, 0.0);
+        assert_eq!(
+            track(Pose2::default(), ahead, Twist::new(-0.15, 0.0), &k, 0.3).v_mps,
+            0.0
+        );
     }
 
     #[test]

@@ -26,13 +26,15 @@
 //!   way). The reactive steering and evasion deal with people, and the
 //!   route, which leaves walking people out, could lead into them. The
 //!   nominal becomes a turn towards the route's farthest point within 1 m
-//!   along that the robot sees in a straight line clear of the blocked band;
-//!   the route itself is kept until blocked, beaten by a margin or its goal
-//!   moves ([`super::route`]).
+//!   along that the robot sees in a straight line clear of the blocked band
+//!   (the DOAA's both-sides turn goes the same way); the route itself is
+//!   kept until blocked, beaten by a margin or its goal moves
+//!   ([`super::route`]).
 //! * **Release**, with its reason recorded: the straight way is clear again
 //!   by [`RELEASE_MARGIN_M`] (a follow begun on a blocked way), progress has
 //!   grown by `unstuck.progress_m` (one begun on a stall), the reference
-//!   point is within the capture radius, or a tracked mover on a collision
+//!   point is within the capture radius with the straight way clear or at
+//!   the reference's end, or a tracked mover on a collision
 //!   course has come near (a robot held up by people waits for them to
 //!   pass: DOAA and evasion deal with movers; going round them is not this).
 //! * **No route**: closed in by what the map knows (a narrow doorway in a
@@ -342,7 +344,10 @@ impl Unstuck {
             };
         }
         self.no_route = false;
-        if dist <= p.tracking.capture_radius_m {
+        let blocked = route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0);
+        // At the reference point there is nothing to go round, unless the straight way
+        // ahead is blocked: a robot keeping up with its reference is driving at the wall.
+        if dist <= p.tracking.capture_radius_m && (g.at_end || !blocked) {
             return self.release(RouteEvent::ReleaseArrived);
         }
         if movers_near {
@@ -355,7 +360,6 @@ impl Unstuck {
                 if !wants_to_move {
                     return UnstuckDecision::NONE;
                 }
-                let blocked = route.is_some_and(|r| r.route.is_some() && r.direct_margin_m < 0.0);
                 let quiet = self.quiet_since_s.is_some_and(|t| now_s - t >= MOVERS_QUIET_S);
                 if blocked && (quiet || self.stalled(now_s, p)) {
                     self.following = Some(Cause::Blocked);
@@ -524,6 +528,40 @@ mod tests {
         assert!((t - 6.0).abs() < 1e-9, "{t}");
         // …and while they make progress, none at all.
         assert_eq!(blocked_follow_begins(0.2, |_| true, 20.0), None);
+    }
+
+    #[test]
+    fn a_robot_keeping_up_with_its_reference_still_goes_round_a_blocked_way() {
+        let p = params(); // capture radius 0.5 m
+        let nominal = Twist::new(0.15, 0.0);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        let clear = update(vec![], Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        // The reference point 0.3 m ahead (inside the capture radius), the line's end 4 m on.
+        let keeping_up = |at_end: bool| Guidance {
+            target: Vec2::new(0.3, 0.0),
+            at_end,
+            ..guidance(3.0)
+        };
+        let follow_at = |r: &RouteUpdate, at_end: bool| {
+            let mut u = Unstuck::default();
+            (0..=100).find_map(|k| {
+                let t = 0.1 * k as f64;
+                let r = RouteUpdate { made_s: t, ..r.clone() };
+                let g = Guidance {
+                    along_m: 3.0 + 0.015 * k as f64, // progress: no stall
+                    ..keeping_up(at_end)
+                };
+                u.step(Some(g), &at(t, nominal, Some(&r), false), &p)
+                    .event
+                    .map(|e| (k, e))
+            })
+        };
+        // The wall across the way: gone round once the quiet time has passed (5 s).
+        assert_eq!(follow_at(&blocked, false), Some((50, RouteEvent::FollowBlocked)));
+        // Nothing across it: nothing to go round.
+        assert_eq!(follow_at(&clear, false), None);
+        // At the reference's end the goal is the reference point: arrived.
+        assert_eq!(follow_at(&blocked, true), None);
     }
 
     #[test]

@@ -6,12 +6,15 @@ use super::perceive::Frame;
 use super::{next_points, Decision, SafetyPipeline, GOAL_SHORT_M, MOVER_NEAR_M};
 use crate::algo::barrier::Barriers;
 use crate::algo::clearance::Clearances;
-use crate::algo::doaa::{sides_tie, DoaaState};
+use crate::algo::doaa::{sides_tie, DoaaState, TurnDirection};
 use crate::algo::dtcbf::InputBox;
 use crate::algo::geometry::{Twist, Vec2};
 use crate::algo::select::{Geometry, SelectInput, Tier};
 use crate::algo::unstuck::Situation;
 use crate::algo::way_round::RouteAsk;
+
+/// A waypoint within this of straight ahead (rad) says no side for the both-sides turn.
+const ROUTE_SIDE_MIN_RAD: f64 = 0.1;
 
 /// Where the robot is going this tick.
 #[derive(Debug, Clone, Copy)]
@@ -145,6 +148,21 @@ impl SafetyPipeline {
         if heading.goal_short {
             c_doaa.d_front_m = f64::INFINITY;
         }
+        // Following a way round, the both-sides turn goes the route's way (a waypoint
+        // within a few degrees of straight ahead says no side).
+        let route_side = heading
+            .target
+            .filter(|_| heading.following)
+            .map(|w| w.y.atan2(w.x))
+            .filter(|b| b.abs() >= ROUTE_SIDE_MIN_RAD)
+            .map(|b| {
+                if b > 0.0 {
+                    TurnDirection::Left
+                } else {
+                    TurnDirection::Right
+                }
+            });
+        self.doaa.set_route_side(route_side);
         let (doaa_cmd, doaa_state) = self.doaa.command(nominal, &c_doaa, b, p);
         let d_act = p.barrier.d_act_m();
         let since_s = match now_s - self.last_sent_s {
