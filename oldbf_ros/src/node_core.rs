@@ -1590,6 +1590,28 @@ mod tests {
     }
 
     #[test]
+    fn a_robot_ahead_of_its_reference_drives_on_and_is_caught_up_with() {
+        // A line along +x at 0.15 m/s. The robot 0.6 m ahead on it, at rest: left behind,
+        // the reference would have Kanayama ask 0.15 + 1·(−0.6) < 0, held at 0 (a stop).
+        // Caught up with, it stands abreast of the robot (x = 0.6, then one tick on) and
+        // the command is v_r.
+        let r = ReferenceTrajectory::line(Pose2::default(), 0.15, 3.0);
+        let mut n = NodeCore::new(agile(), NodeSettings::for_scenario(), Some(r));
+        n.on_scan(meta(1.0), &open(), &[]);
+        n.on_odom(Pose2::new(0.6, 0.0, 0.0), Twist::ZERO, 1.0);
+        let t = n.tick(1.0);
+        assert_eq!(t.nominal_used, NominalUsed::Reference);
+        assert!((t.reference_pose.unwrap().x - 0.6).abs() < 1e-12, "{t:?}");
+        assert!((t.cmd.v_mps - 0.15).abs() < 1e-9, "{t:?}");
+        assert!((n.reference_pose().unwrap().x - 0.615).abs() < 1e-12);
+        // 0.8 m aside (beyond R_c = 0.5 m): not caught up with, the reference waits.
+        let mut n = NodeCore::new(agile(), NodeSettings::for_scenario(), Some(r));
+        n.on_scan(meta(1.0), &open(), &[]);
+        n.on_odom(Pose2::new(0.6, 0.8, 0.0), Twist::ZERO, 1.0);
+        assert_eq!(n.tick(1.0).reference_pose.unwrap().x, 0.0);
+    }
+
+    #[test]
     fn a_scenario_constant_command_is_the_nominal_and_v_nom_only_without_one() {
         // Free space: the filter passes the nominal unchanged.
         let mut n = node(NominalSource::Constant).with_constant(Twist::new(0.1, 0.2));
