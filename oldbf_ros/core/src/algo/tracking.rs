@@ -147,14 +147,8 @@ pub fn track(
     // (and one behind a reversing reference likewise): the reference moves on at
     // full rate while the robot is ahead ([`super::reference::ReferenceProgress`]),
     // so it catches up, and the upstream never asks the robot to reverse.
-    let v_mps = if reference_twist.v_mps > 0.0 {
-        cmd.v_mps.max(0.0)
-    } else if reference_twist.v_mps < 0.0 {
-        cmd.v_mps.min(0.0)
-    } else {
-        cmd.v_mps
-    };
-    Twist::new(v_mps, cmd.omega_radps)
+    let against_the_reference = cmd.v_mps * reference_twist.v_mps < 0.0;
+    Twist::new(if against_the_reference { 0.0 } else { cmd.v_mps }, cmd.omega_radps)
 }
 
 #[cfg(test)]
