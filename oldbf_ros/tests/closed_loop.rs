@@ -138,12 +138,10 @@ fn paper_line_reaches_its_goal_and_the_filter_acts() {
 #[test]
 fn without_the_filter_the_robot_collides() {
     // Proof that the safety tests can fail: the same runs with the nominal command alone.
-    // The way round (ALGORITHM §4c) is part of the layer: left on, it leads even the
-    // unfiltered tracking command clear of the clutter in `cluttered_room`.
+    // `none` drives without the way round too (ALGORITHM §4c, part of the layer), which
+    // would otherwise lead even the unfiltered tracking command clear of `cluttered_room`.
     for name in ["paper_line", "paper_circle", "dead_end", "cluttered_room"] {
-        let mut s = scenario(name);
-        s.params.unstuck.enabled = false;
-        let r = run(&s, Controller::None, 1);
+        let r = run(&scenario(name), Controller::None, 1);
         assert!(r.figures.collisions >= 1, "{name}: {r:?}");
         assert!(
             r.figures.cbf_violations >= 1 && r.figures.min_clearance_m < 0.0,

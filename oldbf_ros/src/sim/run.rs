@@ -52,7 +52,10 @@ pub enum Controller {
     Dcbf,
     /// ORCA velocity obstacles (dodgy_2d) on the tracked obstacles and the scan outline.
     Vo,
-    /// The nominal command alone (the filter still runs, only to monitor).
+    /// The nominal command alone: the tracking command to the reference,
+    /// without the way round (`unstuck.enabled: false`, which is part of the
+    /// safety layer), in the same input box; the filter still runs, only to
+    /// monitor.
     None,
 }
 
@@ -261,12 +264,21 @@ pub fn run_scenario_with(
     options: RunOptions,
 ) -> Result<RunResult, FleetError> {
     let spec = &scenario.spec;
-    let paper_params;
-    let params = if controller == Controller::OldbfPaper {
-        paper_params = scenario.params.clone().paper_method();
-        &paper_params
-    } else {
-        &scenario.params
+    let own_params;
+    let params = match controller {
+        Controller::OldbfPaper => {
+            own_params = scenario.params.clone().paper_method();
+            &own_params
+        }
+        Controller::None => {
+            // The way round is part of the safety layer: without the layer the
+            // robot follows its reference line alone.
+            let mut p = scenario.params.clone();
+            p.unstuck.enabled = false;
+            own_params = p;
+            &own_params
+        }
+        _ => &scenario.params,
     };
     let mut fleet = Fleet::new(scenario, seed)?;
     let world_at_start = fleet.world().clone();
