@@ -65,6 +65,26 @@ pub const ROUTE_STALE_S: f64 = 3.0;
 /// person's track can drop out for a scan or two, and a person needs a few
 /// scans to be tracked as moving.
 pub const MOVERS_QUIET_S: f64 = 5.0;
+/// A route point steered at next that lies within this of the aim now (m)
+/// is glided to over one `unstuck.plan_period_s`; a farther one (another
+/// way) is steered at at once.
+pub const GLIDE_MAX_M: f64 = 0.5;
+
+/// The aim moving from one route point to the next (tracking frame, m; s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Glide {
+    from: Vec2,
+    to: Vec2,
+    since_s: f64,
+}
+
+impl Glide {
+    /// Where the aim is at `now_s`, gliding over `period_s`.
+    fn at(&self, now_s: f64, period_s: f64) -> Vec2 {
+        let f = ((now_s - self.since_s) / period_s).clamp(0.0, 1.0);
+        self.from + (self.to - self.from) * f
+    }
+}
 
 /// Where the nominal command is heading: the governed reference point and
 /// how far along its path it is.
@@ -254,6 +274,8 @@ pub struct Unstuck {
     following: Option<Cause>,
     /// The waypoint being steered at (tracking frame, m).
     aim: Option<Vec2>,
+    /// How the aim moves to the route point planned last.
+    glide: Option<Glide>,
     /// Whether the last step found no route.
     no_route: bool,
     /// While following: the robot's pose when it last moved
@@ -292,6 +314,7 @@ impl Unstuck {
     fn release(&mut self, event: RouteEvent) -> UnstuckDecision {
         let was = self.following.take().is_some();
         self.aim = None;
+        self.glide = None;
         self.moved = None;
         UnstuckDecision {
             event: was.then_some(event),
@@ -408,9 +431,39 @@ impl Unstuck {
         }
         // Steer at the route's farthest point in sight within 1 m along; no route held
         // yet, or one that goes nowhere (boxed in): no waypoint, the DOAA's both-sides
-        // turn at ω_0.
-        self.aim = route
-            .and_then(|r| r.carrot)
+        // turn at ω_0. That point is planned anew each plan period and moves on by a
+        // step along the route each time; the aim glides there over the period
+        // (continuously, as the robot drives) rather than jumping, which would jerk the
+        // tracking law's yaw rate at every plan. A point on another way is taken at once.
+        let carrot = route.and_then(|r| r.carrot);
+        self.glide = match (carrot, self.glide) {
+            (None, _) => None,
+            (Some(c), Some(g)) if g.to == c => Some(g),
+            (Some(c), Some(g)) => {
+                let now_at = g.at(now_s, u.plan_period_s);
+                Some(if (c - now_at).norm() <= GLIDE_MAX_M && now_s >= g.since_s {
+                    Glide {
+                        from: now_at,
+                        to: c,
+                        since_s: now_s,
+                    }
+                } else {
+                    Glide {
+                        from: c,
+                        to: c,
+                        since_s: now_s,
+                    }
+                })
+            }
+            (Some(c), None) => Some(Glide {
+                from: c,
+                to: c,
+                since_s: now_s,
+            }),
+        };
+        self.aim = self
+            .glide
+            .map(|g| g.at(now_s, u.plan_period_s))
             .filter(|c| (c - here).norm() > 0.5 * super::local_map::MAP_CELL_M);
         log::trace!("t {now_s:.1}: going round: aim {:?}", self.aim);
         UnstuckDecision {
@@ -596,6 +649,50 @@ mod tests {
             &p,
         );
         assert_eq!((d.event, d.waypoint), (Some(RouteEvent::FollowStalled), None));
+    }
+
+    #[test]
+    fn the_aim_glides_to_the_next_route_point_over_a_plan_period_and_jumps_to_another_way() {
+        let p = params(); // plan period 0.5 s
+        let nominal = Twist::new(0.15, 0.0);
+        let blocked = update(wall(1.5, -0.6, 2.5), Vec2::new(4.0, 0.0), Vec2::new(2.5, 0.0), 0.0);
+        let c0 = blocked.carrot.unwrap();
+        let with_carrot = |c: Vec2, made_s: f64| RouteUpdate {
+            carrot: Some(c),
+            made_s,
+            ..blocked.clone()
+        };
+        let mut u = Unstuck::default();
+        let try_step = |u: &mut Unstuck, t: f64, r: &RouteUpdate| {
+            u.step(Some(guidance(3.0)), &at(t, nominal, Some(r), false), &p);
+            u.aim()
+        };
+        let step = |u: &mut Unstuck, t: f64, r: &RouteUpdate| try_step(u, t, r).unwrap();
+        let r0 = with_carrot(c0, 0.0);
+        assert_eq!(try_step(&mut u, 0.0, &r0), None, "the first step starts the quiet time");
+        let r0 = with_carrot(c0, 5.0);
+        assert_eq!(step(&mut u, 5.0, &r0), c0, "a follow begins aiming at the route point");
+        // The next plan's point, 0.1 m on: reached over the 0.5 s plan period, linearly.
+        let c1 = c0 + Vec2::new(0.06, -0.08);
+        let r1 = with_carrot(c1, 5.5);
+        let close = |a: Vec2, b: Vec2| (a - b).norm() < 1e-12;
+        assert!(close(step(&mut u, 5.5, &r1), c0));
+        assert!(close(step(&mut u, 5.75, &r1), c0 + (c1 - c0) * 0.5));
+        assert!(close(step(&mut u, 6.0, &r1), c1));
+        assert!(close(step(&mut u, 6.2, &r1), c1), "and held there");
+        // A new point half-way through a glide: from where the aim is then.
+        let c2 = c1 + Vec2::new(0.1, 0.0);
+        let r2 = with_carrot(c2, 6.3);
+        assert!(close(step(&mut u, 6.3, &r2), c1));
+        let c3 = c2 + Vec2::new(0.0, 0.1);
+        let r3 = with_carrot(c3, 6.55);
+        let mid = c1 + (c2 - c1) * 0.5;
+        assert!(close(step(&mut u, 6.55, &r3), mid));
+        assert!(close(step(&mut u, 6.8, &r3), mid + (c3 - mid) * 0.5));
+        // A point farther than GLIDE_MAX_M (0.5 m): another way, steered at at once.
+        let other = c3 + Vec2::new(0.0, 0.6);
+        let r4 = with_carrot(other, 6.9);
+        assert!(close(step(&mut u, 6.9, &r4), other));
     }
 
     #[test]

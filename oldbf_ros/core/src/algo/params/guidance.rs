@@ -51,7 +51,8 @@ pub struct UnstuckParams {
     /// The local map remembers what it saw this long (s): obstacles out of
     /// view are kept, then forgotten (§4c).
     pub memory_s: f64,
-    /// The way round is planned again this often (s).
+    /// The way round is planned again this often (s); the aim glides to
+    /// each new waypoint over this time (§4c).
     pub plan_period_s: f64,
     /// The route keeps r + d_safe + this from everything seen (m), where it
     /// can (gaps of 2 (r + d_safe) are taken when nothing wider reaches the
