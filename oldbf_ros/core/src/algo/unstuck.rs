@@ -79,6 +79,15 @@ struct Glide {
 }
 
 impl Glide {
+    /// Steering at `to` from `now_s` on, without a glide.
+    fn at_once(to: Vec2, now_s: f64) -> Self {
+        Self {
+            from: to,
+            to,
+            since_s: now_s,
+        }
+    }
+
     /// Where the aim is at `now_s`, gliding over `period_s`.
     fn at(&self, now_s: f64, period_s: f64) -> Vec2 {
         let f = ((now_s - self.since_s) / period_s).clamp(0.0, 1.0);
@@ -448,18 +457,10 @@ impl Unstuck {
                         since_s: now_s,
                     }
                 } else {
-                    Glide {
-                        from: c,
-                        to: c,
-                        since_s: now_s,
-                    }
+                    Glide::at_once(c, now_s)
                 })
             }
-            (Some(c), None) => Some(Glide {
-                from: c,
-                to: c,
-                since_s: now_s,
-            }),
+            (Some(c), None) => Some(Glide::at_once(c, now_s)),
         };
         self.aim = self
             .glide
